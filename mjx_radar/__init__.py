@@ -1,0 +1,24 @@
+"""mjx_radar: mobile radars re-positioned by MPPI over MuJoCo-MJX rollouts."""
+
+from mjx_radar.config import (
+    METHODS,
+    MPCConfig,
+    MPPIConfig,
+    Obstacle,
+    RadarEquation,
+    RadarLimits,
+    Scenario,
+    Timing,
+)
+
+__all__ = [
+    "METHODS",
+    "MPCConfig",
+    "MPPIConfig",
+    "Obstacle",
+    "RadarEquation",
+    "RadarLimits",
+    "Scenario",
+    "Timing",
+]
+__version__ = "0.1.0"

@@ -1,0 +1,200 @@
+"""MJX physics: the scene on the device, one jittable step, and batched rollouts.
+
+State conventions (arrays, float32 unless x64 is on):
+
+* radar state ``[N, 6]`` = ``[x, y, z, theta, v, omega]``: x, y, theta live in
+  ``qpos``, v and omega in the integrator actuators' activations ``act``; z = 0.
+* target (drone) state ``[M, 6]`` = ``[x, y, z, vx, vy, vz]``: position in
+  ``qpos``, velocity in ``act``.
+
+One :func:`step` writes the controls (radar ``[a, alpha]``, drone white
+acceleration ``w``) and the servo set-points (mean velocity over the step,
+``v + a dt / 2``) into ``ctrl`` and calls ``mjx.step``. With the deadbeat servo
+gains of :mod:`mjx_radar.scene` this is exactly the Euler map of SPEC §2/§3
+(``qvel`` after a step holds the mean velocity over that step, not the state's
+velocity). Obstacles add real contacts that stop a radar.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from mujoco import mjx
+
+from mjx_radar.config import RadarLimits, Scenario
+from mjx_radar.scene import SceneIndex, build_scene
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Plant:
+    """A compiled scene on the device. Hashable by identity (usable as a jit static).
+
+    Attributes:
+        mj_model: host MuJoCo model (rendering, inspection).
+        model: the MJX model on the device.
+        index: addresses of radar / drone quantities.
+        dt: physics step [s].
+        limits: radar control limits (controls are clipped before the step).
+    """
+
+    mj_model: mujoco.MjModel
+    model: mjx.Model
+    index: SceneIndex
+    dt: float
+    limits: RadarLimits
+
+    @property
+    def n_radars(self) -> int:
+        return self.index.radar_qpos.shape[0]
+
+    @property
+    def n_drones(self) -> int:
+        return self.index.drone_qpos.shape[0]
+
+
+def make_plant(
+    n_radars: int,
+    n_drones: int,
+    dt: float,
+    limits: RadarLimits = RadarLimits(),
+    obstacles=(),
+) -> Plant:
+    """Builds the scene and puts it on the device (see :func:`scene.build_scene`)."""
+    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles)
+    return Plant(mj_model, mjx.put_model(mj_model), index, float(dt), limits)
+
+
+@functools.cache
+def planner_plant(scenario: Scenario) -> Plant:
+    """Radar-only plant at the control step (MPPI rollouts), cached per scenario."""
+    return make_plant(
+        scenario.n_radars, 0, scenario.timing.dt_control, scenario.limits, scenario.obstacles
+    )
+
+
+@functools.cache
+def truth_plant(scenario: Scenario) -> Plant:
+    """Radars and drones at the filter step (the closed-loop truth), cached per scenario."""
+    if scenario.n_targets < 1:
+        raise ValueError(f"n_targets: {scenario.n_targets} is not allowed; need at least 1")
+    return make_plant(
+        scenario.n_radars,
+        scenario.n_targets,
+        scenario.timing.dt_filter,
+        scenario.limits,
+        scenario.obstacles,
+    )
+
+
+def _check_finite(name: str, x) -> None:
+    if not isinstance(x, jax.core.Tracer) and not np.all(np.isfinite(np.asarray(x))):
+        raise ValueError(f"{name}: contains non-finite values; need finite numbers")
+
+
+def _check_shape(name: str, x, shape: tuple[int, ...]) -> None:
+    if tuple(jnp.shape(x)) != shape:
+        raise ValueError(f"{name}: shape {tuple(jnp.shape(x))} is not the expected {shape}")
+
+
+def init_data(plant: Plant, radar_state: jax.Array, target_state: jax.Array | None = None):
+    """MJX data holding the given radar ([N, 6]) and target ([M, 6]) states."""
+    idx = plant.index
+    _check_shape("radar_state", radar_state, (plant.n_radars, 6))
+    _check_finite("radar_state", radar_state)
+    data = mjx.make_data(plant.model)
+    qpos = data.qpos.at[idx.radar_qpos].set(radar_state[:, jnp.array([0, 1, 3])])
+    act = data.act.at[idx.radar_act].set(radar_state[:, 4:6])
+    if plant.n_drones:
+        if target_state is None:
+            raise ValueError("target_state: required, the plant has drones")
+        _check_shape("target_state", target_state, (plant.n_drones, 6))
+        _check_finite("target_state", target_state)
+        qpos = qpos.at[idx.drone_qpos].set(target_state[:, :3])
+        act = act.at[idx.drone_act].set(target_state[:, 3:])
+    return data.replace(qpos=qpos.astype(data.qpos.dtype), act=act.astype(data.act.dtype))
+
+
+def radar_state(plant: Plant, data) -> jax.Array:
+    """[N, 6] radar states ``[x, y, 0, theta, v, omega]`` read from MJX data."""
+    q = data.qpos[plant.index.radar_qpos]
+    a = data.act[plant.index.radar_act]
+    return jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
+
+
+def target_state(plant: Plant, data) -> jax.Array:
+    """[M, 6] drone states ``[x, y, z, vx, vy, vz]`` read from MJX data."""
+    return jnp.concatenate(
+        [data.qpos[plant.index.drone_qpos], data.act[plant.index.drone_act]], axis=-1
+    )
+
+
+def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None = None):
+    """One physics step.
+
+    Args:
+        plant: the scene.
+        data: MJX data.
+        radar_u: [N, 2] radar controls ``[a, alpha]``, clipped to the limits.
+        drone_accel: [M, 3] drone accelerations held over the step (white noise).
+
+    Returns:
+        The next MJX data.
+    """
+    idx, dt, lim = plant.index, plant.dt, plant.limits
+    u = jnp.clip(radar_u, jnp.array([-lim.accel, -lim.alpha]), jnp.array([lim.accel, lim.alpha]))
+    va = data.act[idx.radar_act]  # [N, 2] (v, omega)
+    mean_v = va + 0.5 * dt * u
+    zero = jnp.zeros_like(u[:, :1])
+    radar_ctrl = jnp.concatenate([u, mean_v[:, :1], zero, mean_v[:, 1:]], axis=-1)
+    ctrl = data.ctrl.at[idx.radar_ctrl].set(radar_ctrl.astype(data.ctrl.dtype))
+    if plant.n_drones:
+        w = jnp.zeros((plant.n_drones, 3)) if drone_accel is None else drone_accel
+        drone_ctrl = jnp.concatenate([w, data.act[idx.drone_act] + 0.5 * dt * w], axis=-1)
+        ctrl = ctrl.at[idx.drone_ctrl].set(drone_ctrl.astype(data.ctrl.dtype))
+    return mjx.step(plant.model, data.replace(ctrl=ctrl))
+
+
+def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Array:
+    """Rolls the radars of a radar-only plant out through MJX.
+
+    Args:
+        plant: a plant without drones (e.g. :func:`planner_plant`).
+        state: [N, 6] initial radar states.
+        controls: [H, N, 2] controls, one per physics step.
+
+    Returns:
+        [H, N, 6] radar states after each step.
+    """
+    data = init_data(plant, state)
+
+    def body(d, u):
+        d = step(plant, d, u)
+        return d, radar_state(plant, d)
+
+    return jax.lax.scan(body, data, controls)[1]
+
+
+def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Array) -> jax.Array:
+    """Public SPEC §11 entry point: MJX rollout at the scenario's control step.
+
+    Args:
+        scenario: the scenario (its N, limits, control step and obstacles).
+        radar_state: [N, 6] radar states ``[x, y, z, theta, v, omega]``.
+        controls: [H, N, 2] controls ``[a, alpha]``.
+
+    Returns:
+        [H, N, 6] radar states after each control step.
+    """
+    plant = planner_plant(scenario)
+    _check_shape("controls", controls, (jnp.shape(controls)[0], plant.n_radars, 2))
+    _check_finite("controls", controls)
+    _check_finite("radar_state", radar_state)
+    return _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
+
+
+_jit_radar_rollout = jax.jit(radar_rollout, static_argnums=0)

@@ -1,0 +1,240 @@
+"""Scenario files (TOML): loading and validation.
+
+A scenario file holds every parameter of SPEC: the radar equation, limits, MPPI
+and MPC settings, timing, initial targets and the placement box. Optional
+tables take the SPEC defaults. Every field is checked for its type and range;
+a bad file raises :class:`ScenarioError` whose message is one line naming the
+field, the value and the allowed range. Example (``scenarios/smoke.toml``)::
+
+    name = "smoke"
+    n_radars = 2
+    targets = [[0, 0, 55, 20, 10, 0]]
+    [timing]
+    steps = 40
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from mjx_radar.config import (
+    MPCConfig,
+    MPPIConfig,
+    Obstacle,
+    RadarEquation,
+    RadarLimits,
+    Scenario,
+    Timing,
+)
+
+INF = math.inf
+
+
+class ScenarioError(ValueError):
+    """A scenario file or value is invalid. ``str(err)`` is one line naming the field."""
+
+
+# field -> (type, low, high, low_inclusive); bounds in the field's unit.
+_POS = (float, 0.0, INF, False)
+_NONNEG = (float, 0.0, INF, True)
+_RULES: dict[str, dict[str, tuple]] = {
+    "": {
+        "seed": (int, 0, 2**31 - 1, True),
+        "sigma_w2": _NONNEG,
+        "p0": _POS,
+        "placement_half_width": _POS,
+    },
+    "radar_equation": {f.name: _POS for f in dataclasses.fields(RadarEquation)}
+    | {"snr_db": (float, -200.0, 200.0, True)},
+    "limits": {f.name: _POS for f in dataclasses.fields(RadarLimits)},
+    "timing": {
+        "dt_filter": _POS,
+        "dt_control": _POS,
+        "steps": (int, 1, 10_000_000, True),
+    },
+    "mpc": {
+        "horizon": (int, 1, 1000, True),
+        "gamma": (float, 0.0, 1.0, False),
+        "r2t": _NONNEG,
+        "r2r": _NONNEG,
+        "alpha_r2r": _NONNEG,
+        "alpha_r2t": _NONNEG,
+    },
+    "mppi": {
+        "samples": (int, 2, 1_000_000, True),
+        "iterations": (int, 1, 1000, True),
+        "std_accel": _POS,
+        "std_alpha_deg": _POS,
+        "elite_threshold": (float, 0.0, 1.0, False),
+        "temperature": _POS,
+        "weighting": (str, ("ce", "softmax")),
+        "shrinkage": (str, ("ledoit-wolf", "oas", "none")),
+    },
+}
+_TABLES = {
+    "radar_equation": RadarEquation,
+    "limits": RadarLimits,
+    "timing": Timing,
+    "mpc": MPCConfig,
+    "mppi": MPPIConfig,
+}
+_TOP = {"name", "description", "n_radars", "targets", "obstacles"} | set(_RULES[""])
+
+
+def _fmt_range(rule: tuple) -> str:
+    typ, lo, hi, incl = rule
+    name = {int: "an integer", float: "a number"}[typ]
+    left = ">=" if incl else ">"
+    if hi == INF:
+        return f"{name} {left} {lo}"
+    return f"{name} in {'[' if incl else '('}{lo}, {hi}]"
+
+
+def _check(field: str, value: Any, rule: tuple) -> Any:
+    if rule[0] is str:
+        if value not in rule[1]:
+            raise ScenarioError(f"{field} = {value!r}: must be one of {', '.join(rule[1])}")
+        return value
+    typ, lo, hi, incl = rule
+    ok_type = isinstance(value, int | float) and not isinstance(value, bool)
+    if typ is int:
+        ok_type = isinstance(value, int) and not isinstance(value, bool)
+    if not ok_type:
+        raise ScenarioError(f"{field} = {value!r}: must be {_fmt_range(rule)}")
+    v = typ(value)
+    if not math.isfinite(v) or v > hi or v < lo or (v == lo and not incl):
+        raise ScenarioError(f"{field} = {value!r}: must be {_fmt_range(rule)}")
+    return v
+
+
+def _table(name: str, raw: Any) -> Any:
+    cls = _TABLES[name]
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{name}: must be a table, got {type(raw).__name__}")
+    rules = _RULES[name]
+    for key in raw:
+        if key not in rules:
+            raise ScenarioError(f"{name}.{key}: unknown field; allowed: {', '.join(rules)}")
+    return cls(**{k: _check(f"{name}.{k}", v, rules[k]) for k, v in raw.items()})
+
+
+def _targets(raw: Any) -> tuple[tuple[float, ...], ...]:
+    if not isinstance(raw, list) or not raw:
+        raise ScenarioError("targets: must be a non-empty list of [x, y, z, vx, vy, vz] rows")
+    rows = []
+    for i, row in enumerate(raw):
+        if not isinstance(row, list) or len(row) != 6:
+            raise ScenarioError(f"targets[{i}] = {row!r}: must be 6 numbers [x, y, z, vx, vy, vz]")
+        rows.append(tuple(_check(f"targets[{i}]", v, (float, -INF, INF, True)) for v in row))
+    return tuple(rows)
+
+
+def _obstacle(i: int, raw: Any, base: Path) -> Obstacle:
+    field = f"obstacles[{i}]"
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{field}: must be a table")
+    kind = _check(f"{field}.kind", raw.get("kind"), (str, ("box", "cylinder", "mesh")))
+    allowed = {"kind", "pos", "size", "yaw", "path", "scale"}
+    for key in raw:
+        if key not in allowed:
+            raise ScenarioError(f"{field}.{key}: unknown field; allowed: {', '.join(allowed)}")
+    pos = raw.get("pos", [0.0, 0.0, 0.0])
+    if not isinstance(pos, list) or len(pos) != 3:
+        raise ScenarioError(f"{field}.pos = {pos!r}: must be 3 numbers")
+    pos = tuple(_check(f"{field}.pos", v, (float, -INF, INF, True)) for v in pos)
+    n_size = {"box": 3, "cylinder": 2, "mesh": 0}[kind]
+    size = raw.get("size", [])
+    if not isinstance(size, list) or len(size) != n_size:
+        raise ScenarioError(f"{field}.size = {size!r}: a {kind} needs {n_size} numbers > 0")
+    size = tuple(_check(f"{field}.size", v, _POS) for v in size)
+    path = ""
+    if kind == "mesh":
+        path = str((base / str(raw.get("path", ""))).resolve())
+        if not raw.get("path") or not Path(path).is_file():
+            raise ScenarioError(f"{field}.path = {raw.get('path')!r}: must be an existing mesh file")
+    yaw = _check(f"{field}.yaw", raw.get("yaw", 0.0), (float, -INF, INF, True))
+    scale = _check(f"{field}.scale", raw.get("scale", 1.0), _POS)
+    return Obstacle(kind=kind, pos=pos, size=size, yaw=yaw, path=path, scale=scale)
+
+
+def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
+    """Validates a parsed scenario table and builds the :class:`Scenario`."""
+    for key in raw:
+        if key not in _TOP and key not in _TABLES:
+            raise ScenarioError(f"{key}: unknown field")
+    for key in ("name", "n_radars", "targets"):
+        if key not in raw:
+            raise ScenarioError(f"{key}: missing required field")
+    name = raw["name"]
+    if not isinstance(name, str) or not name or not name.replace("_", "").isalnum():
+        raise ScenarioError(f"name = {name!r}: must be a non-empty [A-Za-z0-9_] string")
+    kwargs: dict[str, Any] = {
+        "name": name,
+        "n_radars": _check("n_radars", raw["n_radars"], (int, 1, 1000, True)),
+        "target_init": _targets(raw["targets"]),
+    }
+    for key, rule in _RULES[""].items():
+        if key in raw:
+            kwargs[key] = _check(key, raw[key], rule)
+    for key in _TABLES:
+        if key in raw:
+            kwargs[{"radar_equation": "radar_eq"}.get(key, key)] = _table(key, raw[key])
+    obstacles = raw.get("obstacles", [])
+    if not isinstance(obstacles, list):
+        raise ScenarioError("obstacles: must be an array of tables")
+    kwargs["obstacles"] = tuple(_obstacle(i, o, base) for i, o in enumerate(obstacles))
+    scenario = Scenario(**kwargs)
+    _check_consistency(scenario)
+    return scenario
+
+
+def _check_consistency(s: Scenario) -> None:
+    t = s.timing
+    ratio = t.dt_control / t.dt_filter
+    if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:
+        raise ScenarioError(
+            f"timing.dt_control = {t.dt_control}: must be an integer multiple (>= 1) of "
+            f"timing.dt_filter = {t.dt_filter}"
+        )
+    if t.steps % t.control_every:
+        raise ScenarioError(
+            f"timing.steps = {t.steps}: must be a multiple of dt_control/dt_filter = "
+            f"{t.control_every}"
+        )
+    if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
+        raise ScenarioError(
+            f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "
+            f"mppi.samples = {s.mppi.samples}; need samples * (1 - threshold) >= 1"
+        )
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Loads and validates a TOML scenario file.
+
+    Args:
+        path: file path, or the bare name of a bundled scenario (``"smoke"``).
+
+    Raises:
+        ScenarioError: unreadable file, malformed TOML or any invalid field.
+    """
+    p = resolve_path(path)
+    try:
+        raw = tomllib.loads(p.read_text())
+    except OSError as err:
+        raise ScenarioError(f"{path}: cannot read scenario file ({err.strerror})") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ScenarioError(f"{path}: malformed TOML ({err})") from None
+    return scenario_from_dict(raw, p.parent)
+
+
+def resolve_path(path: str | Path) -> Path:
+    """A file path as given, else ``scenarios/<name>.toml`` of the repository."""
+    p = Path(path)
+    if p.exists() or p.suffix:
+        return p
+    bundled = Path(__file__).resolve().parent.parent / "scenarios" / f"{p.name}.toml"
+    return bundled if bundled.exists() else p

@@ -1,0 +1,201 @@
+"""Scene builder: N radar vehicles, M drones, a ground plane and obstacles as one MJCF model.
+
+The radar and drone bodies come from ``models/radar.xml`` and ``models/drone.xml``
+and are attached with :class:`mujoco.MjSpec` under the prefixes ``radar{i}/`` and
+``drone{j}/``. The builder
+
+* sets the timestep and the Euler integrator (one physics step = one Euler step
+  of SPEC §2/§3),
+* sets every velocity-servo gain to ``kv = M_ii / dt`` from the compiled mass
+  matrix, so each servo reaches its commanded velocity in exactly one step,
+* disables gravity, springs and dampers (radars are planar, drones fly on their
+  own thrust) and disables contacts entirely when there are no obstacles
+  (contacts cost ~100x a contact-free MJX step, see MJX-NOTES).
+
+Collision bits: radar hulls ``contype=2, conaffinity=1``, obstacles
+``contype=1, conaffinity=2``: radars collide with obstacles, not with each
+other, the ground or drones.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import importlib.resources
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from mjx_radar.config import Obstacle
+
+RADAR_ACTUATORS = ("speed", "turn", "drive", "lateral", "steer")
+DRONE_ACTUATORS = ("vx", "vy", "vz", "sx", "sy", "sz")
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneIndex:
+    """Addresses of the radar and drone quantities inside ``MjData`` (numpy int arrays).
+
+    Attributes:
+        radar_qpos: [N, 3] qpos addresses of (x, y, yaw).
+        radar_act: [N, 2] activation addresses of (v, omega).
+        radar_ctrl: [N, 5] ctrl addresses of (speed, turn, drive, lateral, steer).
+        drone_qpos: [M, 3] qpos addresses of (x, y, z).
+        drone_act: [M, 3] activation addresses of (vx, vy, vz).
+        drone_ctrl: [M, 6] ctrl addresses of (vx, vy, vz, sx, sy, sz).
+        obstacle_geoms: [K] geom ids of the obstacles.
+    """
+
+    radar_qpos: np.ndarray
+    radar_act: np.ndarray
+    radar_ctrl: np.ndarray
+    drone_qpos: np.ndarray
+    drone_act: np.ndarray
+    drone_ctrl: np.ndarray
+    obstacle_geoms: np.ndarray
+
+
+@functools.cache
+def _model_xml(name: str) -> str:
+    return importlib.resources.files("mjx_radar.models").joinpath(name).read_text()
+
+
+def _add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:
+    """Adds one static obstacle geom to the world body."""
+    half_yaw = 0.5 * obs.yaw
+    quat = [np.cos(half_yaw), 0.0, 0.0, np.sin(half_yaw)]
+    common = dict(name=f"obstacle{i}", pos=list(obs.pos), quat=quat, contype=1, conaffinity=2)
+    rgba = [0.55, 0.45, 0.35, 1.0]
+    if obs.kind == "box":
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_BOX, size=list(obs.size), rgba=rgba, **common
+        )
+    elif obs.kind == "cylinder":
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+            size=[obs.size[0], obs.size[1], 0.0],
+            rgba=[0.2, 0.45, 0.2, 1.0],
+            **common,
+        )
+    elif obs.kind == "mesh":
+        import trimesh  # host-side, only when meshes are used
+
+        mesh = trimesh.load(obs.path, force="mesh")
+        spec.add_mesh(
+            name=f"obstacle_mesh{i}",
+            uservert=(np.asarray(mesh.vertices) * obs.scale).ravel().tolist(),
+            userface=np.asarray(mesh.faces).ravel().tolist(),
+        )
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"obstacle_mesh{i}", rgba=rgba, **common
+        )
+    else:
+        raise ValueError(f"obstacle.kind: {obs.kind!r} is not one of box, cylinder, mesh")
+
+
+def build_scene(
+    n_radars: int, n_drones: int, dt: float, obstacles: Sequence[Obstacle] = ()
+) -> tuple[mujoco.MjModel, SceneIndex]:
+    """Builds the MuJoCo model of a scene.
+
+    Args:
+        n_radars: N >= 1 radar vehicles.
+        n_drones: M >= 0 drones (0 for planner-only models).
+        dt: physics timestep [s] = one Euler step of the unicycle / CV model.
+        obstacles: static obstacles; contacts are enabled only if there are any.
+
+    Returns:
+        The compiled ``MjModel`` (servo gains set) and its :class:`SceneIndex`.
+    """
+    if n_radars < 1:
+        raise ValueError(f"n_radars: {n_radars} is not allowed; need at least 1 radar")
+    if n_drones < 0:
+        raise ValueError(f"n_drones: {n_drones} is not allowed; need at least 0 drones")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: {dt} is not allowed; need a finite timestep > 0")
+    spec = mujoco.MjSpec()
+    spec.modelname = f"scene_{n_radars}r{n_drones}t"
+    spec.option.timestep = dt
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    flags = mujoco.mjtDisableBit
+    spec.option.disableflags |= flags.mjDSBL_GRAVITY | flags.mjDSBL_SPRING | flags.mjDSBL_DAMPER
+    if not obstacles:
+        spec.option.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT
+    spec.worldbody.add_geom(
+        name="ground",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[0.0, 0.0, 1.0],
+        rgba=[0.82, 0.80, 0.74, 1.0],
+        contype=0,
+        conaffinity=0,
+    )
+    spec.worldbody.add_light(pos=[0, 0, 500], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+    for i in range(n_radars):
+        child = mujoco.MjSpec.from_string(_model_xml("radar.xml"))
+        spec.attach(child, prefix=f"radar{i}/", frame=spec.worldbody.add_frame())
+    for j in range(n_drones):
+        child = mujoco.MjSpec.from_string(_model_xml("drone.xml"))
+        spec.attach(child, prefix=f"drone{j}/", frame=spec.worldbody.add_frame())
+    for k, obs in enumerate(obstacles):
+        _add_obstacle(spec, k, obs)
+    model = spec.compile()
+    index = _index(model, n_radars, n_drones, len(obstacles))
+    _set_servo_gains(model, index)
+    return model, index
+
+
+def _index(model: mujoco.MjModel, n: int, m: int, k: int) -> SceneIndex:
+    def qpos(prefix, joints):
+        return [model.jnt_qposadr[model.joint(f"{prefix}{j}").id] for j in joints]
+
+    def act(prefix, names):
+        return [model.actuator_actadr[model.actuator(f"{prefix}{a}").id] for a in names]
+
+    def ctrl(prefix, names):
+        return [model.actuator(f"{prefix}{a}").id for a in names]
+
+    radars = [f"radar{i}/" for i in range(n)]
+    drones = [f"drone{j}/" for j in range(m)]
+
+    def arr(rows, width):
+        return np.asarray(rows, dtype=np.int32).reshape(len(rows), width)
+
+    return SceneIndex(
+        radar_qpos=arr([qpos(p, ("x", "y", "yaw")) for p in radars], 3),
+        radar_act=arr([act(p, ("speed", "turn")) for p in radars], 2),
+        radar_ctrl=arr([ctrl(p, RADAR_ACTUATORS) for p in radars], 5),
+        drone_qpos=arr([qpos(p, ("x", "y", "z")) for p in drones], 3),
+        drone_act=arr([act(p, ("vx", "vy", "vz")) for p in drones], 3),
+        drone_ctrl=arr([ctrl(p, DRONE_ACTUATORS) for p in drones], 6),
+        obstacle_geoms=np.asarray([model.geom(f"obstacle{i}").id for i in range(k)], np.int32),
+    )
+
+
+def _set_servo_gains(model: mujoco.MjModel, index: SceneIndex) -> None:
+    """Sets kv = M_ii / dt on every velocity servo (deadbeat in one Euler step)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    full_m = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, full_m)
+    dt = model.opt.timestep
+    for row in index.radar_ctrl:
+        for servo in row[2:]:
+            _set_kv(model, servo, full_m, dt)
+    for row in index.drone_ctrl:
+        for servo in row[3:]:
+            _set_kv(model, servo, full_m, dt)
+
+
+def _set_kv(model: mujoco.MjModel, actuator: int, full_m: np.ndarray, dt: float) -> None:
+    if model.actuator_trntype[actuator] == mujoco.mjtTrn.mjTRN_SITE:
+        # Body-frame drive: the effective mass along the site axis is the body mass
+        # (x and y slides share the body, whose centre of mass is on the yaw axis).
+        site = model.actuator_trnid[actuator, 0]
+        inertia = model.body_subtreemass[model.site_bodyid[site]]
+    else:
+        dof = model.jnt_dofadr[model.actuator_trnid[actuator, 0]]
+        inertia = full_m[dof, dof]
+    kv = inertia / dt
+    model.actuator_gainprm[actuator, 0] = kv
+    model.actuator_biasprm[actuator, :3] = (0.0, 0.0, -kv)
