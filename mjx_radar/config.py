@@ -61,6 +61,7 @@ class MPCConfig:
     r2r: float = 10.0  # radar-radar keep-out [m]
     alpha_r2r: float = 500.0  # weight of radar-radar violations
     alpha_r2t: float = 1000.0  # weight of radar-target violations
+    rollout: str = "mjx"  # "mjx" (MuJoCo-MJX physics) | "analytic" (closed-form unicycle)
 
 
 @dataclass(frozen=True)

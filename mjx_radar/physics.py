@@ -61,12 +61,17 @@ def make_plant(
     n_radars: int,
     n_drones: int,
     dt: float,
-    limits: RadarLimits = RadarLimits(),
+    limits: RadarLimits | None = None,
     obstacles=(),
 ) -> Plant:
     """Builds the scene and puts it on the device (see :func:`scene.build_scene`)."""
     mj_model, index = build_scene(n_radars, n_drones, dt, obstacles)
-    return Plant(mj_model, mjx.put_model(mj_model), index, float(dt), limits)
+    limits = RadarLimits() if limits is None else limits
+    # Plants are cached and may first be built while a jit trace is running: keep the
+    # device model concrete so it never captures a tracer.
+    with jax.ensure_compile_time_eval():
+        model = mjx.put_model(mj_model)
+    return Plant(mj_model, model, index, float(dt), limits)
 
 
 @functools.cache

@@ -63,6 +63,7 @@ _RULES: dict[str, dict[str, tuple]] = {
         "r2r": _NONNEG,
         "alpha_r2r": _NONNEG,
         "alpha_r2t": _NONNEG,
+        "rollout": (str, ("mjx", "analytic")),
     },
     "mppi": {
         "samples": (int, 2, 1_000_000, True),
@@ -155,7 +156,9 @@ def _obstacle(i: int, raw: Any, base: Path) -> Obstacle:
     if kind == "mesh":
         path = str((base / str(raw.get("path", ""))).resolve())
         if not raw.get("path") or not Path(path).is_file():
-            raise ScenarioError(f"{field}.path = {raw.get('path')!r}: must be an existing mesh file")
+            raise ScenarioError(
+                f"{field}.path = {raw.get('path')!r}: must be an existing mesh file"
+            )
     yaw = _check(f"{field}.yaw", raw.get("yaw", 0.0), (float, -INF, INF, True))
     scale = _check(f"{field}.scale", raw.get("scale", 1.0), _POS)
     return Obstacle(kind=kind, pos=pos, size=size, yaw=yaw, path=path, scale=scale)

@@ -130,7 +130,9 @@ def build_scene(
         contype=0,
         conaffinity=0,
     )
-    spec.worldbody.add_light(pos=[0, 0, 500], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+    spec.worldbody.add_light(
+        pos=[0, 0, 500], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+    )
     for i in range(n_radars):
         child = mujoco.MjSpec.from_string(_model_xml("radar.xml"))
         spec.attach(child, prefix=f"radar{i}/", frame=spec.worldbody.add_frame())

@@ -1,0 +1,7 @@
+"""``python -m mjx_radar`` = ``mjx-radar``."""
+
+import sys
+
+from mjx_radar.cli import main
+
+sys.exit(main())

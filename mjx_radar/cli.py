@@ -1,0 +1,107 @@
+"""The ``mjx-radar`` command line (SPEC §11).
+
+Exit codes: 0 success; 2 bad input (one line on stderr, no traceback, no result
+files); 1 anything else. Sub-commands live in their own modules, each with
+``add_arguments(parser)`` and ``main(args) -> int``; this module only parses,
+dispatches and turns input errors into exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import io
+import sys
+
+from mjx_radar.config import METHODS
+
+COMMANDS = {
+    "validate": ("mjx_radar.commands", "check a scenario file"),
+    "run": ("mjx_radar.commands", "run the closed loop on a scenario"),
+    "study": ("mjx_radar.study", "Monte Carlo study over scenarios and methods (resumable)"),
+    "report": ("mjx_radar.report", "figures and tables of a study directory"),
+    "render": ("mjx_radar.render", "render a saved run to MP4/GIF"),
+    "snapshot": ("mjx_radar.snapshot", "two-panel scene + FIM heat-map figure of a run"),
+}
+
+
+class InputError(Exception):
+    """Bad user input: reported on one line with exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, exit 2 (argparse prints usage otherwise)
+        raise InputError(f"{self.prog}: {message}")
+
+
+def positive_int(name: str, hi: int = 10**9):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: must be an integer") from None
+        if not 1 <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{name} = {value}: must be in [1, {hi}]")
+        return value
+
+    return parse
+
+
+def method_list(text: str) -> list[str]:
+    methods = [m.strip() for m in text.split(",") if m.strip()]
+    for m in methods:
+        if m not in METHODS:
+            raise argparse.ArgumentTypeError(f"--methods: {m!r} is not one of {', '.join(METHODS)}")
+    if not methods:
+        raise argparse.ArgumentTypeError("--methods: empty list")
+    return methods
+
+
+def _quiet_mujoco_import() -> None:
+    """Imports MJX with its optional-backend chatter ('Failed to import warp') silenced."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        importlib.import_module("mujoco.mjx")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="mjx-radar", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name, (module, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as err:
+            if err.name != module:
+                raise
+            p.set_defaults(missing=module)
+            continue
+        getattr(mod, f"add_{name}_arguments", getattr(mod, "add_arguments", None))(p)
+        p.set_defaults(handler=getattr(mod, f"{name}_main", getattr(mod, "main", None)))
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    from mjx_radar.scenario import ScenarioError
+
+    try:
+        args = build_parser().parse_args(argv)
+        if getattr(args, "missing", None):
+            print(
+                f"mjx-radar {args.command}: not available in this version "
+                f"(module {args.missing} is not implemented)",
+                file=sys.stderr,
+            )
+            return 1
+        _quiet_mujoco_import()
+        return int(args.handler(args) or 0)
+    except (InputError, ScenarioError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,247 @@
+"""The closed loop of paper Algorithm 1 (SPEC §8) for one trial, vmappable over trials.
+
+Per 25 ms filter step k = 1..K::
+
+    CKF predict                         (x_k|k-1, P_k|k-1)
+    every dt_control: MPPI from the predicted estimate -> radar control u
+    MJX plant step: drones fly (white acceleration w_k), radars actuate u
+    measure all N*M round-trip ranges with the true DDR noise
+    CKF update (DDR or CCR noise model, per method)
+
+The drones' motion does not depend on the control and the prediction does not
+depend on the truth, so stepping drones and radars in one MJX step after
+planning is the same as the paper's order (truth, predict, plan, actuate).
+
+Random numbers (common random numbers, SPEC §9): a trial's key is
+``fold_in(PRNGKey(seed), trial)`` split into fixed streams for the placement,
+the initial estimate error, the drones' noise, the measurement noise and MPPI,
+so every method sees the same truth, placement and noise draws.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar import ckf, fisher, kinematics, linalg, motion, mppi, objective, physics, placement
+from mjx_radar.config import Scenario
+from mjx_radar.sensing import (
+    ccr_noise_cov,
+    ccr_variance,
+    ddr_noise_cov,
+    noise_constant,
+    range_model,
+    sample_ranges,
+)
+
+N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video
+
+
+class TrialStreams(NamedTuple):
+    placement: jax.Array
+    estimate: jax.Array
+    drones: jax.Array
+    measurement: jax.Array
+    planner: jax.Array
+
+
+def trial_streams(seed: int, trial) -> TrialStreams:
+    """The fixed random streams of one trial (identical for every method)."""
+    key = jax.random.fold_in(jax.random.PRNGKey(seed), trial)
+    return TrialStreams(*jax.random.split(key, 5))
+
+
+class StepRecord(NamedTuple):
+    """Per filter step outputs (leading axis K after the scan)."""
+
+    target: jax.Array  # [M, 6] true target states
+    mean: jax.Array  # [6M] posterior mean
+    cov_diag: jax.Array  # [6M] posterior variances
+    radar: jax.Array  # [N, 6] radar states
+    rmse_pos: jax.Array  # [] sqrt(mean_m |p_hat - p|^2)
+    rmse_state: jax.Array  # [] sqrt(mean_m |x_hat - x|^2)
+    nees: jax.Array  # [] normalised estimation error squared (6M dof)
+    crlb_pos: jax.Array  # [] sqrt(mean_m tr[J_m^-1]_pos), PFIM along the truth
+
+
+class ControlRecord(NamedTuple):
+    """Per control step outputs of MPPI (leading axis K / control_every)."""
+
+    control: jax.Array  # [N, 2] applied control
+    plan_xy: jax.Array  # [H, N, 2] planned radar positions of the mean sequence
+    sample_xy: jax.Array  # [S_keep, H, N, 2] sampled radar trajectories
+    sample_weight: jax.Array  # [S_keep] their MPPI weights
+    sample_cost: jax.Array  # [S_keep] their costs
+
+
+class TrialResult(NamedTuple):
+    steps: StepRecord
+    controls: ControlRecord
+    placement_ok: jax.Array  # [] bool: the radars could be placed
+
+
+def _error_metrics(truth, mean, cov, m):
+    err = mean - truth.reshape(-1)
+    e = err.reshape(m, 6)
+    rmse_pos = jnp.sqrt(jnp.mean(jnp.sum(e[:, :3] ** 2, -1)))
+    rmse_state = jnp.sqrt(jnp.mean(jnp.sum(e**2, -1)))
+    nees = err @ linalg.psd_solve(cov, err)
+    return rmse_pos, rmse_state, nees
+
+
+class LoopCarry(NamedTuple):
+    """State of a trial between control periods (a pytree; vmappable)."""
+
+    data: object  # mjx.Data of the truth plant (radars + drones)
+    mean: jax.Array  # [6M] posterior mean
+    cov: jax.Array  # [6M, 6M] posterior covariance
+    pfim: jax.Array  # [M, 6, 6] PFIM along the true trajectory (for the PCRLB)
+    u_plan: jax.Array  # [H, 2N] warm start of MPPI
+
+
+def init_carry(scenario: Scenario, seed: int, trial) -> tuple[LoopCarry, jax.Array]:
+    """Initial loop state of a trial and whether its radars could be placed."""
+    init = placement.initial_conditions(scenario, trial_streams(seed, trial))
+    plant = physics.truth_plant(scenario)
+    m, n = scenario.n_targets, scenario.n_radars
+    carry = LoopCarry(
+        data=physics.init_data(plant, init.radar_state, init.target_state),
+        mean=init.mean,
+        cov=init.cov,
+        pfim=jnp.broadcast_to(jnp.eye(6) / scenario.p0, (m, 6, 6)),
+        u_plan=jnp.zeros((scenario.mpc.horizon, 2 * n)),
+    )
+    return carry, init.ok
+
+
+def advance(
+    scenario: Scenario, method: str, seed: int, trial, carry: LoopCarry, start, periods: int
+) -> tuple[LoopCarry, StepRecord, ControlRecord]:
+    """Advances a trial by ``periods`` control periods starting at control step ``start``.
+
+    Args:
+        scenario, method, seed: static.
+        trial: trial index (traced).
+        carry: the loop state after ``start`` control periods.
+        start: index of the first control period (traced int).
+        periods: number of control periods (static).
+
+    Returns:
+        ``(carry, steps, controls)``: steps with leading size periods * control_every,
+        controls with leading size ``periods``.
+    """
+    model, info_kind = objective.parse_method(method)
+    t = scenario.timing
+    every = t.control_every
+    n, m, h = scenario.n_radars, scenario.n_targets, scenario.mpc.horizon
+    c = noise_constant(scenario.radar_eq, m)
+    sigma_r2 = ccr_variance(c, scenario.mpc.r2t)
+    plant = physics.truth_plant(scenario)
+    a_f = motion.cv_transition(t.dt_filter, m)
+    q_f = motion.cv_process_noise(t.dt_filter, scenario.sigma_w2, m)
+    a6 = motion.cv_transition(t.dt_filter, 1)
+    w6 = motion.cv_process_noise(t.dt_filter, scenario.sigma_w2, 1)
+    lower, upper = kinematics.control_bounds(scenario.limits)
+    init_std = jnp.tile(
+        jnp.array([scenario.mppi.std_accel, jnp.deg2rad(scenario.mppi.std_alpha_deg)]), n
+    )
+    cost_fn = None if info_kind == "none" else objective.make_objective(scenario, method)
+    streams = trial_streams(seed, trial)
+
+    def filter_step(carry, k, u):
+        data, mean, cov, pfim = carry
+        mean, cov = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
+        w = kinematics.sample_white_accel(
+            jax.random.fold_in(streams.drones, k), m, scenario.sigma_w2
+        )
+        data = physics.step(plant, data, u, w)
+        radars = physics.radar_state(plant, data)
+        truth = physics.target_state(plant, data)
+        z = sample_ranges(
+            jax.random.fold_in(streams.measurement, k), radars[:, :3], truth[:, :3], c
+        )
+        if model == "ddr":
+            r = lambda z_hat: ddr_noise_cov(z_hat, c)  # noqa: E731
+        else:
+            r = ccr_noise_cov(n * m, sigma_r2)
+        mean, cov = ckf.update(mean, cov, z, range_model(radars[:, :3]), r)
+        # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
+        jd = fisher.data_information(fisher.sfim(radars[:, :3], truth[:, :3], c))
+        pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, a6, w6, jd)
+        crlb = jnp.sqrt(jnp.mean(jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)))
+        rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov, m)
+        rec = StepRecord(truth, mean, jnp.diagonal(cov), radars, rmse_pos, rmse_state, nees, crlb)
+        return (data, mean, cov, pfim), rec
+
+    def plan(carry, j, u_plan):
+        data, mean, cov, _ = carry
+        if cost_fn is None:
+            zeros = jnp.zeros((n, 2))
+            rec = ControlRecord(
+                zeros,
+                jnp.zeros((h, n, 2)),
+                jnp.zeros((N_KEEP_SAMPLES, h, n, 2)),
+                jnp.zeros(N_KEEP_SAMPLES),
+                jnp.zeros(N_KEEP_SAMPLES),
+            )
+            return zeros, u_plan, rec
+        # MPPI plans from the estimate predicted to the time of this step.
+        pm, pc = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
+        ctx = objective.plan_context(scenario, physics.radar_state(plant, data), pm, pc)
+        res = mppi.optimize(
+            lambda u: cost_fn(u, ctx),
+            u_plan,
+            jax.random.fold_in(streams.planner, j),
+            scenario.mppi,
+            init_std,
+            jnp.tile(lower, n),
+            jnp.tile(upper, n),
+        )
+        _, mean_plan = cost_fn(res.mean, ctx)
+        u = res.mean[0].reshape(n, 2)
+        keep = slice(0, N_KEEP_SAMPLES)
+        rec = ControlRecord(
+            u,
+            mean_plan.radar_xy,
+            res.aux.radar_xy[keep],
+            res.weights[keep],
+            res.costs[keep],
+        )
+        return u, mppi.shift(res.mean), rec
+
+    def control_period(lc: LoopCarry, j):
+        loop = (lc.data, lc.mean, lc.cov, lc.pfim)
+        u, u_plan, crec = plan(loop, j, lc.u_plan)
+        ks = j * every + 1 + jnp.arange(every)
+        loop, srec = jax.lax.scan(lambda c_, k: filter_step(c_, k, u), loop, ks)
+        return LoopCarry(*loop, u_plan), (srec, crec)
+
+    js = start + jnp.arange(periods)
+    carry, (srec, crec) = jax.lax.scan(control_period, carry, js)
+    srec = jax.tree_util.tree_map(lambda x: x.reshape((periods * every,) + x.shape[2:]), srec)
+    return carry, srec, crec
+
+
+def simulate(scenario: Scenario, method: str, seed: int, trial, steps: int | None = None):
+    """Runs one closed-loop trial from its start.
+
+    Args:
+        scenario: the scenario (static).
+        method: one of ``config.METHODS`` (static).
+        seed: base seed (static).
+        trial: trial index (traced int; vmap over it for many trials).
+        steps: number of filter steps K (static); default ``scenario.timing.steps``.
+
+    Returns:
+        :class:`TrialResult` with ``steps`` of leading size K and ``controls`` of
+        leading size K / control_every.
+    """
+    k_total = scenario.timing.steps if steps is None else steps
+    every = scenario.timing.control_every
+    if k_total % every:
+        raise ValueError(f"steps: {k_total} must be a multiple of {every}")
+    carry, ok = init_carry(scenario, seed, trial)
+    _, srec, crec = advance(scenario, method, seed, trial, carry, 0, k_total // every)
+    return TrialResult(srec, crec, ok)

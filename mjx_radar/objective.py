@@ -1,0 +1,145 @@
+"""The radar-placement MPC objective (SPEC §6). Knows nothing of sampling.
+
+For one candidate control sequence ``u[H, N, 2]`` of all radars::
+
+    S = -sum_t g^t E_p[ sum_m log det J_m(t) ]
+        + a1 sum_t g^t #{radar pairs closer than R2R}
+        + a2 sum_t g^t E_p[ #{radar-target pairs closer than R2T} ]
+
+with t = 0..H-1 indexing the radar state after control t+1, and the
+expectation E_p over the CKF cubature points of the target state propagated
+through the CV transition to the same time (:func:`ckf.horizon_points`).
+``J_m`` is the SFIM (DDR or CCR variant, SPEC §5) or the PFIM recursion started
+from the current filter information of target m (the inverse of its marginal
+covariance block) with the horizon's SFIM expectation as data term.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar import fisher, kinematics, linalg, motion, physics
+from mjx_radar.config import METHODS, Scenario
+from mjx_radar.sensing import ccr_variance, noise_constant
+
+
+class PlanContext(NamedTuple):
+    """What the objective needs at one control step (traced arrays).
+
+    Attributes:
+        radar_state: [N, 6] current radar states.
+        target_points: [H, P, M, 6] cubature points of the target states at each
+            horizon step (P = 2 * 6M points).
+        info0: [M, 6, 6] current information (inverse marginal covariance) per target.
+    """
+
+    radar_state: jax.Array
+    target_points: jax.Array
+    info0: jax.Array
+
+
+class Plan(NamedTuple):
+    """Per-sample auxiliary output of the objective (for plots and video)."""
+
+    radar_xy: jax.Array  # [H, N, 2] planned radar positions
+    info: jax.Array  # [] discounted expected log det term (without sign)
+
+
+def parse_method(method: str) -> tuple[str, str]:
+    """``"ddr-pfim"`` -> ``("ddr", "pfim")``. ``"stationary"`` -> ``("ddr", "none")``."""
+    if method not in METHODS:
+        raise ValueError(f"method: {method!r} is not one of {', '.join(METHODS)}")
+    if method == "stationary":
+        return "ddr", "none"
+    model, info = method.split("-")
+    return model, info
+
+
+def plan_context(scenario: Scenario, radar_state, mean, cov) -> PlanContext:
+    """Builds the :class:`PlanContext` from the predicted CKF estimate.
+
+    Args:
+        scenario: the scenario (horizon, control step, number of targets).
+        radar_state: [N, 6] radar states.
+        mean: [6M] predicted stacked target mean.
+        cov: [6M, 6M] predicted covariance.
+    """
+    from mjx_radar import ckf
+
+    m = scenario.n_targets
+    a = motion.cv_transition(scenario.timing.dt_control, m, dtype=mean.dtype)
+    pts = ckf.horizon_points(mean, cov, lambda x: a @ x, scenario.mpc.horizon)
+    blocks = jnp.stack([cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
+    return PlanContext(
+        radar_state=radar_state,
+        target_points=pts.reshape(pts.shape[0], pts.shape[1], m, 6),
+        info0=linalg.psd_inv(blocks),
+    )
+
+
+def _pair_count_below(dist: jax.Array, threshold: float) -> jax.Array:
+    return jnp.sum((dist < threshold).astype(dist.dtype))
+
+
+def make_objective(scenario: Scenario, method: str):
+    """Returns ``cost(u[H, N*2], ctx) -> (cost, Plan)`` for one control sequence."""
+    model, info_kind = parse_method(method)
+    if info_kind == "none":
+        raise ValueError("method: 'stationary' has no planning objective")
+    mpc, n, m = scenario.mpc, scenario.n_radars, scenario.n_targets
+    c = noise_constant(scenario.radar_eq, m)
+    sigma_r2 = ccr_variance(c, mpc.r2t)
+    h = mpc.horizon
+    disc = mpc.gamma ** jnp.arange(h)
+    a6 = motion.cv_transition(scenario.timing.dt_control, 1)
+    w6 = motion.cv_process_noise(scenario.timing.dt_control, scenario.sigma_w2, 1)
+    triu = jnp.triu_indices(n, k=1)
+
+    def sfim(radar_pos, target_pos):  # [N,3], [M,3] -> [M,3,3]
+        if model == "ddr":
+            return fisher.sfim(radar_pos, target_pos, c)
+        return fisher.sfim_ccr(radar_pos, target_pos, sigma_r2)
+
+    if mpc.rollout == "mjx":
+        plant = physics.planner_plant(scenario)
+
+        def rollout(state, u):
+            return physics.radar_rollout(plant, state, u)
+    else:
+
+        def rollout(state, u):
+            return kinematics.unicycle_rollout(
+                state, u, scenario.timing.dt_control, scenario.limits
+            )
+
+    def cost(u_flat, ctx: PlanContext):
+        traj = rollout(ctx.radar_state, u_flat.reshape(h, n, 2))  # [H, N, 6]
+        radar_pos = traj[..., :3]
+        tgt_pos = ctx.target_points[..., :3]  # [H, P, M, 3]
+        # SFIM at every horizon step and cubature point: [H, P, M, 3, 3]
+        j3 = jax.vmap(lambda rp, tp: jax.vmap(lambda t: sfim(rp, t))(tp))(radar_pos, tgt_pos)
+        if info_kind == "sfim":
+            ld = fisher.logdet(j3).sum(-1).mean(-1)  # [H]
+        else:
+            jd = fisher.data_information(j3.mean(1))  # [H, M, 6, 6]
+
+            def rec(jm, jdt):  # jm [M,6,6]
+                jm = jax.vmap(fisher.pfim_step, (0, None, None, 0))(jm, a6, w6, jdt)
+                return jm, jm
+
+            _, jseq = jax.lax.scan(rec, ctx.info0, jd)
+            ld = fisher.logdet(jseq).sum(-1)  # [H]
+        info = jnp.sum(disc * ld)
+        # Radar-radar pairs closer than R2R: [H]
+        drr = jnp.linalg.norm(radar_pos[:, :, None] - radar_pos[:, None], axis=-1)
+        n_rr = jax.vmap(lambda d: _pair_count_below(d[triu], mpc.r2r))(drr)
+        # Radar-target pairs closer than R2T, expected over cubature points: [H]
+        drt = jnp.linalg.norm(radar_pos[:, None, :, None] - tgt_pos[:, :, None], axis=-1)
+        n_rt = jnp.mean(jnp.sum(drt < mpc.r2t, axis=(-1, -2)), axis=-1).astype(info.dtype)
+        total = -info + mpc.alpha_r2r * jnp.sum(disc * n_rr) + mpc.alpha_r2t * jnp.sum(disc * n_rt)
+        return total, Plan(radar_xy=radar_pos[..., :2], info=info)
+
+    return cost

@@ -1,0 +1,89 @@
+"""Initial conditions of a trial (SPEC §3, §4): radar placement and the initial estimate.
+
+Radars are placed uniformly in ``[-w, w]^2`` at z = 0 by rejection sampling so
+that every radar-radar distance is >= R2R and every radar-target distance
+(3-D) is >= R2T; headings are uniform in (-pi, pi], v = omega = 0. Rejection is
+done with a fixed number of candidates per radar (static shapes under jit):
+radar i takes the first admissible of ``CANDIDATES`` draws given radars
+0..i-1. ``ok`` is False if some radar found no admissible candidate; callers
+check it on the host before running (``mjx-radar`` exits with code 2).
+
+The initial estimate is ``x_0 + e``, ``e ~ N(0, P0)``, ``P0 = p0 I`` (a consistent draw).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_radar.config import Scenario
+
+CANDIDATES = 512
+
+
+class Init(NamedTuple):
+    radar_state: jax.Array  # [N, 6]
+    target_state: jax.Array  # [M, 6]
+    mean: jax.Array  # [6M] initial estimate
+    cov: jax.Array  # [6M, 6M] initial covariance
+    ok: jax.Array  # [] bool
+
+
+def place_radars(scenario: Scenario, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Rejection-samples radar states.
+
+    Returns:
+        ``([N, 6] radar states, ok)``.
+    """
+    n, w = scenario.n_radars, scenario.placement_half_width
+    targets = jnp.asarray(scenario.target_init)[:, :3]
+    k_xy, k_th = jax.random.split(key)
+    cand = jax.random.uniform(k_xy, (n, CANDIDATES, 2), minval=-w, maxval=w)
+    cand3 = jnp.concatenate([cand, jnp.zeros((n, CANDIDATES, 1))], axis=-1)
+    d_rt = jnp.linalg.norm(cand3[:, :, None] - targets[None, None], axis=-1).min(-1)
+    placed = jnp.zeros((n, 3))
+    all_ok = jnp.array(True)
+    for i in range(n):  # static loop over radars (N is small and static)
+        ok = d_rt[i] >= scenario.mpc.r2t
+        if i:
+            d_rr = jnp.linalg.norm(cand3[i][:, None] - placed[None, :i], axis=-1).min(-1)
+            ok &= d_rr >= scenario.mpc.r2r
+        first = jnp.argmax(ok)
+        placed = placed.at[i].set(cand3[i, first])
+        all_ok &= ok[first]
+    theta = jax.random.uniform(k_th, (n,), minval=-jnp.pi, maxval=jnp.pi)
+    theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
+    zeros = jnp.zeros(n)
+    states = jnp.stack([placed[:, 0], placed[:, 1], zeros, theta, zeros, zeros], axis=-1)
+    return states, all_ok
+
+
+def initial_conditions(scenario: Scenario, streams) -> Init:
+    """Radar placement, true target states and the consistent initial estimate."""
+    radars, ok = place_radars(scenario, streams.placement)
+    targets = jnp.asarray(scenario.target_init, jnp.float32)
+    dim = 6 * scenario.n_targets
+    cov = scenario.p0 * jnp.eye(dim)
+    err = jnp.sqrt(scenario.p0) * jax.random.normal(streams.estimate, (dim,))
+    return Init(radars, targets, targets.reshape(-1) + err, cov, ok)
+
+
+def check_placeable(scenario: Scenario, seed: int, trials: int) -> None:
+    """Raises ValueError naming the placement fields if some trial cannot place its radars."""
+    from mjx_radar.closed_loop import trial_streams
+
+    def ok(t):
+        return place_radars(scenario, trial_streams(seed, t).placement)[1]
+
+    oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.arange(trials)))
+    if not oks.all():
+        bad = int(np.argmin(oks))
+        raise ValueError(
+            f"placement_half_width = {scenario.placement_half_width}: cannot place "
+            f"{scenario.n_radars} radars >= mpc.r2r = {scenario.mpc.r2r} m apart and >= "
+            f"mpc.r2t = {scenario.mpc.r2t} m from every target (trial {bad}); widen the box "
+            "or lower the keep-out distances"
+        )
