@@ -82,6 +82,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from mjx_radar.gl import configure
+
+    configure(argv)  # MUJOCO_GL must be set before anything imports mujoco
     from mjx_radar.scenario import ScenarioError
 
     try:

@@ -111,6 +111,7 @@ class Scenario:
     mpc: MPCConfig = field(default_factory=MPCConfig)
     mppi: MPPIConfig = field(default_factory=MPPIConfig)
     obstacles: tuple[Obstacle, ...] = ()
+    radar_init: tuple[tuple[float, ...], ...] = ()  # optional fixed [N][3] rows x y theta
 
     @property
     def n_targets(self) -> int:

@@ -98,10 +98,7 @@ def make_objective(scenario: Scenario, method: str):
     w6 = motion.cv_process_noise(scenario.timing.dt_control, scenario.sigma_w2, 1)
     triu = jnp.triu_indices(n, k=1)
 
-    def sfim(radar_pos, target_pos):  # [N,3], [M,3] -> [M,3,3]
-        if model == "ddr":
-            return fisher.sfim(radar_pos, target_pos, c)
-        return fisher.sfim_ccr(radar_pos, target_pos, sigma_r2)
+    weight = fisher.ddr_weight(c) if model == "ddr" else fisher.ccr_weight(sigma_r2)
 
     if mpc.rollout == "mjx":
         plant = physics.planner_plant(scenario)
@@ -119,12 +116,12 @@ def make_objective(scenario: Scenario, method: str):
         traj = rollout(ctx.radar_state, u_flat.reshape(h, n, 2))  # [H, N, 6]
         radar_pos = traj[..., :3]
         tgt_pos = ctx.target_points[..., :3]  # [H, P, M, 3]
-        # SFIM at every horizon step and cubature point: [H, P, M, 3, 3]
-        j3 = jax.vmap(lambda rp, tp: jax.vmap(lambda t: sfim(rp, t))(tp))(radar_pos, tgt_pos)
+        # SFIM at every horizon step and cubature point, packed: [H, P, M, 6]
+        j3 = fisher.sfim_packed(radar_pos[:, None], tgt_pos, weight)
         if info_kind == "sfim":
-            ld = fisher.logdet(j3).sum(-1).mean(-1)  # [H]
+            ld = fisher.logdet_packed(j3).sum(-1).mean(-1)  # [H]
         else:
-            jd = fisher.data_information(j3.mean(1))  # [H, M, 6, 6]
+            jd = fisher.data_information(fisher.unpack_sym3(j3.mean(1)))  # [H, M, 6, 6]
 
             def rec(jm, jdt):  # jm [M,6,6]
                 jm = jax.vmap(fisher.pfim_step, (0, None, None, 0))(jm, a6, w6, jdt)

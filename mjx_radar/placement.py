@@ -1,6 +1,7 @@
 """Initial conditions of a trial (SPEC §3, §4): radar placement and the initial estimate.
 
-Radars are placed uniformly in ``[-w, w]^2`` at z = 0 by rejection sampling so
+Unless the scenario fixes them (``radars = [[x, y, theta], ...]``), radars
+are placed uniformly in ``[-w, w]^2`` at z = 0 by rejection sampling so
 that every radar-radar distance is >= R2R and every radar-target distance
 (3-D) is >= R2T; headings are uniform in (-pi, pi], v = omega = 0. Rejection is
 done with a fixed number of candidates per radar (static shapes under jit):
@@ -56,6 +57,13 @@ def place_radars(scenario: Scenario, key: jax.Array) -> tuple[jax.Array, jax.Arr
         all_ok &= ok[first]
     theta = jax.random.uniform(k_th, (n,), minval=-jnp.pi, maxval=jnp.pi)
     theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
+    if scenario.radar_init:  # fixed start given by the scenario file
+        fixed = jnp.asarray(scenario.radar_init, jnp.float32)
+        placed = jnp.concatenate([fixed[:, :2], jnp.zeros((n, 1))], axis=-1)
+        theta = fixed[:, 2]
+        d_rt = jnp.linalg.norm(placed[:, None] - targets[None], axis=-1)
+        d_rr = jnp.linalg.norm(placed[:, None] - placed[None], axis=-1) + 1e9 * jnp.eye(n)
+        all_ok = jnp.all(d_rt >= scenario.mpc.r2t) & jnp.all(d_rr >= scenario.mpc.r2r)
     zeros = jnp.zeros(n)
     states = jnp.stack([placed[:, 0], placed[:, 1], zeros, theta, zeros, zeros], axis=-1)
     return states, all_ok

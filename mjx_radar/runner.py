@@ -54,6 +54,7 @@ def run_trials(
     full: bool = True,
     progress: Callable[[int], None] | None = None,
     periods: int | None = None,
+    sharding: jax.sharding.Sharding | None = None,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
@@ -66,6 +67,11 @@ def run_trials(
         full: also return trajectories and MPPI samples (else only the metrics).
         progress: called with the number of filter steps done after each segment.
         periods: control periods per segment (default: :func:`segment_periods`).
+        sharding: optional sharding of the trial axis (e.g. a ``NamedSharding`` over a
+            1-D ``Mesh`` of ``jax.devices()``); the trial indices are placed with it and
+            jit propagates it to the whole batch, so each device runs its slice of the
+            trials. ``T`` must be a multiple of the number of devices. ``None``: default
+            device.
 
     Returns:
         dict of numpy arrays: ``rmse_pos, rmse_state, nees, crlb_pos`` [T, K], and if
@@ -79,6 +85,8 @@ def run_trials(
     periods = periods or segment_periods(scenario, steps)
     init, step = _compiled(scenario, method, seed, periods, full)
     trials = jnp.asarray(trials, jnp.int32)
+    if sharding is not None:
+        trials = jax.device_put(trials, sharding)
     t0 = time.perf_counter()
     carry, ok = init(trials)
     chunks = []

@@ -8,9 +8,12 @@ field, the value and the allowed range. Example (``scenarios/smoke.toml``)::
 
     name = "smoke"
     n_radars = 2
-    targets = [[0, 0, 55, 20, 10, 0]]
+    targets = [[0, 0, 55, 20, 10, 0]]   # rows x y z vx vy vz
+    radars = [[300, 0, 3.14], [-300, 0, 0]]  # optional fixed start x y theta
     [timing]
     steps = 40
+
+Without ``radars`` the radars are placed at random per trial (SPEC §3).
 """
 
 from __future__ import annotations
@@ -83,7 +86,7 @@ _TABLES = {
     "mpc": MPCConfig,
     "mppi": MPPIConfig,
 }
-_TOP = {"name", "description", "n_radars", "targets", "obstacles"} | set(_RULES[""])
+_TOP = {"name", "description", "n_radars", "targets", "radars", "obstacles"} | set(_RULES[""])
 
 
 def _fmt_range(rule: tuple) -> str:
@@ -131,6 +134,17 @@ def _targets(raw: Any) -> tuple[tuple[float, ...], ...]:
         if not isinstance(row, list) or len(row) != 6:
             raise ScenarioError(f"targets[{i}] = {row!r}: must be 6 numbers [x, y, z, vx, vy, vz]")
         rows.append(tuple(_check(f"targets[{i}]", v, (float, -INF, INF, True)) for v in row))
+    return tuple(rows)
+
+
+def _radars(raw: Any, n: int) -> tuple[tuple[float, ...], ...]:
+    if not isinstance(raw, list) or len(raw) != n:
+        raise ScenarioError(f"radars: must be a list of n_radars = {n} rows [x, y, theta]")
+    rows = []
+    for i, row in enumerate(raw):
+        if not isinstance(row, list) or len(row) != 3:
+            raise ScenarioError(f"radars[{i}] = {row!r}: must be 3 numbers [x, y, theta]")
+        rows.append(tuple(_check(f"radars[{i}]", v, (float, -INF, INF, True)) for v in row))
     return tuple(rows)
 
 
@@ -186,6 +200,8 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
     for key in _TABLES:
         if key in raw:
             kwargs[{"radar_equation": "radar_eq"}.get(key, key)] = _table(key, raw[key])
+    if "radars" in raw:
+        kwargs["radar_init"] = _radars(raw["radars"], kwargs["n_radars"])
     obstacles = raw.get("obstacles", [])
     if not isinstance(obstacles, list):
         raise ScenarioError("obstacles: must be an array of tables")
