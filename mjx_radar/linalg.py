@@ -30,7 +30,7 @@ input is propagated, never hidden.
 from __future__ import annotations
 
 import jax.numpy as jnp
-from jax.scipy.linalg import solve_triangular
+from jax import lax
 
 __all__ = ["symmetrize", "psd_cholesky", "psd_solve", "psd_inv", "logdet_psd"]
 
@@ -54,11 +54,40 @@ def symmetrize(A):
     return 0.5 * (A + jnp.swapaxes(A, -1, -2))
 
 
+def _jitter(A):
+    """Relative jitter ``δ[..., 1]`` for symmetric ``A[..., n, n]`` (see module docstring)."""
+    finfo = jnp.finfo(A.dtype)
+    n = A.shape[-1]
+    diag = jnp.diagonal(A, axis1=-2, axis2=-1)
+    scale = jnp.maximum(jnp.mean(jnp.abs(diag), axis=-1), jnp.max(jnp.abs(A), axis=(-2, -1)) / n)
+    tiny = jnp.sqrt(jnp.asarray(finfo.tiny, A.dtype))
+    return (10.0 * finfo.eps * scale + tiny)[..., None]
+
+
+def _cholesky_floored(A, floor):
+    """Column-by-column (left-looking) Cholesky with pivots floored at ``floor[..., 1]``."""
+    n = A.shape[-1]
+    idx = jnp.arange(n)
+
+    def body(j, L):
+        ej = idx == j
+        l_row = jnp.sum(jnp.where(ej[:, None], L, 0.0), axis=-2)  # L[..., j, :]
+        a_col = jnp.sum(jnp.where(ej[None, :], A, 0.0), axis=-1)  # A[..., :, j]
+        v = a_col - jnp.einsum("...ik,...k->...i", L, l_row)
+        d = jnp.maximum(jnp.sum(jnp.where(ej, v, 0.0), axis=-1, keepdims=True), floor)
+        ljj = jnp.sqrt(d)
+        col = jnp.where(idx > j, v / ljj, 0.0) + jnp.where(ej, ljj, 0.0)
+        return L + jnp.where(ej[None, :], col[..., :, None], 0.0)
+
+    return lax.fori_loop(0, n, body, jnp.zeros_like(A))
+
+
 def psd_cholesky(A):
     """Lower Cholesky factor of a (numerically) PSD matrix; never NaN for finite input.
 
-    Computes ``L`` with ``L Lᵀ = sym(A) + δ I`` (see module docstring for δ and the
-    Gershgorin fallback used when ``sym(A) + δ I`` is not positive definite).
+    Computes ``L`` with ``L Lᵀ = sym(A) + δ I``; every pivot is floored at δ so a
+    non-PD input still yields a finite factor with ``diag(L) >= sqrt(δ)`` (see the
+    module docstring for δ).
 
     Args:
         A: ``[..., n, n]`` symmetric PSD matrix (asymmetry/indefiniteness from
@@ -68,21 +97,42 @@ def psd_cholesky(A):
         ``[..., n, n]`` lower-triangular factor with strictly positive diagonal.
     """
     A = symmetrize(A)
-    dtype = A.dtype
-    n = A.shape[-1]
-    finfo = jnp.finfo(dtype)
-    eps = 10.0 * finfo.eps
-    tiny = jnp.sqrt(jnp.asarray(finfo.tiny, dtype))
-    eye = jnp.eye(n, dtype=dtype)
-    diag = jnp.diagonal(A, axis1=-2, axis2=-1)
-    scale = jnp.mean(jnp.abs(diag), axis=-1)[..., None, None] + tiny
-    L = jnp.linalg.cholesky(A + (eps * scale) * eye)
-    # Fallback: Gershgorin shift makes the matrix strictly diagonally dominant.
-    off = jnp.sum(jnp.abs(A), axis=-1) - jnp.abs(diag)
-    shift = jnp.maximum(jnp.max(off - diag, axis=-1), 0.0)[..., None, None]
-    L_safe = jnp.linalg.cholesky(A + (shift + jnp.sqrt(eps) * scale) * eye)
-    ok = jnp.all(jnp.isfinite(L), axis=(-2, -1), keepdims=True)
-    return jnp.where(ok, L, L_safe)
+    delta = _jitter(A)
+    eye = jnp.eye(A.shape[-1], dtype=A.dtype)
+    return _cholesky_floored(A + delta[..., None] * eye, delta)
+
+
+def _solve_lower(L, B):
+    """Forward substitution ``L Y = B`` for ``L[..., n, n]``, ``B[..., n, k]``."""
+    n = L.shape[-1]
+    idx = jnp.arange(n)
+
+    def body(i, Y):
+        ei = idx == i
+        l_row = jnp.sum(jnp.where(ei[:, None], L, 0.0), axis=-2)  # L[..., i, :]
+        b_i = jnp.sum(jnp.where(ei[:, None], B, 0.0), axis=-2)  # B[..., i, :]
+        l_ii = jnp.sum(jnp.where(ei, l_row, 0.0), axis=-1, keepdims=True)
+        y_i = (b_i - jnp.einsum("...n,...nk->...k", l_row, Y)) / l_ii
+        return Y + jnp.where(ei[:, None], y_i[..., None, :], 0.0)
+
+    return lax.fori_loop(0, n, body, jnp.zeros_like(B))
+
+
+def _solve_upper_t(L, Y):
+    """Back substitution ``Lᵀ X = Y`` for lower ``L[..., n, n]``, ``Y[..., n, k]``."""
+    n = L.shape[-1]
+    idx = jnp.arange(n)
+
+    def body(k, X):
+        i = n - 1 - k
+        ei = idx == i
+        l_col = jnp.sum(jnp.where(ei[None, :], L, 0.0), axis=-1)  # L[..., :, i]
+        y_i = jnp.sum(jnp.where(ei[:, None], Y, 0.0), axis=-2)
+        l_ii = jnp.sum(jnp.where(ei, l_col, 0.0), axis=-1, keepdims=True)
+        x_i = (y_i - jnp.einsum("...n,...nk->...k", l_col, X)) / l_ii
+        return X + jnp.where(ei[:, None], x_i[..., None, :], 0.0)
+
+    return lax.fori_loop(0, n, body, jnp.zeros_like(Y))
 
 
 def psd_solve(A, B):
@@ -103,8 +153,7 @@ def psd_solve(A, B):
     batch = jnp.broadcast_shapes(L.shape[:-2], Bm.shape[:-2])
     L = jnp.broadcast_to(L, batch + L.shape[-2:])
     Bm = jnp.broadcast_to(Bm, batch + Bm.shape[-2:])
-    Y = solve_triangular(L, Bm, lower=True)
-    X = solve_triangular(L, Y, lower=True, trans="T")
+    X = _solve_upper_t(L, _solve_lower(L, Bm))
     return X[..., 0] if is_vec else X
 
 

@@ -40,6 +40,9 @@ class Plant:
         index: addresses of radar / drone quantities.
         dt: physics step [s].
         limits: radar control limits (controls are clipped before the step).
+        fast: use the contact-free step (no collision, constraint or sensor stages and
+            the constant mass-matrix factor); set when the scene has no contacts and
+            its mass matrix does not depend on the configuration.
     """
 
     mj_model: mujoco.MjModel
@@ -47,6 +50,7 @@ class Plant:
     index: SceneIndex
     dt: float
     limits: RadarLimits
+    fast: bool = False
 
     @property
     def n_radars(self) -> int:
@@ -71,7 +75,39 @@ def make_plant(
     # device model concrete so it never captures a tracer.
     with jax.ensure_compile_time_eval():
         model = mjx.put_model(mj_model)
-    return Plant(mj_model, model, index, float(dt), limits)
+    contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    fast = contact_free and _constant_mass_matrix(mj_model)
+    return Plant(mj_model, model, index, float(dt), limits, fast)
+
+
+def _constant_mass_matrix(mj_model: mujoco.MjModel, tries: int = 4) -> bool:
+    """True if the joint-space inertia is the same at random configurations."""
+    data = mujoco.MjData(mj_model)
+    rng = np.random.default_rng(0)
+    mats = []
+    for _ in range(tries):
+        data.qpos[:] = rng.uniform(-100, 100, mj_model.nq)
+        mujoco.mj_forward(mj_model, data)
+        full = np.zeros((mj_model.nv, mj_model.nv))
+        mujoco.mj_fullM(mj_model, data, full)
+        mats.append(full)
+    return all(np.allclose(m, mats[0], rtol=1e-12, atol=1e-9) for m in mats)
+
+
+def _contact_free_step(model: mjx.Model, data):
+    """``mjx.step`` for a contact-free scene with a constant mass matrix.
+
+    Runs kinematics, transmission, velocity and actuation stages and the Euler
+    update; skips collision, constraints and sensors, and reuses the mass-matrix
+    factor computed once by :func:`init_data` (tests compare it with ``mjx.step``).
+    """
+    data = mjx.kinematics(model, data)
+    data = mjx.com_pos(model, data)
+    data = mjx.transmission(model, data)
+    data = mjx.fwd_velocity(model, data)
+    data = mjx.fwd_actuation(model, data)
+    data = mjx.fwd_acceleration(model, data)
+    return mjx.euler(model, data.replace(qacc=data.qacc_smooth))
 
 
 @functools.cache
@@ -121,7 +157,12 @@ def init_data(plant: Plant, radar_state: jax.Array, target_state: jax.Array | No
         _check_finite("target_state", target_state)
         qpos = qpos.at[idx.drone_qpos].set(target_state[:, :3])
         act = act.at[idx.drone_act].set(target_state[:, 3:])
-    return data.replace(qpos=qpos.astype(data.qpos.dtype), act=act.astype(data.act.dtype))
+    data = data.replace(qpos=qpos.astype(data.qpos.dtype), act=act.astype(data.act.dtype))
+    if plant.fast:  # the constant mass-matrix factor, once
+        data = mjx.kinematics(plant.model, data)
+        data = mjx.com_pos(plant.model, data)
+        data = mjx.factor_m(plant.model, mjx.crb(plant.model, data))
+    return data
 
 
 def radar_state(plant: Plant, data) -> jax.Array:
@@ -161,7 +202,10 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
         w = jnp.zeros((plant.n_drones, 3)) if drone_accel is None else drone_accel
         drone_ctrl = jnp.concatenate([w, data.act[idx.drone_act] + 0.5 * dt * w], axis=-1)
         ctrl = ctrl.at[idx.drone_ctrl].set(drone_ctrl.astype(data.ctrl.dtype))
-    return mjx.step(plant.model, data.replace(ctrl=ctrl))
+    data = data.replace(ctrl=ctrl)
+    if plant.fast:
+        return _contact_free_step(plant.model, data)
+    return mjx.step(plant.model, data)
 
 
 def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Array:

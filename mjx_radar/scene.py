@@ -9,7 +9,7 @@ and are attached with :class:`mujoco.MjSpec` under the prefixes ``radar{i}/`` an
 * sets every velocity-servo gain to ``kv = M_ii / dt`` from the compiled mass
   matrix, so each servo reaches its commanded velocity in exactly one step,
 * disables gravity, springs and dampers (radars are planar, drones fly on their
-  own thrust) and disables contacts entirely when there are no obstacles
+  own thrust; there is no joint damping, so Euler's implicit-damping refactor is off too) and disables contacts entirely when there are no obstacles
   (contacts cost ~100x a contact-free MJX step, see MJX-NOTES).
 
 Collision bits: radar hulls ``contype=2, conaffinity=1``, obstacles
@@ -23,6 +23,7 @@ import dataclasses
 import functools
 import importlib.resources
 from collections.abc import Sequence
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -58,7 +59,11 @@ class SceneIndex:
 
 @functools.cache
 def _model_xml(name: str) -> str:
-    return importlib.resources.files("mjx_radar.models").joinpath(name).read_text()
+    """MJCF text of ``models/<name>`` (installed package data, or the source checkout)."""
+    try:
+        return importlib.resources.files("mjx_radar.models").joinpath(name).read_text()
+    except ModuleNotFoundError:  # running from a checkout without installing
+        return (Path(__file__).resolve().parent.parent / "models" / name).read_text()
 
 
 def _add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:
@@ -119,7 +124,9 @@ def build_scene(
     spec.option.timestep = dt
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     flags = mujoco.mjtDisableBit
-    spec.option.disableflags |= flags.mjDSBL_GRAVITY | flags.mjDSBL_SPRING | flags.mjDSBL_DAMPER
+    spec.option.disableflags |= (
+        flags.mjDSBL_GRAVITY | flags.mjDSBL_SPRING | flags.mjDSBL_DAMPER | flags.mjDSBL_EULERDAMP
+    )
     if not obstacles:
         spec.option.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT
     spec.worldbody.add_geom(

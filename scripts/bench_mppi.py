@@ -50,7 +50,9 @@ def main() -> None:
     args_ = (init.radar_state, init.mean, init.cov)
     t0 = time.perf_counter()
     jax.block_until_ready(control(*args_, u, jax.random.PRNGKey(0)))
-    print(f"device={jax.devices()[0].device_kind} compile+first_call_s={time.perf_counter() - t0:.2f}")
+    print(
+        f"device={jax.devices()[0].device_kind} compile+first_call_s={time.perf_counter() - t0:.2f}"
+    )
     times = []
     for i in range(args.calls):
         t0 = time.perf_counter()

@@ -188,14 +188,20 @@ def test_report(study_dir, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_two_devices_match_one(study_dir, tmp_path):
-    """The trial axis sharded over 2 (forced host) devices, with padding, matches 1 device."""
+    """The trial axis sharded over 2 (forced host) devices, with padding, matches 1 device.
+
+    Not bit for bit: the partitioned program rounds differently (float32, ~1e-5 relative);
+    a wrong trial order or padding would show as O(1) differences.
+    """
     out = tmp_path / "two"
     env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    args = ["study", "smoke", "--methods", "stationary", "--steps", "8", "--trials", "3"]
-    proc = _subprocess([*args, "--chunk", "3", "--seed", "3", "--out", str(out)], env=env)
+    args = ["study", "smoke", "--methods", "stationary", "--rollouts", "analytic", "--steps", "8"]
+    proc = _subprocess(
+        [*args, "--trials", "3", "--chunk", "3", "--seed", "3", "--out", str(out)], env=env
+    )
     assert proc.wait(timeout=600) == 0
     assert json.loads((out / "study.json").read_text())["n_devices"] == 2
     two, one = _frame(out), _frame(study_dir)
     one = one[(one["method"] == "stationary") & (one["trial"] < 3)].reset_index(drop=True)
     for col in ("rmse_pos", "rmse_state", "nees", "crlb_pos"):
-        np.testing.assert_array_equal(two[col].to_numpy(), one[col].to_numpy())
+        np.testing.assert_allclose(two[col].to_numpy(), one[col].to_numpy(), rtol=1e-3)
