@@ -9,7 +9,8 @@ and are attached with :class:`mujoco.MjSpec` under the prefixes ``radar{i}/`` an
 * sets every velocity-servo gain to ``kv = M_ii / dt`` from the compiled mass
   matrix, so each servo reaches its commanded velocity in exactly one step,
 * disables gravity, springs and dampers (radars are planar, drones fly on their
-  own thrust; there is no joint damping, so Euler's implicit-damping refactor is off too) and disables contacts entirely when there are no obstacles
+  own thrust; without joint damping Euler's implicit-damping refactor is off
+  too) and disables contacts entirely when there are no obstacles
   (contacts cost ~100x a contact-free MJX step, see MJX-NOTES).
 
 Collision bits: radar hulls ``contype=2, conaffinity=1``, obstacles

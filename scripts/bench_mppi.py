@@ -18,8 +18,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar import kinematics, mppi, objective
-from mjx_radar.placement import initial_conditions
 from mjx_radar.closed_loop import trial_streams
+from mjx_radar.placement import initial_conditions
 from mjx_radar.scenario import load_scenario
 
 

@@ -10,6 +10,7 @@ after warm-up (median of --repeats).
 from __future__ import annotations
 
 import argparse
+import functools
 import time
 
 import jax
@@ -46,7 +47,7 @@ def main() -> None:
     )
     for n in (int(x) for x in args.radars.split(",")):
         plant = physics.make_plant(n, 0, dt, lim)
-        mjx_fn = jax.jit(jax.vmap(lambda s, u: physics.radar_rollout(plant, s, u)))
+        mjx_fn = jax.jit(jax.vmap(functools.partial(physics.radar_rollout, plant)))
         jax_fn = jax.jit(jax.vmap(lambda s, u: unicycle_rollout(s, u, dt, lim)))
         for b in (int(x) for x in args.batches.split(",")):
             k1, k2 = jax.random.split(jax.random.PRNGKey(b + n))
