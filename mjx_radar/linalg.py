@@ -8,16 +8,25 @@ indefinite. :func:`jax.numpy.linalg.cholesky` then silently returns NaN, which
 would poison a whole ``lax.scan``. The helpers here therefore
 
 1. symmetrise: ``A <- (A + Aᵀ)/2`` (removes round-off asymmetry);
-2. add a small *relative* jitter ``δ = eps·mean|diag A| + tiny`` with
-   ``eps = 10·finfo(dtype).eps`` (≈1.2e-6 in float32, 2.2e-15 in float64) and
-   ``tiny = sqrt(finfo(dtype).tiny)`` (so an all-zero matrix still factors);
-3. if that Cholesky is still not finite (a genuinely indefinite input), fall back
-   to the Cholesky of ``A + s·I`` where ``s`` is the Gershgorin bound
-   ``max_i(Σ_{j≠i}|a_ij| − a_ii)⁺`` plus ``sqrt(eps)·scale``: the shifted matrix is
-   strictly diagonally dominant with a positive diagonal, hence PD, so the
-   factor is finite for every finite input. Both branches are computed and the
-   result is selected with ``jnp.where`` (no Python control flow on traced values,
-   vmap/jit safe). The fallback is cheap (O(n²)) compared with an eigen floor.
+2. add a small *relative* jitter ``δ = 10·eps·scale + sqrt(tiny)`` with
+   ``scale = max(mean|diag A|, max|A_ij|/n)`` (= mean diag for a PSD matrix),
+   ``eps``/``tiny`` of the dtype (δ ≈ 1.2e-6·scale in float32, 2.2e-15·scale in
+   float64; the ``sqrt(tiny)`` term lets an all-zero matrix factor);
+3. factor ``A + δI`` with a modified Cholesky (Gill & Murray): every pivot is
+   floored at δ and raised where needed so that ``|L_ij| <= β``
+   (β² = max(max|a_ii|, max|a_ij|/sqrt(n²−1))). For a PD input both safeguards
+   are inactive (every pivot of ``A + δI`` is ≥ δ and ``|L_ij| <= sqrt(a_jj)``);
+   for a singular or indefinite input the factor stays finite with
+   ``diag(L) >= sqrt(δ)``. Hence ``logdet`` is finite and nothing is ever NaN for
+   finite input, with no Python control flow on traced values.
+
+The factorisation and the triangular solves are written in pure JAX
+(``lax.fori_loop`` over columns, O(n³), intended for the small n ≤ ~30 here)
+instead of calling LAPACK: besides allowing the pivot floor, this sidesteps a
+deadlock of jaxlib 0.10's CPU LAPACK kernels (``potrf``/``trsm`` split a vmapped
+batch over the XLA intra-op pool with ``ParallelBatchMap`` and block; two such
+kernels running concurrently on a 2-thread pool hang forever, observed on a
+vmapped+scanned filter).
 
 The jitter perturbs results by a relative ``O(10·eps)``; in float64 this is below
 1e-13 and invisible to the exact-arithmetic tests.
@@ -64,20 +73,44 @@ def _jitter(A):
     return (10.0 * finfo.eps * scale + tiny)[..., None]
 
 
+def _row(X, i):
+    """``X[..., i, :]`` for a (possibly traced, unbatched) loop index ``i``."""
+    return lax.dynamic_index_in_dim(X, i, axis=X.ndim - 2, keepdims=False)
+
+
+def _col(X, i):
+    """``X[..., :, i]``."""
+    return lax.dynamic_index_in_dim(X, i, axis=X.ndim - 1, keepdims=False)
+
+
 def _cholesky_floored(A, floor):
-    """Column-by-column (left-looking) Cholesky with pivots floored at ``floor[..., 1]``."""
+    """Column-by-column (left-looking) modified Cholesky.
+
+    Pivot ``d_j = max(v_j, floor, max_{i>j} v_i² / β²)`` (Gill & Murray): the floor
+    keeps ``d_j > 0`` and the β term bounds ``|L_ij| <= β`` so an indefinite input
+    cannot make the factor blow up. Both are inactive for a PD input.
+
+    Pure JAX (``lax.fori_loop`` over the n columns) rather than the LAPACK custom
+    call: besides the pivot floor, this avoids a thread-pool deadlock of jaxlib's
+    CPU batched ``potrf`` observed under ``vmap`` (see module docstring).
+    """
     n = A.shape[-1]
     idx = jnp.arange(n)
+    # Gill-Murray bound: |L_ij| <= beta. Inactive for PD input (|L_ij| <= sqrt(a_ii)).
+    offdiag = jnp.where(jnp.eye(n, dtype=bool), 0.0, jnp.abs(A))
+    beta2 = jnp.maximum(
+        jnp.max(jnp.abs(jnp.diagonal(A, axis1=-2, axis2=-1)), axis=-1),
+        jnp.max(offdiag, axis=(-2, -1)) / max(1.0, (n * n - 1.0) ** 0.5),
+    )[..., None] + floor
 
     def body(j, L):
-        ej = idx == j
-        l_row = jnp.sum(jnp.where(ej[:, None], L, 0.0), axis=-2)  # L[..., j, :]
-        a_col = jnp.sum(jnp.where(ej[None, :], A, 0.0), axis=-1)  # A[..., :, j]
-        v = a_col - jnp.einsum("...ik,...k->...i", L, l_row)
-        d = jnp.maximum(jnp.sum(jnp.where(ej, v, 0.0), axis=-1, keepdims=True), floor)
+        v = _col(A, j) - jnp.einsum("...ik,...k->...i", L, _row(L, j))
+        v_j = lax.dynamic_slice_in_dim(v, j, 1, axis=v.ndim - 1)
+        below = jnp.max(jnp.where(idx > j, v * v, 0.0), axis=-1, keepdims=True)
+        d = jnp.maximum(jnp.maximum(v_j, floor), below / beta2)
         ljj = jnp.sqrt(d)
-        col = jnp.where(idx > j, v / ljj, 0.0) + jnp.where(ej, ljj, 0.0)
-        return L + jnp.where(ej[None, :], col[..., :, None], 0.0)
+        col = jnp.where(idx > j, v / ljj, 0.0) + jnp.where(idx == j, ljj, 0.0)
+        return lax.dynamic_update_index_in_dim(L, col[..., :, None], j, axis=L.ndim - 1)
 
     return lax.fori_loop(0, n, body, jnp.zeros_like(A))
 
@@ -104,33 +137,26 @@ def psd_cholesky(A):
 
 def _solve_lower(L, B):
     """Forward substitution ``L Y = B`` for ``L[..., n, n]``, ``B[..., n, k]``."""
-    n = L.shape[-1]
-    idx = jnp.arange(n)
 
     def body(i, Y):
-        ei = idx == i
-        l_row = jnp.sum(jnp.where(ei[:, None], L, 0.0), axis=-2)  # L[..., i, :]
-        b_i = jnp.sum(jnp.where(ei[:, None], B, 0.0), axis=-2)  # B[..., i, :]
-        l_ii = jnp.sum(jnp.where(ei, l_row, 0.0), axis=-1, keepdims=True)
-        y_i = (b_i - jnp.einsum("...n,...nk->...k", l_row, Y)) / l_ii
-        return Y + jnp.where(ei[:, None], y_i[..., None, :], 0.0)
+        l_row = _row(L, i)
+        l_ii = lax.dynamic_slice_in_dim(l_row, i, 1, axis=l_row.ndim - 1)
+        y_i = (_row(B, i) - jnp.einsum("...n,...nk->...k", l_row, Y)) / l_ii
+        return lax.dynamic_update_index_in_dim(Y, y_i, i, axis=Y.ndim - 2)
 
-    return lax.fori_loop(0, n, body, jnp.zeros_like(B))
+    return lax.fori_loop(0, L.shape[-1], body, jnp.zeros_like(B))
 
 
 def _solve_upper_t(L, Y):
     """Back substitution ``Lᵀ X = Y`` for lower ``L[..., n, n]``, ``Y[..., n, k]``."""
     n = L.shape[-1]
-    idx = jnp.arange(n)
 
     def body(k, X):
         i = n - 1 - k
-        ei = idx == i
-        l_col = jnp.sum(jnp.where(ei[None, :], L, 0.0), axis=-1)  # L[..., :, i]
-        y_i = jnp.sum(jnp.where(ei[:, None], Y, 0.0), axis=-2)
-        l_ii = jnp.sum(jnp.where(ei, l_col, 0.0), axis=-1, keepdims=True)
-        x_i = (y_i - jnp.einsum("...n,...nk->...k", l_col, X)) / l_ii
-        return X + jnp.where(ei[:, None], x_i[..., None, :], 0.0)
+        l_col = _col(L, i)
+        l_ii = lax.dynamic_slice_in_dim(l_col, i, 1, axis=l_col.ndim - 1)
+        x_i = (_row(Y, i) - jnp.einsum("...n,...nk->...k", l_col, X)) / l_ii
+        return lax.dynamic_update_index_in_dim(X, x_i, i, axis=X.ndim - 2)
 
     return lax.fori_loop(0, n, body, jnp.zeros_like(Y))
 

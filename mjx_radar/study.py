@@ -110,6 +110,7 @@ def _check_out(out: Path, config: dict, resume: bool) -> dict | None:
 
 
 def _tasks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[tuple]:
+    """All chunks in study order: ``(scenario, method, steps, seed, first, last, path)``."""
     tasks = []
     for s, _, steps, seed in scenarios:
         for method in methods:
@@ -121,6 +122,7 @@ def _tasks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[tuple
 
 
 def _sharding():
+    """``(NamedSharding of the trial axis over all local devices, count, description)``."""
     import jax
     from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
@@ -130,6 +132,7 @@ def _sharding():
 
 
 def main(args) -> int:
+    """Runs (or resumes) the study; returns the exit code (input errors raise InputError)."""
     from tqdm import tqdm
 
     from mjx_radar import results, runner
