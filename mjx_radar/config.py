@@ -61,6 +61,9 @@ class MPCConfig:
     r2r: float = 10.0  # radar-radar keep-out [m]
     alpha_r2r: float = 500.0  # weight of radar-radar violations
     alpha_r2t: float = 1000.0  # weight of radar-target violations
+    alpha_obs: float = 1000.0  # weight of obstacle intrusion [1/m] (only with obstacles)
+    obs_margin: float = 6.0  # keep-out from obstacle footprints, radar centre [m]
+    los: bool = False  # planner drops occluded radar-target pairs (truth always does)
     rollout: str = "mjx"  # "mjx" (MuJoCo-MJX physics) | "analytic" (closed-form unicycle)
 
 

@@ -73,6 +73,21 @@ def _jitter(A):
     return (10.0 * finfo.eps * scale + tiny)[..., None]
 
 
+UNROLL_MAX = 8
+"""Matrices up to this size are factored with Python-unrolled loops: one fused
+elementwise program per factorisation instead of a sequential ``fori_loop``
+(the 6×6 PFIM recursion inside the MPPI objective runs on millions of them)."""
+
+
+def _loop(n: int, body, init):
+    """``lax.fori_loop(0, n, body, init)``, unrolled at trace time when n <= UNROLL_MAX."""
+    if n > UNROLL_MAX:
+        return lax.fori_loop(0, n, body, init)
+    for i in range(n):
+        init = body(i, init)
+    return init
+
+
 def _row(X, i):
     """``X[..., i, :]`` for a (possibly traced, unbatched) loop index ``i``."""
     return lax.dynamic_index_in_dim(X, i, axis=X.ndim - 2, keepdims=False)
@@ -98,10 +113,13 @@ def _cholesky_floored(A, floor):
     idx = jnp.arange(n)
     # Gill-Murray bound: |L_ij| <= beta. Inactive for PD input (|L_ij| <= sqrt(a_ii)).
     offdiag = jnp.where(jnp.eye(n, dtype=bool), 0.0, jnp.abs(A))
-    beta2 = jnp.maximum(
-        jnp.max(jnp.abs(jnp.diagonal(A, axis1=-2, axis2=-1)), axis=-1),
-        jnp.max(offdiag, axis=(-2, -1)) / max(1.0, (n * n - 1.0) ** 0.5),
-    )[..., None] + floor
+    beta2 = (
+        jnp.maximum(
+            jnp.max(jnp.abs(jnp.diagonal(A, axis1=-2, axis2=-1)), axis=-1),
+            jnp.max(offdiag, axis=(-2, -1)) / max(1.0, (n * n - 1.0) ** 0.5),
+        )[..., None]
+        + floor
+    )
 
     def body(j, L):
         v = _col(A, j) - jnp.einsum("...ik,...k->...i", L, _row(L, j))
@@ -112,7 +130,7 @@ def _cholesky_floored(A, floor):
         col = jnp.where(idx > j, v / ljj, 0.0) + jnp.where(idx == j, ljj, 0.0)
         return lax.dynamic_update_index_in_dim(L, col[..., :, None], j, axis=L.ndim - 1)
 
-    return lax.fori_loop(0, n, body, jnp.zeros_like(A))
+    return _loop(n, body, jnp.zeros_like(A))
 
 
 def psd_cholesky(A):
@@ -144,7 +162,7 @@ def _solve_lower(L, B):
         y_i = (_row(B, i) - jnp.einsum("...n,...nk->...k", l_row, Y)) / l_ii
         return lax.dynamic_update_index_in_dim(Y, y_i, i, axis=Y.ndim - 2)
 
-    return lax.fori_loop(0, L.shape[-1], body, jnp.zeros_like(B))
+    return _loop(L.shape[-1], body, jnp.zeros_like(B))
 
 
 def _solve_upper_t(L, Y):
@@ -158,7 +176,7 @@ def _solve_upper_t(L, Y):
         x_i = (_row(Y, i) - jnp.einsum("...n,...nk->...k", l_col, X)) / l_ii
         return lax.dynamic_update_index_in_dim(X, x_i, i, axis=X.ndim - 2)
 
-    return lax.fori_loop(0, n, body, jnp.zeros_like(Y))
+    return _loop(n, body, jnp.zeros_like(Y))
 
 
 def psd_solve(A, B):

@@ -11,9 +11,13 @@ row-major, i.e. index ``h*D + d``):
 
 1. ``Sigma_0 = diag(tile(init_std, H)**2)`` (restarted on every call; the mean is
    warm-started by the caller, see :func:`shift`).
-2. Sample ``u_s = m + L eps_s``, ``eps_s ~ N(0, I_P)``, ``L L^T = Sigma``
-   (PSD-safe Cholesky), ``s = 1..S`` with ``S = cfg.samples``; clip each step of
-   each sample to ``[lower, upper]``.
+2. Sample ``u_s ~ N(m, Sigma)``, ``s = 1..S`` with ``S = cfg.samples``; clip each
+   step of each sample to ``[lower, upper]``. Sigma is kept factored as
+   ``F F^T + diag(b^2)`` (initially ``F = 0``, ``b = std``; after a refit ``F`` is
+   ``sqrt(1 - rho)`` times the weighted centred samples and ``b = sqrt(rho mu)``),
+   so ``u_s = m + F e1_s + b * e2_s`` with standard normal ``e1, e2`` is an exact
+   draw with no ``P x P`` Cholesky (P up to 180 for six radars; a factorisation per
+   sub-iteration was the slowest sequential step on the GPU).
 3. Score ``c_s = cost_fn(u_s)`` (vmapped over samples). Non-finite costs count as
    worst (zero weight).
 4. Weight (normalised, ``sum_s w_s = 1``):
@@ -42,7 +46,6 @@ import jax.numpy as jnp
 from jax import Array
 
 from mjx_radar.config import MPPIConfig
-from mjx_radar.linalg import psd_cholesky
 from mjx_radar.shrinkage import ESTIMATORS
 
 CostFn = Callable[[Array], tuple[Array, Any]]
@@ -133,35 +136,46 @@ def optimize(
     lower = jnp.asarray(lower, dtype)
     upper = jnp.asarray(upper, dtype)
     std = jnp.tile(jnp.asarray(init_std, dtype), h)
-    cov0 = jnp.diag(std * std)
+    flat_lo = jnp.broadcast_to(lower, (h, d)).reshape(h * d)
+    flat_hi = jnp.broadcast_to(upper, (h, d)).reshape(h * d)
     batched_cost = jax.vmap(cost_fn)
 
     def step(carry, k):
-        m, cov = carry[0], carry[1]
-        chol = psd_cholesky(cov)
-        eps = jax.random.normal(k, (n, h * d), dtype)
-        u = jnp.clip((m + eps @ chol.T).reshape(n, h, d), lower, upper)
+        # Proposal covariance in factored form: Sigma = F F^T + diag(b^2).
+        m, f, b = carry[0], carry[1], carry[2]
+        k1, k2 = jax.random.split(k)
+        e1 = jax.random.normal(k1, (n, n), dtype)
+        e2 = jax.random.normal(k2, (n, h * d), dtype)
+        u = jnp.clip((m + e1 @ f.T + e2 * b).reshape(n, h, d), lower, upper)
         costs, aux = batched_cost(u)
         costs = jnp.asarray(costs, dtype).reshape(n)
         w = sample_weights(costs, cfg)
         flat = u.reshape(n, h * d)
-        m_new = w @ flat
-        cov_new, _ = estimator(flat, w, m_new)
-        return (m_new, cov_new, u, costs, w, aux), None
+        # A convex combination of clipped samples; the clip removes float round-off.
+        m_new = jnp.clip(w @ flat, flat_lo, flat_hi)
+        _, rho = estimator(flat, w, m_new)
+        # Shrunk covariance (1 - rho) S + rho mu I with S = Y^T Y, Y = sqrt(w) (u - m'):
+        # factor F = sqrt(1 - rho) Y^T, b = sqrt(rho mu). No P x P factorisation.
+        y = jnp.sqrt(w)[:, None] * jnp.where(w[:, None] > 0, flat - m_new, 0.0)
+        mu = jnp.sum(y * y) / (h * d)
+        f_new = jnp.sqrt(1.0 - rho) * y.T
+        b_new = jnp.full((h * d,), jnp.sqrt(rho * mu), dtype)
+        return (m_new, f_new, b_new, u, costs, w, aux), None
 
     # Placeholders for the per-iteration outputs, so that cost_fn is compiled once.
     aux_shape = jax.eval_shape(batched_cost, jax.ShapeDtypeStruct((n, h, d), dtype))[1]
     aux0 = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux_shape)
     init = (
         mean.reshape(h * d),
-        cov0,
+        jnp.zeros((h * d, n), dtype),
+        std,
         jnp.zeros((n, h, d), dtype),
         jnp.zeros((n,), dtype),
         jnp.zeros((n,), dtype),
         aux0,
     )
     keys = jax.random.split(key, cfg.iterations)
-    (m, _, u, costs, w, aux), _ = jax.lax.scan(step, init, keys)
+    (m, _, _, u, costs, w, aux), _ = jax.lax.scan(step, init, keys)
     return MPPIResult(mean=m.reshape(h, d), samples=u, costs=costs, weights=w, aux=aux)
 
 

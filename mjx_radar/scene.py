@@ -16,6 +16,18 @@ and are attached with :class:`mujoco.MjSpec` under the prefixes ``radar{i}/`` an
 Collision bits: radar hulls ``contype=2, conaffinity=1``, obstacles
 ``contype=1, conaffinity=2``: radars collide with obstacles, not with each
 other, the ground or drones.
+
+Contacts with obstacles (see docs/obstacles.md). The deadbeat servos command up
+to ``m·v/dt`` of force, so contacts are made nearly hard and frictionless:
+``condim = 1``, ``solimp = CONTACT_SOLIMP`` (impedance 0.99-0.999, i.e. ~0.1 % of
+the servo's push leaks through), default ``solref`` (time constant clamped to
+2·dt), a few Newton iterations, and MJX's broad phase keeps only the nearest
+``2N`` hull-obstacle pairs per geom-type group (``max_geom_pairs``). MJX's
+sphere-convex collider reports no distance for separated pairs, so a contact
+margin cannot look ahead; instead the collision sphere is grown by
+``hull_margin`` (the most a radar moves in one step, :func:`physics.make_plant`):
+on the step of impact the grown sphere penetrates by at most that much, so the
+physical hull (radius 2.5 m) never enters an obstacle.
 """
 
 from __future__ import annotations
@@ -32,6 +44,8 @@ import numpy as np
 from mjx_radar.config import Obstacle
 
 RADAR_ACTUATORS = ("speed", "turn", "drive", "lateral", "steer")
+CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+SOLVER_ITERATIONS = 4  # Newton iterations (one or two contacts per radar converge fast)
 DRONE_ACTUATORS = ("vx", "vy", "vz", "sx", "sy", "sz")
 
 
@@ -47,6 +61,7 @@ class SceneIndex:
         drone_act: [M, 3] activation addresses of (vx, vy, vz).
         drone_ctrl: [M, 6] ctrl addresses of (vx, vy, vz, sx, sy, sz).
         obstacle_geoms: [K] geom ids of the obstacles.
+        radar_hull: [N] geom ids of the radars' collision spheres.
     """
 
     radar_qpos: np.ndarray
@@ -56,6 +71,7 @@ class SceneIndex:
     drone_act: np.ndarray
     drone_ctrl: np.ndarray
     obstacle_geoms: np.ndarray
+    radar_hull: np.ndarray
 
 
 @functools.cache
@@ -71,7 +87,15 @@ def _add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:
     """Adds one static obstacle geom to the world body."""
     half_yaw = 0.5 * obs.yaw
     quat = [np.cos(half_yaw), 0.0, 0.0, np.sin(half_yaw)]
-    common = dict(name=f"obstacle{i}", pos=list(obs.pos), quat=quat, contype=1, conaffinity=2)
+    common = dict(
+        name=f"obstacle{i}",
+        pos=list(obs.pos),
+        quat=quat,
+        contype=1,
+        conaffinity=2,
+        condim=1,
+        solimp=list(CONTACT_SOLIMP),
+    )
     rgba = [0.55, 0.45, 0.35, 1.0]
     if obs.kind == "box":
         spec.worldbody.add_geom(
@@ -101,7 +125,11 @@ def _add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:
 
 
 def build_scene(
-    n_radars: int, n_drones: int, dt: float, obstacles: Sequence[Obstacle] = ()
+    n_radars: int,
+    n_drones: int,
+    dt: float,
+    obstacles: Sequence[Obstacle] = (),
+    hull_margin: float = 0.0,
 ) -> tuple[mujoco.MjModel, SceneIndex]:
     """Builds the MuJoCo model of a scene.
 
@@ -110,6 +138,7 @@ def build_scene(
         n_drones: M >= 0 drones (0 for planner-only models).
         dt: physics timestep [s] = one Euler step of the unicycle / CV model.
         obstacles: static obstacles; contacts are enabled only if there are any.
+        hull_margin: growth of each radar's collision sphere [m] (with obstacles only).
 
     Returns:
         The compiled ``MjModel`` (servo gains set) and its :class:`SceneIndex`.
@@ -130,6 +159,10 @@ def build_scene(
     )
     if not obstacles:
         spec.option.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT
+    else:
+        spec.option.iterations = SOLVER_ITERATIONS
+        spec.option.ls_iterations = SOLVER_ITERATIONS
+        spec.add_numeric(name="max_geom_pairs", data=[2 * n_radars])
     spec.worldbody.add_geom(
         name="ground",
         type=mujoco.mjtGeom.mjGEOM_PLANE,
@@ -143,6 +176,11 @@ def build_scene(
     )
     for i in range(n_radars):
         child = mujoco.MjSpec.from_string(_model_xml("radar.xml"))
+        if obstacles:
+            hull = child.geom("hull")
+            hull.size[0] += hull_margin
+            hull.condim = 1
+            hull.solimp = list(CONTACT_SOLIMP)
         spec.attach(child, prefix=f"radar{i}/", frame=spec.worldbody.add_frame())
     for j in range(n_drones):
         child = mujoco.MjSpec.from_string(_model_xml("drone.xml"))
@@ -179,6 +217,7 @@ def _index(model: mujoco.MjModel, n: int, m: int, k: int) -> SceneIndex:
         drone_act=arr([act(p, ("vx", "vy", "vz")) for p in drones], 3),
         drone_ctrl=arr([ctrl(p, DRONE_ACTUATORS) for p in drones], 6),
         obstacle_geoms=np.asarray([model.geom(f"obstacle{i}").id for i in range(k)], np.int32),
+        radar_hull=np.asarray([model.geom(f"{p}hull").id for p in radars], np.int32),
     )
 
 

@@ -33,7 +33,7 @@ def test_cholesky_solve_inv_logdet_match_numpy_float64():
     # cond 1e3, jitter 2.2e-15 relative: factors agree to ~1e-13 relative; 1e-11 is safe.
     np.testing.assert_allclose(L, np.linalg.cholesky(A), rtol=0, atol=1e-11 * np.abs(A).max())
     np.testing.assert_allclose(X, np.linalg.solve(A, B), rtol=1e-10)  # cond*eps ~ 2e-13
-    np.testing.assert_allclose(x, np.linalg.solve(A, B[..., 0]), rtol=1e-10)
+    np.testing.assert_allclose(x, np.linalg.solve(A, B[..., :1])[..., 0], rtol=1e-10)
     np.testing.assert_allclose(Ainv, np.linalg.inv(A), rtol=1e-10, atol=1e-13)
     # log det error = tr(A^-1 dA) ~ n * 2.2e-15 * cond: far below 1e-10.
     np.testing.assert_allclose(ld, np.linalg.slogdet(A)[1], rtol=0, atol=1e-10)
