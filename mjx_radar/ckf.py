@@ -17,6 +17,11 @@ Update (points redrawn from (x̂⁻, P⁻), as in the standard CKF)::
 ``R`` is an array ``[p, p]`` or a callable ``R(ẑ) -> [p, p]`` (the DDR model
 evaluates its variance ``C (ẑ/2)⁴`` at the predicted measurement).
 
+An optional boolean ``mask[p]`` drops measurements (False: e.g. line of sight
+blocked) exactly: their rows/columns of Pzz become the identity, their columns
+of Pxz and their innovations zero, so their gain columns vanish and the update
+equals the update with those measurements removed (static shapes under jit).
+
 Numerical choices (the filter must stay PD and finite over 600 float32 steps):
 
 * Every Cholesky and solve goes through :mod:`mjx_radar.linalg`: P is symmetrised
@@ -103,7 +108,7 @@ def predict(mean, cov, f, Q):
     return m, linalg.symmetrize(P)
 
 
-def update(mean, cov, z, h, R):
+def update(mean, cov, z, h, R, mask=None):
     """CKF measurement update.
 
     Args:
@@ -112,6 +117,7 @@ def update(mean, cov, z, h, R):
         z: ``[p]`` measurement.
         h: measurement function ``h(x[n]) -> [p]`` of one state vector.
         R: ``[p, p]`` noise covariance, or a callable ``R(z_hat[p]) -> [p, p]``.
+        mask: optional ``[p]`` bool, True where the measurement is used (default all).
 
     Returns:
         ``(mean[n], cov[n, n])`` posterior moments.
@@ -125,8 +131,15 @@ def update(mean, cov, z, h, R):
     Rm = R(z_hat) if callable(R) else R
     Pzz = w * dz.T @ dz + Rm
     Pxz = w * dx.T @ dz
+    innov = jnp.asarray(z, mean.dtype) - z_hat
+    if mask is not None:
+        keep = jnp.asarray(mask, bool)
+        eye = jnp.eye(keep.shape[0], dtype=Pzz.dtype)
+        Pzz = jnp.where(keep[:, None] & keep[None, :], Pzz, eye)
+        Pxz = jnp.where(keep[None, :], Pxz, 0.0)
+        innov = jnp.where(keep, innov, 0.0)
     K = linalg.psd_solve(Pzz, Pxz.T).T
-    new_mean = mean + K @ (jnp.asarray(z, mean.dtype) - z_hat)
+    new_mean = mean + K @ innov
     new_cov = cov - K @ Pzz @ K.T
     return new_mean, linalg.symmetrize(new_cov)
 

@@ -16,6 +16,10 @@ Random numbers (common random numbers, SPEC §9): a trial's key is
 ``fold_in(PRNGKey(seed), trial)`` split into fixed streams for the placement,
 the initial estimate error, the drones' noise, the measurement noise and MPPI,
 so every method sees the same truth, placement and noise draws.
+
+Obstacles (docs/obstacles.md): a radar-target pair whose straight segment is
+blocked yields no measurement -- the CKF update skips it exactly (``mask``) and
+it adds no information to the PCRLB; contacts are counted per step.
 """
 
 from __future__ import annotations
@@ -25,7 +29,18 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar import ckf, fisher, kinematics, linalg, motion, mppi, objective, physics, placement
+from mjx_radar import (
+    ckf,
+    fisher,
+    kinematics,
+    linalg,
+    motion,
+    mppi,
+    objective,
+    occlusion,
+    physics,
+    placement,
+)
 from mjx_radar.config import Scenario
 from mjx_radar.sensing import (
     ccr_noise_cov,
@@ -64,6 +79,8 @@ class StepRecord(NamedTuple):
     rmse_state: jax.Array  # [] sqrt(mean_m |x_hat - x|^2)
     nees: jax.Array  # [] normalised estimation error squared (6M dof)
     crlb_pos: jax.Array  # [] sqrt(mean_m tr[J_m^-1]_pos), PFIM along the truth
+    obstacle_contacts: jax.Array  # [] int32 radars in contact with an obstacle
+    visible_pairs: jax.Array  # [] int32 radar-target pairs with line of sight (of N*M)
 
 
 class ControlRecord(NamedTuple):
@@ -149,6 +166,7 @@ def advance(
     )
     cost_fn = None if info_kind == "none" else objective.make_objective(scenario, method)
     streams = trial_streams(seed, trial)
+    occ = occlusion.occluders(scenario.obstacles) if scenario.obstacles else None
 
     def filter_step(carry, k, u):
         data, mean, cov, pfim = carry
@@ -166,13 +184,30 @@ def advance(
             r = lambda z_hat: ddr_noise_cov(z_hat, c)  # noqa: E731
         else:
             r = ccr_noise_cov(n * m, sigma_r2)
-        mean, cov = ckf.update(mean, cov, z, range_model(radars[:, :3]), r)
+        vis = None  # [N, M] line of sight (truth geometry); blocked pairs are skipped
+        if occ is not None:
+            vis = occlusion.line_of_sight(occ, radars[:, :3], truth[:, :3])
+        keep = None if vis is None else vis.reshape(-1)
+        mean, cov = ckf.update(mean, cov, z, range_model(radars[:, :3]), r, mask=keep)
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
-        jd = fisher.data_information(fisher.sfim(radars[:, :3], truth[:, :3], c))
+        jd = fisher.data_information(fisher.sfim(radars[:, :3], truth[:, :3], c, mask=vis))
         pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, a6, w6, jd)
         crlb = jnp.sqrt(jnp.mean(jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)))
         rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov, m)
-        rec = StepRecord(truth, mean, jnp.diagonal(cov), radars, rmse_pos, rmse_state, nees, crlb)
+        n_vis = jnp.int32(n * m) if vis is None else jnp.sum(vis).astype(jnp.int32)
+        contacts = physics.obstacle_contacts(plant, data)
+        rec = StepRecord(
+            truth,
+            mean,
+            jnp.diagonal(cov),
+            radars,
+            rmse_pos,
+            rmse_state,
+            nees,
+            crlb,
+            contacts,
+            n_vis,
+        )
         return (data, mean, cov, pfim), rec
 
     def plan(carry, j, u_plan):

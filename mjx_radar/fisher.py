@@ -62,13 +62,15 @@ def _outer_sum(w, u):
     return jnp.sum(outer, axis=-4)
 
 
-def sfim(radar_pos, target_pos, C):
+def sfim(radar_pos, target_pos, C, mask=None):
     """DDR standard Fisher information of each target's position.
 
     Args:
         radar_pos: ``[..., N, 3]`` radar positions [m].
         target_pos: ``[..., M, 3]`` target positions [m].
         C: range-noise constant (variance ``C d⁴``), scalar.
+        mask: optional ``[..., N, M]`` bool/0-1, False for pairs without a
+            measurement (blocked line of sight): they contribute no information.
 
     Returns:
         ``[..., M, 3, 3]``: ``J_m = Σ_n d dᵀ (4/(C‖d‖⁶) + 8/‖d‖⁴)`` [1/m²].
@@ -76,6 +78,8 @@ def sfim(radar_pos, target_pos, C):
     u, r = _geometry(radar_pos, target_pos)
     r2 = r**2
     w = 4.0 / (C * r2 * r2) + 8.0 / r2
+    if mask is not None:
+        w = w * jnp.asarray(mask, w.dtype)
     return _outer_sum(w, u)
 
 
@@ -149,7 +153,7 @@ def ccr_weight(sigma_r2):
     return lambda r2: jnp.full_like(r2, 4.0 / sigma_r2)
 
 
-def sfim_packed(radar_pos, target_pos, weight):
+def sfim_packed(radar_pos, target_pos, weight, mask=None):
     """SFIM as its 6 unique entries, fused for large batches (the MPPI objective).
 
     Same values as :func:`sfim` / :func:`sfim_ccr` (``weight`` from
@@ -160,6 +164,8 @@ def sfim_packed(radar_pos, target_pos, weight):
         radar_pos: ``[..., N, 3]`` radar positions (broadcast against targets' batch dims).
         target_pos: ``[..., M, 3]`` target positions.
         weight: ``w(r²)`` per-pair weight of ``u uᵀ``.
+        mask: optional ``[..., N, M]`` bool/0-1 (broadcast like the positions); pairs
+            with False (blocked line of sight) contribute nothing.
 
     Returns:
         ``[..., M, 6]`` entries ``(xx, xy, xz, yy, yz, zz)``.
@@ -169,6 +175,8 @@ def sfim_packed(radar_pos, target_pos, weight):
         d = target_pos - radar_pos[..., n : n + 1, :]  # [..., M, 3]
         r2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]
         g = weight(r2) / r2  # w u uᵀ = (w / r²) d dᵀ
+        if mask is not None:
+            g = g * jnp.asarray(mask[..., n, :], g.dtype)
         x, y, z = d[..., 0], d[..., 1], d[..., 2]
         term = [g * x * x, g * x * y, g * x * z, g * y * y, g * y * z, g * z * z]
         acc = term if acc is None else [a + t for a, t in zip(acc, term, strict=True)]

@@ -12,6 +12,18 @@ through the CV transition to the same time (:func:`ckf.horizon_points`).
 ``J_m`` is the SFIM (DDR or CCR variant, SPEC §5) or the PFIM recursion started
 from the current filter information of target m (the inverse of its marginal
 covariance block) with the horizon's SFIM expectation as data term.
+
+With obstacles (docs/obstacles.md) two optional parts:
+
+* obstacle cost ``+ a_obs sum_t g^t sum_n relu(margin - phi(p_n(t)))``, phi the
+  footprints' signed distance (:func:`obstacles.sdf`), i.e. metres of intrusion
+  into the keep-out band of width ``mpc.obs_margin`` around every footprint,
+  weighted by ``mpc.alpha_obs`` (on whenever the scenario has obstacles);
+* ``mpc.los``: a pair whose segment from the radar to the target's predicted
+  mean (the centroid of the cubature points at that step) is blocked contributes
+  no information (one visibility test per pair and step, shared by the points).
+
+The rollouts themselves ignore obstacles (contact-free planner plant).
 """
 
 from __future__ import annotations
@@ -21,7 +33,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar import fisher, kinematics, linalg, motion, physics
+from mjx_radar import fisher, kinematics, linalg, motion, obstacles, occlusion, physics
 from mjx_radar.config import METHODS, Scenario
 from mjx_radar.sensing import ccr_variance, noise_constant
 
@@ -84,6 +96,22 @@ def _pair_count_below(dist: jax.Array, threshold: float) -> jax.Array:
     return jnp.sum((dist < threshold).astype(dist.dtype))
 
 
+def _obstacle_cost(scenario: Scenario):
+    """``xy[H, N, 2] -> [H]``: ``a_obs sum_n relu(margin - phi(xy_n))``, or None."""
+    mpc = scenario.mpc
+    if not scenario.obstacles or mpc.alpha_obs <= 0:
+        return None
+    grid = obstacles.sdf_grid(
+        scenario.obstacles, scenario.placement_half_width, max(64.0, 4.0 * mpc.obs_margin)
+    )
+
+    def cost(xy):
+        depth = jax.nn.relu(mpc.obs_margin - obstacles.sdf(grid, xy))
+        return mpc.alpha_obs * jnp.sum(depth, axis=-1)
+
+    return cost
+
+
 def make_objective(scenario: Scenario, method: str):
     """Returns ``cost(u[H, N*2], ctx) -> (cost, Plan)`` for one control sequence."""
     model, info_kind = parse_method(method)
@@ -99,6 +127,8 @@ def make_objective(scenario: Scenario, method: str):
     triu = jnp.triu_indices(n, k=1)
 
     weight = fisher.ddr_weight(c) if model == "ddr" else fisher.ccr_weight(sigma_r2)
+    obstacle_cost = _obstacle_cost(scenario)
+    occ = occlusion.occluders(scenario.obstacles) if scenario.obstacles and mpc.los else None
 
     if mpc.rollout == "mjx":
         plant = physics.planner_plant(scenario)
@@ -117,7 +147,10 @@ def make_objective(scenario: Scenario, method: str):
         radar_pos = traj[..., :3]
         tgt_pos = ctx.target_points[..., :3]  # [H, P, M, 3]
         # SFIM at every horizon step and cubature point, packed: [H, P, M, 6]
-        j3 = fisher.sfim_packed(radar_pos[:, None], tgt_pos, weight)
+        vis = None  # [H, 1, N, M] line of sight to the predicted target means
+        if occ is not None:
+            vis = occlusion.line_of_sight(occ, radar_pos, tgt_pos.mean(1))[:, None]
+        j3 = fisher.sfim_packed(radar_pos[:, None], tgt_pos, weight, mask=vis)
         if info_kind == "sfim":
             ld = fisher.logdet_packed(j3).sum(-1).mean(-1)  # [H]
         else:
@@ -137,6 +170,8 @@ def make_objective(scenario: Scenario, method: str):
         drt = jnp.linalg.norm(radar_pos[:, None, :, None] - tgt_pos[:, :, None], axis=-1)
         n_rt = jnp.mean(jnp.sum(drt < mpc.r2t, axis=(-1, -2)), axis=-1).astype(info.dtype)
         total = -info + mpc.alpha_r2r * jnp.sum(disc * n_rr) + mpc.alpha_r2t * jnp.sum(disc * n_rt)
+        if obstacle_cost is not None:
+            total = total + jnp.sum(disc * obstacle_cost(radar_pos[..., :2]))
         return total, Plan(radar_xy=radar_pos[..., :2], info=info)
 
     return cost

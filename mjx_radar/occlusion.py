@@ -164,9 +164,10 @@ def line_of_sight(occ: Occluders, radar_pos, target_pos):
 
 def visibility(obstacles: Sequence[Obstacle], radar_pos, target_pos):
     """:func:`line_of_sight` for an obstacle tuple (all True without obstacles)."""
-    shape = jnp.broadcast_shapes(
-        jnp.shape(radar_pos)[:-2], jnp.shape(target_pos)[:-2]
-    ) + (jnp.shape(radar_pos)[-2], jnp.shape(target_pos)[-2])
+    shape = jnp.broadcast_shapes(jnp.shape(radar_pos)[:-2], jnp.shape(target_pos)[:-2]) + (
+        jnp.shape(radar_pos)[-2],
+        jnp.shape(target_pos)[-2],
+    )
     if not obstacles:
         return jnp.ones(shape, bool)
     return line_of_sight(occluders(tuple(obstacles)), radar_pos, target_pos)

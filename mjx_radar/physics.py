@@ -76,7 +76,7 @@ def make_plant(
     limits = RadarLimits() if limits is None else limits
     # The most a radar moves in one step: the collision sphere grows by this much so
     # that the physical hull never enters an obstacle on the step of impact.
-    margin = (limits.speed + 0.5 * limits.accel * dt) * dt if obstacles else 0.0
+    margin = contact_envelope(limits, dt) if obstacles else 0.0
     mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin)
     # Plants are cached and may first be built while a jit trace is running: keep the
     # device model concrete so it never captures a tracer.
@@ -85,6 +85,11 @@ def make_plant(
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and _constant_mass_matrix(mj_model)
     return Plant(mj_model, model, index, float(dt), limits, fast)
+
+
+def contact_envelope(limits: RadarLimits, dt: float) -> float:
+    """Growth of the collision sphere [m]: one step's largest displacement plus 5 cm."""
+    return (limits.speed + 0.5 * limits.accel * dt) * dt + 0.05
 
 
 def _constant_mass_matrix(mj_model: mujoco.MjModel, tries: int = 4) -> bool:

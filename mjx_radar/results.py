@@ -8,7 +8,9 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
     DIR/scenario.toml      the scenario file used (verbatim copy)
     DIR/metrics.parquet    long format, one row per (trial, step): scenario, method,
                            trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
-                           nees [-], crlb_pos [m]
+                           nees [-], crlb_pos [m], obstacle_contacts [-] (radars
+                           touching an obstacle), visible_pairs [-] (radar-target
+                           pairs with line of sight)
     DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
                            control steps, S kept MPPI samples, H horizon):
                              time_s [K], target [T,K,M,6], mean [T,K,6M],
@@ -32,7 +34,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-METRIC_COLUMNS = ("rmse_pos", "rmse_state", "nees", "crlb_pos")
+METRIC_COLUMNS = (
+    "rmse_pos",
+    "rmse_state",
+    "nees",
+    "crlb_pos",
+    "obstacle_contacts",  # radars touching an obstacle (0 without obstacles)
+    "visible_pairs",  # radar-target pairs with line of sight (N*M without obstacles)
+)
 
 
 def atomic_write(path: Path, write) -> None:

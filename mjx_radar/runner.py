@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import closed_loop
+from mjx_radar import closed_loop, results
 from mjx_radar.config import Scenario
 
 
@@ -27,7 +27,7 @@ def _compiled(scenario: Scenario, method: str, seed: int, periods: int, full: bo
             scenario, method, seed, trial, carry, start, periods
         )
         if not full:
-            steps = {k: getattr(steps, k) for k in ("rmse_pos", "rmse_state", "nees", "crlb_pos")}
+            steps = {k: getattr(steps, k) for k in results.METRIC_COLUMNS}
             controls = None
         return carry, steps, controls
 
@@ -74,7 +74,8 @@ def run_trials(
             device.
 
     Returns:
-        dict of numpy arrays: ``rmse_pos, rmse_state, nees, crlb_pos`` [T, K], and if
+        dict of numpy arrays: ``rmse_pos, rmse_state, nees, crlb_pos, obstacle_contacts,
+        visible_pairs`` [T, K] (:data:`results.METRIC_COLUMNS`), and if
         ``full`` the fields of ``StepRecord`` / ``ControlRecord`` with leading [T, ...],
         plus ``placement_ok`` [T], ``wall_s`` (including compilation) and ``control_hz``
         (control periods per second of the batch, excluding the first, compiling, segment).

@@ -14,6 +14,19 @@ field, the value and the allowed range. Example (``scenarios/smoke.toml``)::
     steps = 40
 
 Without ``radars`` the radars are placed at random per trial (SPEC §3).
+Obstacles (docs/obstacles.md): ``[[obstacles]]`` tables (box, cylinder, mesh) and
+a generated ``[forest]`` of vertical cylinder trees::
+
+    [forest]
+    count = 40                          # trees
+    region = [-300, -300, 300, 300]     # xmin ymin xmax ymax of the trunks' centres
+    seed = 1                            # tree layout (independent of the trial seed)
+    radius = [1.0, 2.5]                 # trunk radius range [m]
+    height = [8.0, 20.0]                # tree height range [m]
+    spacing = 8.0                       # min gap between trunks [m]
+    clearance = 10.0                    # min gap to the fixed radar starts [m]
+
+A scenario with obstacles must fix the radar starts (``radars``), clear of them.
 """
 
 from __future__ import annotations
@@ -27,7 +40,6 @@ from typing import Any
 from mjx_radar.config import (
     MPCConfig,
     MPPIConfig,
-    Obstacle,
     RadarEquation,
     RadarLimits,
     Scenario,
@@ -66,6 +78,9 @@ _RULES: dict[str, dict[str, tuple]] = {
         "r2r": _NONNEG,
         "alpha_r2r": _NONNEG,
         "alpha_r2t": _NONNEG,
+        "alpha_obs": _NONNEG,
+        "obs_margin": _NONNEG,
+        "los": (bool,),
         "rollout": (str, ("mjx", "analytic")),
     },
     "mppi": {
@@ -86,7 +101,8 @@ _TABLES = {
     "mpc": MPCConfig,
     "mppi": MPPIConfig,
 }
-_TOP = {"name", "description", "n_radars", "targets", "radars", "obstacles"} | set(_RULES[""])
+_TOP = {"name", "description", "n_radars", "targets", "radars", "obstacles", "forest"}
+_TOP |= set(_RULES[""])
 
 
 def _fmt_range(rule: tuple) -> str:
@@ -99,6 +115,10 @@ def _fmt_range(rule: tuple) -> str:
 
 
 def _check(field: str, value: Any, rule: tuple) -> Any:
+    if rule[0] is bool:
+        if not isinstance(value, bool):
+            raise ScenarioError(f"{field} = {value!r}: must be true or false")
+        return value
     if rule[0] is str:
         if value not in rule[1]:
             raise ScenarioError(f"{field} = {value!r}: must be one of {', '.join(rule[1])}")
@@ -148,36 +168,6 @@ def _radars(raw: Any, n: int) -> tuple[tuple[float, ...], ...]:
     return tuple(rows)
 
 
-def _obstacle(i: int, raw: Any, base: Path) -> Obstacle:
-    field = f"obstacles[{i}]"
-    if not isinstance(raw, dict):
-        raise ScenarioError(f"{field}: must be a table")
-    kind = _check(f"{field}.kind", raw.get("kind"), (str, ("box", "cylinder", "mesh")))
-    allowed = {"kind", "pos", "size", "yaw", "path", "scale"}
-    for key in raw:
-        if key not in allowed:
-            raise ScenarioError(f"{field}.{key}: unknown field; allowed: {', '.join(allowed)}")
-    pos = raw.get("pos", [0.0, 0.0, 0.0])
-    if not isinstance(pos, list) or len(pos) != 3:
-        raise ScenarioError(f"{field}.pos = {pos!r}: must be 3 numbers")
-    pos = tuple(_check(f"{field}.pos", v, (float, -INF, INF, True)) for v in pos)
-    n_size = {"box": 3, "cylinder": 2, "mesh": 0}[kind]
-    size = raw.get("size", [])
-    if not isinstance(size, list) or len(size) != n_size:
-        raise ScenarioError(f"{field}.size = {size!r}: a {kind} needs {n_size} numbers > 0")
-    size = tuple(_check(f"{field}.size", v, _POS) for v in size)
-    path = ""
-    if kind == "mesh":
-        path = str((base / str(raw.get("path", ""))).resolve())
-        if not raw.get("path") or not Path(path).is_file():
-            raise ScenarioError(
-                f"{field}.path = {raw.get('path')!r}: must be an existing mesh file"
-            )
-    yaw = _check(f"{field}.yaw", raw.get("yaw", 0.0), (float, -INF, INF, True))
-    scale = _check(f"{field}.scale", raw.get("scale", 1.0), _POS)
-    return Obstacle(kind=kind, pos=pos, size=size, yaw=yaw, path=path, scale=scale)
-
-
 def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
     """Validates a parsed scenario table and builds the :class:`Scenario`."""
     for key in raw:
@@ -205,13 +195,20 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
     obstacles = raw.get("obstacles", [])
     if not isinstance(obstacles, list):
         raise ScenarioError("obstacles: must be an array of tables")
-    kwargs["obstacles"] = tuple(_obstacle(i, o, base) for i, o in enumerate(obstacles))
+    from mjx_radar import scenario_obstacles as so  # imports this module's helpers
+
+    kwargs["obstacles"] = tuple(so.obstacle(i, o, base) for i, o in enumerate(obstacles))
+    if "forest" in raw:
+        kwargs["obstacles"] += so.forest(raw["forest"], kwargs.get("radar_init", ()))
     scenario = Scenario(**kwargs)
     _check_consistency(scenario)
     return scenario
 
 
 def _check_consistency(s: Scenario) -> None:
+    from mjx_radar import scenario_obstacles
+
+    scenario_obstacles.check_radar_clearance(s)
     t = s.timing
     ratio = t.dt_control / t.dt_filter
     if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:

@@ -100,7 +100,10 @@ def test_run_smoke_end_to_end(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "mean position RMSE" in proc.stdout
     assert {p.name for p in out.iterdir()} == {
-        "run.json", "metrics.parquet", "trajectories.npz", "scenario.toml"
+        "run.json",
+        "metrics.parquet",
+        "trajectories.npz",
+        "scenario.toml",
     }
     import pandas as pd
 
