@@ -188,7 +188,11 @@ def advance(
         if occ is not None:
             vis = occlusion.line_of_sight(occ, radars[:, :3], truth[:, :3])
         keep = None if vis is None else vis.reshape(-1)
-        mean, cov = ckf.update(mean, cov, z, range_model(radars[:, :3]), r, mask=keep)
+        post = ckf.update(mean, cov, z, range_model(radars[:, :3]), r, mask=keep)
+        # A diverged misspecified filter (CCR noise model) can overflow float32 in the
+        # update; keep the prediction then, so no NaN ever propagates (SPEC §4).
+        ok = jnp.all(jnp.isfinite(post[0])) & jnp.all(jnp.isfinite(post[1]))
+        mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
         jd = fisher.data_information(fisher.sfim(radars[:, :3], truth[:, :3], c, mask=vis))
         pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, a6, w6, jd)

@@ -122,11 +122,13 @@ def _tasks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[tuple
 
 
 def _sharding():
-    """``(NamedSharding of the trial axis over all local devices, count, description)``."""
+    """``(NamedSharding of the trial axis over the local devices or None, count, description)``."""
     import jax
     from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
     devices = jax.devices()
+    if len(devices) == 1:  # default placement; lets run_trials use precompiled programs
+        return None, 1, str(devices)
     mesh = Mesh(np.asarray(devices), ("trial",))
     return NamedSharding(mesh, PartitionSpec("trial")), len(devices), str(devices)
 
@@ -172,6 +174,13 @@ def main(args) -> int:
         f"chunks done) on {n_dev} device(s): {device_str}",
         file=sys.stderr,
     )
+    jobs = list(dict.fromkeys((t[0], t[1], t[3]) for t in todo))
+    if jobs and n_dev == 1:
+        print(f"study: compiling {len(jobs)} program(s) in parallel ...", file=sys.stderr)
+        steps0 = todo[0][2]
+        same_steps = [j for j in jobs if all(t[2] == steps0 for t in todo if t[0] == j[0])]
+        wall = runner.precompile(same_steps, batch, steps0)
+        print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
     with tqdm(total=total, initial=total - sum(t[2] for t in todo), unit="step",
               desc="study", file=sys.stderr, dynamic_ncols=True) as bar:  # fmt: skip
         for s, method, steps, seed, first, last, path in todo:
