@@ -66,17 +66,23 @@ def _check_placement(scenario, seed: int, trials: int) -> None:
         raise InputError(str(err)) from None
 
 
-def prepare(args, default_out: str):
-    """Loads the scenario with the command-line overrides and checks the output dir."""
-    s = load_scenario(args.scenario)
-    if getattr(args, "rollouts", None):
-        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
-    steps = args.steps or s.timing.steps
+def load_with_overrides(name: str, rollouts: str | None, steps: int | None):
+    """Loads a scenario, applies ``--rollouts`` and checks ``--steps``: ``(scenario, steps)``."""
+    s = load_scenario(name)
+    if rollouts:
+        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollouts))
+    steps = steps or s.timing.steps
     if steps % s.timing.control_every:
         raise InputError(
             f"--steps = {steps}: must be a multiple of dt_control/dt_filter = "
-            f"{s.timing.control_every}"
+            f"{s.timing.control_every} (scenario {s.name})"
         )
+    return s, steps
+
+
+def prepare(args, default_out: str):
+    """Loads the scenario with the command-line overrides and checks the output dir."""
+    s, steps = load_with_overrides(args.scenario, getattr(args, "rollouts", None), args.steps)
     seed = s.seed if args.seed is None else args.seed
     out = args.out or Path("runs") / default_out.format(name=s.name)
     if (out / "run.json").exists() and not getattr(args, "force", False):

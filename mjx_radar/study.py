@@ -60,21 +60,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _load(args) -> tuple[list, dict]:
     """Scenarios (with overrides) and the study configuration; raises InputError."""
-    import dataclasses
 
-    from mjx_radar.scenario import load_scenario, resolve_path
+    from mjx_radar.commands import load_with_overrides
+    from mjx_radar.scenario import resolve_path
 
     scenarios, entries = [], []
     for name in args.scenarios:
-        s = load_scenario(name)
-        if args.rollouts:
-            s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
-        steps = args.steps or s.timing.steps
-        if steps % s.timing.control_every:
-            raise InputError(
-                f"--steps = {steps}: must be a multiple of dt_control/dt_filter = "
-                f"{s.timing.control_every} (scenario {s.name})"
-            )
+        s, steps = load_with_overrides(name, args.rollouts, args.steps)
         if s.name in [e["name"] for e in entries]:
             raise InputError(f"SCENARIO: scenario name {s.name!r} given twice")
         src = resolve_path(name)
