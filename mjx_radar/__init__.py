@@ -10,6 +10,7 @@ from mjx_radar.config import (
     Scenario,
     Timing,
 )
+from mjx_radar.scenario import ScenarioError, load_scenario
 
 __all__ = [
     "METHODS",
@@ -19,6 +20,8 @@ __all__ = [
     "RadarEquation",
     "RadarLimits",
     "Scenario",
+    "ScenarioError",
     "Timing",
+    "load_scenario",
 ]
 __version__ = "0.1.0"
