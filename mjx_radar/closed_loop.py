@@ -42,6 +42,7 @@ from mjx_radar import (
     placement,
 )
 from mjx_radar.config import Scenario
+from mjx_radar.planner import make_planner
 from mjx_radar.sensing import (
     ccr_noise_cov,
     ccr_variance,
@@ -160,11 +161,7 @@ def advance(
     q_f = motion.cv_process_noise(t.dt_filter, scenario.sigma_w2, m)
     a6 = motion.cv_transition(t.dt_filter, 1)
     w6 = motion.cv_process_noise(t.dt_filter, scenario.sigma_w2, 1)
-    lower, upper = kinematics.control_bounds(scenario.limits)
-    init_std = jnp.tile(
-        jnp.array([scenario.mppi.std_accel, jnp.deg2rad(scenario.mppi.std_alpha_deg)]), n
-    )
-    cost_fn = None if info_kind == "none" else objective.make_objective(scenario, method)
+    planner = None if info_kind == "none" else make_planner(scenario, method)
     streams = trial_streams(seed, trial)
     occ = occlusion.occluders(scenario.obstacles) if scenario.obstacles else None
 
@@ -216,7 +213,7 @@ def advance(
 
     def plan(carry, j, u_plan):
         data, mean, cov, _ = carry
-        if cost_fn is None:
+        if planner is None:
             zeros = jnp.zeros((n, 2))
             rec = ControlRecord(
                 zeros,
@@ -228,17 +225,8 @@ def advance(
             return zeros, u_plan, rec
         # MPPI plans from the estimate predicted to the time of this step.
         pm, pc = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
-        ctx = objective.plan_context(scenario, physics.radar_state(plant, data), pm, pc)
-        res = mppi.optimize(
-            lambda u: cost_fn(u, ctx),
-            u_plan,
-            jax.random.fold_in(streams.planner, j),
-            scenario.mppi,
-            init_std,
-            jnp.tile(lower, n),
-            jnp.tile(upper, n),
-        )
-        _, mean_plan = cost_fn(res.mean, ctx)
+        key = jax.random.fold_in(streams.planner, j)
+        res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key)
         u = res.mean[0].reshape(n, 2)
         keep = slice(0, N_KEEP_SAMPLES)
         rec = ControlRecord(

@@ -149,22 +149,23 @@ def _table(name: str, raw: Any) -> Any:
 def _targets(raw: Any) -> tuple[tuple[float, ...], ...]:
     if not isinstance(raw, list) or not raw:
         raise ScenarioError("targets: must be a non-empty list of [x, y, z, vx, vy, vz] rows")
-    rows = []
-    for i, row in enumerate(raw):
-        if not isinstance(row, list) or len(row) != 6:
-            raise ScenarioError(f"targets[{i}] = {row!r}: must be 6 numbers [x, y, z, vx, vy, vz]")
-        rows.append(tuple(_check(f"targets[{i}]", v, (float, -INF, INF, True)) for v in row))
-    return tuple(rows)
+    return _numeric_rows("targets", raw, "x, y, z, vx, vy, vz")
 
 
 def _radars(raw: Any, n: int) -> tuple[tuple[float, ...], ...]:
     if not isinstance(raw, list) or len(raw) != n:
         raise ScenarioError(f"radars: must be a list of n_radars = {n} rows [x, y, theta]")
+    return _numeric_rows("radars", raw, "x, y, theta")
+
+
+def _numeric_rows(field: str, raw: list, columns: str) -> tuple[tuple[float, ...], ...]:
+    """Rows of finite numbers named by ``columns`` (e.g. ``"x, y, theta"``)."""
+    width = len(columns.split(","))
     rows = []
     for i, row in enumerate(raw):
-        if not isinstance(row, list) or len(row) != 3:
-            raise ScenarioError(f"radars[{i}] = {row!r}: must be 3 numbers [x, y, theta]")
-        rows.append(tuple(_check(f"radars[{i}]", v, (float, -INF, INF, True)) for v in row))
+        if not isinstance(row, list) or len(row) != width:
+            raise ScenarioError(f"{field}[{i}] = {row!r}: must be {width} numbers [{columns}]")
+        rows.append(tuple(_check(f"{field}[{i}]", v, (float, -INF, INF, True)) for v in row))
     return tuple(rows)
 
 

@@ -17,9 +17,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import kinematics, mppi, objective
+from mjx_radar import mppi
 from mjx_radar.closed_loop import trial_streams
 from mjx_radar.placement import initial_conditions
+from mjx_radar.planner import make_planner
 from mjx_radar.scenario import load_scenario
 
 
@@ -34,16 +35,11 @@ def main() -> None:
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
     n = s.n_radars
     init = initial_conditions(s, trial_streams(s.seed, 0))
-    cost = objective.make_objective(s, args.method)
-    lo, hi = kinematics.control_bounds(s.limits)
-    std = jnp.tile(jnp.array([s.mppi.std_accel, np.deg2rad(s.mppi.std_alpha_deg)]), n)
+    plan = make_planner(s, args.method)
 
     @jax.jit
-    def control(radar_state, mean, cov, u_plan, key):
-        ctx = objective.plan_context(s, radar_state, mean, cov)
-        res = mppi.optimize(
-            lambda u: cost(u, ctx), u_plan, key, s.mppi, std, jnp.tile(lo, n), jnp.tile(hi, n)
-        )
+    def control(radar_state, mean, cov, u, key):
+        res, _ = plan(radar_state, mean, cov, u, key)
         return res.mean[0], mppi.shift(res.mean)
 
     u = jnp.zeros((s.mpc.horizon, 2 * n))

@@ -17,9 +17,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import kinematics, mppi, objective
+from mjx_radar import mppi
 from mjx_radar.closed_loop import trial_streams
 from mjx_radar.placement import initial_conditions
+from mjx_radar.planner import make_planner
 from mjx_radar.scenario import load_scenario
 
 
@@ -27,16 +28,11 @@ def bench(s, calls: int, method: str = "ddr-sfim") -> tuple[float, float]:
     """(compile + first call, median call) seconds of one jitted MPPI control call."""
     n = s.n_radars
     init = initial_conditions(s, trial_streams(s.seed, 0))
-    cost = objective.make_objective(s, method)
-    lo, hi = kinematics.control_bounds(s.limits)
-    std = jnp.tile(jnp.array([s.mppi.std_accel, np.deg2rad(s.mppi.std_alpha_deg)]), n)
+    plan = make_planner(s, method)
 
     @jax.jit
     def control(radar_state, mean, cov, u, key):
-        ctx = objective.plan_context(s, radar_state, mean, cov)
-        res = mppi.optimize(
-            lambda v: cost(v, ctx), u, key, s.mppi, std, jnp.tile(lo, n), jnp.tile(hi, n)
-        )
+        res, _ = plan(radar_state, mean, cov, u, key)
         return res.mean[0], mppi.shift(res.mean)
 
     u = jnp.zeros((s.mpc.horizon, 2 * n))
