@@ -10,7 +10,7 @@ from mjx_radar.config import (
     Scenario,
     Timing,
 )
-from mjx_radar.scenario import ScenarioError, load_scenario
+from mjx_radar.io.scenario import ScenarioError, load_scenario
 
 __all__ = [
     "METHODS",

@@ -2,6 +2,6 @@
 
 import sys
 
-from mjx_radar.cli import main
+from mjx_radar.cli.main import main
 
 sys.exit(main())

@@ -2,7 +2,7 @@
 
 Every dataclass here is frozen and hashable so a whole :class:`Scenario` can be
 passed as a static argument to ``jax.jit``. Units are SI (m, s, rad, W, Hz).
-Loading and validation of scenario files lives in :mod:`mjx_radar.scenario`.
+Loading and validation of scenario files lives in :mod:`mjx_radar.io.scenario`.
 """
 
 from __future__ import annotations

@@ -17,11 +17,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import mppi
-from mjx_radar.closed_loop import trial_streams
-from mjx_radar.placement import initial_conditions
-from mjx_radar.planner import make_planner
-from mjx_radar.scenario import load_scenario
+from mjx_radar.control import mppi
+from mjx_radar.io.scenario import load_scenario
+from mjx_radar.simulation.placement import initial_conditions
+from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.task.planner import make_planner
 
 
 def bench(s, calls: int, method: str = "ddr-sfim") -> tuple[float, float]:

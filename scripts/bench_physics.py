@@ -17,9 +17,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import physics
 from mjx_radar.config import RadarLimits
-from mjx_radar.kinematics import unicycle_rollout
+from mjx_radar.physics import plant as physics
+from mjx_radar.physics.kinematics import unicycle_rollout
 
 
 def _time(fn, *args, repeats: int) -> float:

@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from mjx_radar import runner
 from mjx_radar.config import METHODS
-from mjx_radar.scenario import load_scenario
+from mjx_radar.io.scenario import load_scenario
+from mjx_radar.simulation import runner
 
 STEPS = 80  # 2 s: the first second is excluded from the keep-out checks
 TRIALS = 2

@@ -1,11 +1,11 @@
-"""Tests of mjx_radar.linalg against numpy/LAPACK references."""
+"""Tests of mjx_radar.estimation.linalg against numpy/LAPACK references."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar import linalg
+from mjx_radar.estimation import linalg
 
 
 def _random_spd(rng, batch, n, cond=1e3):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.config import MPPIConfig
-from mjx_radar.mppi import MPPIResult, optimize, sample_weights, shift
+from mjx_radar.control.mppi import MPPIResult, optimize, sample_weights, shift
 
 H, D = 15, 6
 LOWER = -jnp.array([3.0, 2.0, 3.0, 2.0, 3.0, 2.0])

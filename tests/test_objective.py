@@ -4,9 +4,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import closed_loop, fisher, objective
-from mjx_radar.scenario import scenario_from_dict
-from mjx_radar.sensing import noise_constant
+from mjx_radar.estimation import fisher
+from mjx_radar.estimation.sensing import noise_constant
+from mjx_radar.io.scenario import scenario_from_dict
+from mjx_radar.simulation import closed_loop
+from mjx_radar.task import objective
 
 HOVER = {
     "name": "hover",
@@ -105,7 +107,7 @@ def test_pfim_objective_against_direct_recursion():
         cov = jnp.diag(jnp.linspace(1.0, 9.0, 12))
         ctx = objective.plan_context(s, radar, mean, cov)
         _, plan = objective.make_objective(s, "ddr-pfim")(jnp.zeros((5, 6)), ctx)
-        from mjx_radar import motion
+        from mjx_radar.physics import motion
 
         c = noise_constant(s.radar_eq, 2)
         a = np.asarray(motion.cv_transition(s.timing.dt_control, 1))

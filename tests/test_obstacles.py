@@ -8,10 +8,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar import ckf, fisher, objective, obstacles, occlusion, physics
 from mjx_radar.config import MPCConfig, Obstacle, RadarLimits, Scenario
-from mjx_radar.scenario import ScenarioError, load_scenario, scenario_from_dict
-from mjx_radar.sensing import ddr_noise_cov, range_model
+from mjx_radar.estimation import ckf, fisher
+from mjx_radar.estimation.sensing import ddr_noise_cov, range_model
+from mjx_radar.io.scenario import ScenarioError, load_scenario, scenario_from_dict
+from mjx_radar.physics import plant as physics
+from mjx_radar.task import objective
+from mjx_radar.world import obstacles, occlusion
 
 MESHES = Path(__file__).resolve().parent.parent / "scenarios" / "meshes"
 TOWER = Obstacle("mesh", (0.0, -60.0, 0.0), path=str(MESHES / "tower.obj"))  # 30 x 30 x 60 m

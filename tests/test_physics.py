@@ -5,9 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar import physics
 from mjx_radar.config import RadarLimits, Scenario
-from mjx_radar.kinematics import cv_step, sample_white_accel, unicycle_rollout
+from mjx_radar.physics import plant as physics
+from mjx_radar.physics.kinematics import cv_step, sample_white_accel, unicycle_rollout
 
 LIM = RadarLimits()
 

@@ -7,8 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjx_radar import cli, fisher, gl
-from mjx_radar.render import RADAR_RGB, frame_camera, load_trial, scene_model, set_state
+from mjx_radar.cli.main import main as cli
+from mjx_radar.estimation import fisher
+from mjx_radar.viz import gl
+from mjx_radar.viz.render import RADAR_RGB, frame_camera, load_trial, scene_model, set_state
 
 pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")  # ffmpeg subprocess
 STEPS = 20
@@ -132,7 +134,7 @@ def test_gif_and_subsampled_frames(run_dir, video):
 
 
 def test_fim_heatmap_matches_direct_sfim(run_dir):
-    from mjx_radar.snapshot import fim_heatmap
+    from mjx_radar.viz.snapshot import fim_heatmap
 
     radars = np.array([[-100.0, 20.0, 0.0], [150.0, -40.0, 0.0], [30.0, 200.0, 0.0]])
     xs, ys, z, c = np.linspace(-300, 300, 7), np.linspace(-200, 250, 5), 60.0, 7.285e-10

@@ -10,7 +10,7 @@ from sklearn.covariance import empirical_covariance
 from sklearn.covariance import ledoit_wolf as sk_ledoit_wolf
 from sklearn.covariance import oas as sk_oas
 
-from mjx_radar.shrinkage import empirical, ledoit_wolf, oas
+from mjx_radar.control.shrinkage import empirical, ledoit_wolf, oas
 
 # Float64 on O(1) data: both sides sum at most 200*180 products, so the round-off
 # gap is ~1e-13 relative. 1e-9 relative (1e-12 absolute) is far tighter than the

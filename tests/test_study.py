@@ -18,7 +18,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from mjx_radar import cli, study_metrics
+from mjx_radar.cli.main import main as cli
+from mjx_radar.study import metrics as study_metrics
 
 REPO = Path(__file__).resolve().parent.parent
 ARGS = ["smoke", "--methods", "stationary,ddr-sfim", "--rollouts", "analytic"]
@@ -60,8 +61,9 @@ def test_trial_independent_of_batch_mates(study_dir):
     """Trial i's numbers do not depend on the other trials of its (same-size) batch."""
     import dataclasses
 
-    from mjx_radar import runner, study
-    from mjx_radar.scenario import load_scenario
+    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.simulation import runner
+    from mjx_radar.study import driver as study
 
     s = load_scenario("smoke")
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout="analytic"))

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli import InputError, positive_int
-from mjx_radar.render import RADAR_RGB, TARGET_RGB, Trial, load_trial
+from mjx_radar.cli.args import positive_int
+from mjx_radar.errors import InputError
+from mjx_radar.viz.render import RADAR_RGB, TARGET_RGB, Trial, load_trial
 
 
 def fim_heatmap(radar_pos, xs, ys, z, C):
@@ -35,7 +36,7 @@ def fim_heatmap(radar_pos, xs, ys, z, C):
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar import fisher
+    from mjx_radar.estimation import fisher
 
     radar_pos = jnp.asarray(radar_pos)
     gx, gy = jnp.meshgrid(jnp.asarray(xs), jnp.asarray(ys))

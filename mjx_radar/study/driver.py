@@ -1,7 +1,7 @@
 """``mjx-radar study``: a resumable Monte Carlo study over scenarios x methods (SPEC §9).
 
 For every scenario and method the trials ``0..T-1`` run in chunks of ``--chunk``
-trials, each chunk one vmapped batch (:func:`mjx_radar.runner.run_trials`)
+trials, each chunk one vmapped batch (:func:`mjx_radar.simulation.runner.run_trials`)
 split over every local device along the trial axis (a 1-D ``Mesh`` of
 ``jax.devices()``). Every chunk is padded to the same batch size (repeating its
 last trial, padding dropped), so each scenario x method compiles once and a
@@ -37,15 +37,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mjx_radar.cli import InputError, method_list, positive_int
+from mjx_radar.cli.args import method_list, positive_int
 from mjx_radar.config import METHODS
+from mjx_radar.errors import InputError
 
 #: arguments that must be the same when a study is resumed
 CONFIG_KEYS = ("scenarios", "methods", "trials", "steps", "seed", "chunk", "rollouts")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from mjx_radar.commands import _seed
+    from mjx_radar.cli.args import seed as _seed
 
     p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario files or names")
     p.add_argument("--methods", type=method_list, default=list(METHODS), help="default: all")
@@ -61,8 +62,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _load(args) -> tuple[list, dict]:
     """Scenarios (with overrides) and the study configuration; raises InputError."""
 
-    from mjx_radar.commands import load_with_overrides
-    from mjx_radar.scenario import resolve_path
+    from mjx_radar.cli.args import load_with_overrides
+    from mjx_radar.io.scenario import resolve_path
 
     scenarios, entries = [], []
     for name in args.scenarios:
@@ -129,8 +130,9 @@ def main(args) -> int:
     """Runs (or resumes) the study; returns the exit code (input errors raise InputError)."""
     from tqdm import tqdm
 
-    from mjx_radar import results, runner
-    from mjx_radar.commands import _check_placement
+    from mjx_radar.cli.args import check_placement as _check_placement
+    from mjx_radar.io import results
+    from mjx_radar.simulation import runner
 
     t0 = time.perf_counter()
     scenarios, config = _load(args)
@@ -204,7 +206,7 @@ def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:
 
 
 def _finish(out, args, scenarios, manifest, frame, device_str, n_dev, wall_s) -> None:
-    from mjx_radar import results
+    from mjx_radar.io import results
 
     values = frame[list(results.METRIC_COLUMNS)].to_numpy()
     bad = int((~np.isfinite(values)).sum())

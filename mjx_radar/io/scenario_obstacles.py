@@ -1,6 +1,6 @@
 """Validation of a scenario's obstacles: ``[[obstacles]]`` tables and the ``[forest]``.
 
-Split from :mod:`mjx_radar.scenario` (which imports this module lazily and
+Split from :mod:`mjx_radar.io.scenario` (which imports this module lazily and
 whose checking helpers it uses). Errors are :class:`ScenarioError` with a
 one-line message naming the field and the allowed values.
 """
@@ -12,18 +12,18 @@ from typing import Any
 
 import numpy as np
 
-from mjx_radar import obstacles as geometry
 from mjx_radar.config import Obstacle, Scenario
-from mjx_radar.scenario import _NONNEG, _POS, INF, ScenarioError, _check
+from mjx_radar.io.checks import INF, NONNEG, POS, ScenarioError, check
+from mjx_radar.world import obstacles as geometry
 
 _FOREST = {  # field -> (rule, default); a list default is a [low, high] pair
     "count": ((int, 1, 5000, True), None),
     "region": ((float, -INF, INF, True), None),
     "seed": ((int, 0, 2**31 - 1, True), 0),
-    "radius": (_POS, [1.0, 2.5]),
-    "height": (_POS, [8.0, 20.0]),
-    "spacing": (_NONNEG, 8.0),
-    "clearance": (_NONNEG, 10.0),
+    "radius": (POS, [1.0, 2.5]),
+    "height": (POS, [8.0, 20.0]),
+    "spacing": (NONNEG, 8.0),
+    "clearance": (NONNEG, 10.0),
 }
 
 
@@ -32,7 +32,7 @@ def obstacle(i: int, raw: Any, base: Path) -> Obstacle:
     field = f"obstacles[{i}]"
     if not isinstance(raw, dict):
         raise ScenarioError(f"{field}: must be a table")
-    kind = _check(f"{field}.kind", raw.get("kind"), (str, ("box", "cylinder", "mesh")))
+    kind = check(f"{field}.kind", raw.get("kind"), (str, ("box", "cylinder", "mesh")))
     allowed = {"kind", "pos", "size", "yaw", "path", "scale"}
     for key in raw:
         if key not in allowed:
@@ -40,12 +40,12 @@ def obstacle(i: int, raw: Any, base: Path) -> Obstacle:
     pos = raw.get("pos", [0.0, 0.0, 0.0])
     if not isinstance(pos, list) or len(pos) != 3:
         raise ScenarioError(f"{field}.pos = {pos!r}: must be 3 numbers")
-    pos = tuple(_check(f"{field}.pos", v, (float, -INF, INF, True)) for v in pos)
+    pos = tuple(check(f"{field}.pos", v, (float, -INF, INF, True)) for v in pos)
     n_size = {"box": 3, "cylinder": 2, "mesh": 0}[kind]
     size = raw.get("size", [])
     if not isinstance(size, list) or len(size) != n_size:
         raise ScenarioError(f"{field}.size = {size!r}: a {kind} needs {n_size} numbers > 0")
-    size = tuple(_check(f"{field}.size", v, _POS) for v in size)
+    size = tuple(check(f"{field}.size", v, POS) for v in size)
     path = ""
     if kind == "mesh":
         path = str((base / str(raw.get("path", ""))).resolve())
@@ -54,8 +54,8 @@ def obstacle(i: int, raw: Any, base: Path) -> Obstacle:
                 f"{field}.path = {raw.get('path')!r}: must be an existing mesh file"
             )
         _check_mesh(field, raw["path"], path)
-    yaw = _check(f"{field}.yaw", raw.get("yaw", 0.0), (float, -INF, INF, True))
-    scale = _check(f"{field}.scale", raw.get("scale", 1.0), _POS)
+    yaw = check(f"{field}.yaw", raw.get("yaw", 0.0), (float, -INF, INF, True))
+    scale = check(f"{field}.scale", raw.get("scale", 1.0), POS)
     return Obstacle(kind=kind, pos=pos, size=size, yaw=yaw, path=path, scale=scale)
 
 
@@ -78,7 +78,7 @@ def _check_mesh(field: str, given: str, path: str) -> None:
 def _numbers(field: str, raw: Any, n: int, rule: tuple) -> list:
     if not isinstance(raw, list) or len(raw) != n:
         raise ScenarioError(f"{field} = {raw!r}: must be a list of {n} numbers")
-    return [_check(field, v, rule) for v in raw]
+    return [check(field, v, rule) for v in raw]
 
 
 def forest(raw: Any, radar_init) -> tuple[Obstacle, ...]:
@@ -95,7 +95,7 @@ def forest(raw: Any, radar_init) -> tuple[Obstacle, ...]:
         value = raw.get(key, default)
         n = {"region": 4, "radius": 2, "height": 2}.get(key)
         v[key] = (
-            _numbers(f"forest.{key}", value, n, rule) if n else _check(f"forest.{key}", value, rule)
+            _numbers(f"forest.{key}", value, n, rule) if n else check(f"forest.{key}", value, rule)
         )
     x0, y0, x1, y1 = v["region"]
     if not (x0 < x1 and y0 < y1):
@@ -124,7 +124,7 @@ def check_radar_clearance(s: Scenario) -> None:
             "radars: required when obstacles are declared (random placement does not avoid "
             "obstacles); give n_radars rows [x, y, theta] clear of them"
         )
-    from mjx_radar.physics import contact_envelope
+    from mjx_radar.physics.plant import contact_envelope
 
     need = geometry.HULL_RADIUS + contact_envelope(s.limits, s.timing.dt_filter)
     gap = geometry.union_sdf(s.obstacles, [r[:2] for r in s.radar_init])

@@ -1,6 +1,6 @@
 """``mjx-radar report DIR``: figures and tables of a finished study directory.
 
-Writes, per scenario ``S`` (statistics as defined in :mod:`mjx_radar.study_metrics`)::
+Writes, per scenario ``S`` (statistics as defined in :mod:`mjx_radar.study.metrics`)::
 
     DIR/figures/S_rmse.png        mean position RMSE vs time with the 90% HDI band,
                                   all methods; PCRLB of the DDR methods dashed
@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mjx_radar import study_metrics
-from mjx_radar.cli import InputError
+from mjx_radar.errors import InputError
+from mjx_radar.study import metrics as study_metrics
 
 COLORS = {
     "stationary": "tab:gray",
@@ -37,7 +37,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args) -> int:
-    from mjx_radar.results import atomic_write
+    from mjx_radar.io.results import atomic_write
 
     d = args.dir
     if not (d / "study.json").is_file() or not (d / "metrics.parquet").is_file():
@@ -106,7 +106,7 @@ def _figures(d: Path, scen: str, steps: pd.DataFrame, frame: pd.DataFrame) -> li
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mjx_radar.results import atomic_write
+    from mjx_radar.io.results import atomic_write
 
     out = []
     sub = steps[steps["scenario"].astype(str) == scen]

@@ -14,48 +14,21 @@ import importlib
 import io
 import sys
 
-from mjx_radar.config import METHODS
+from mjx_radar.errors import InputError
 
 COMMANDS = {
-    "validate": ("mjx_radar.commands", "check a scenario file"),
-    "run": ("mjx_radar.commands", "run the closed loop on a scenario"),
-    "study": ("mjx_radar.study", "Monte Carlo study over scenarios and methods (resumable)"),
-    "report": ("mjx_radar.report", "figures and tables of a study directory"),
-    "render": ("mjx_radar.render", "render a saved run to MP4/GIF"),
-    "snapshot": ("mjx_radar.snapshot", "two-panel scene + FIM heat-map figure of a run"),
+    "validate": ("mjx_radar.cli.commands", "check a scenario file"),
+    "run": ("mjx_radar.cli.commands", "run the closed loop on a scenario"),
+    "study": ("mjx_radar.study.driver", "Monte Carlo study over scenarios and methods (resumable)"),
+    "report": ("mjx_radar.study.report", "figures and tables of a study directory"),
+    "render": ("mjx_radar.viz.render", "render a saved run to MP4/GIF"),
+    "snapshot": ("mjx_radar.viz.snapshot", "two-panel scene + FIM heat-map figure of a run"),
 }
-
-
-class InputError(Exception):
-    """Bad user input: reported on one line with exit code 2."""
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # one line, exit 2 (argparse prints usage otherwise)
         raise InputError(f"{self.prog}: {message}")
-
-
-def positive_int(name: str, hi: int = 10**9):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} = {text!r}: must be an integer") from None
-        if not 1 <= value <= hi:
-            raise argparse.ArgumentTypeError(f"{name} = {value}: must be in [1, {hi}]")
-        return value
-
-    return parse
-
-
-def method_list(text: str) -> list[str]:
-    methods = [m.strip() for m in text.split(",") if m.strip()]
-    for m in methods:
-        if m not in METHODS:
-            raise argparse.ArgumentTypeError(f"--methods: {m!r} is not one of {', '.join(METHODS)}")
-    if not methods:
-        raise argparse.ArgumentTypeError("--methods: empty list")
-    return methods
 
 
 def _quiet_mujoco_import() -> None:
@@ -82,10 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from mjx_radar.gl import configure
+    from mjx_radar.viz.gl import configure
 
     configure(argv)  # MUJOCO_GL must be set before anything imports mujoco
-    from mjx_radar.scenario import ScenarioError
+    from mjx_radar.io.scenario import ScenarioError
 
     try:
         args = build_parser().parse_args(argv)

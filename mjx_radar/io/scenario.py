@@ -32,7 +32,6 @@ A scenario with obstacles must fix the radar starts (``radars``), clear of them.
 from __future__ import annotations
 
 import dataclasses
-import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -45,51 +44,43 @@ from mjx_radar.config import (
     Scenario,
     Timing,
 )
-
-INF = math.inf
-
-
-class ScenarioError(ValueError):
-    """A scenario file or value is invalid. ``str(err)`` is one line naming the field."""
-
+from mjx_radar.io.checks import INF, NONNEG, POS, ScenarioError, check
 
 # field -> (type, low, high, low_inclusive); bounds in the field's unit.
-_POS = (float, 0.0, INF, False)
-_NONNEG = (float, 0.0, INF, True)
 _RULES: dict[str, dict[str, tuple]] = {
     "": {
         "seed": (int, 0, 2**31 - 1, True),
-        "sigma_w2": _NONNEG,
-        "p0": _POS,
-        "placement_half_width": _POS,
+        "sigma_w2": NONNEG,
+        "p0": POS,
+        "placement_half_width": POS,
     },
-    "radar_equation": {f.name: _POS for f in dataclasses.fields(RadarEquation)}
+    "radar_equation": {f.name: POS for f in dataclasses.fields(RadarEquation)}
     | {"snr_db": (float, -200.0, 200.0, True)},
-    "limits": {f.name: _POS for f in dataclasses.fields(RadarLimits)},
+    "limits": {f.name: POS for f in dataclasses.fields(RadarLimits)},
     "timing": {
-        "dt_filter": _POS,
-        "dt_control": _POS,
+        "dt_filter": POS,
+        "dt_control": POS,
         "steps": (int, 1, 10_000_000, True),
     },
     "mpc": {
         "horizon": (int, 1, 1000, True),
         "gamma": (float, 0.0, 1.0, False),
-        "r2t": _NONNEG,
-        "r2r": _NONNEG,
-        "alpha_r2r": _NONNEG,
-        "alpha_r2t": _NONNEG,
-        "alpha_obs": _NONNEG,
-        "obs_margin": _NONNEG,
+        "r2t": NONNEG,
+        "r2r": NONNEG,
+        "alpha_r2r": NONNEG,
+        "alpha_r2t": NONNEG,
+        "alpha_obs": NONNEG,
+        "obs_margin": NONNEG,
         "los": (bool,),
         "rollout": (str, ("mjx", "analytic")),
     },
     "mppi": {
         "samples": (int, 2, 1_000_000, True),
         "iterations": (int, 1, 1000, True),
-        "std_accel": _POS,
-        "std_alpha_deg": _POS,
+        "std_accel": POS,
+        "std_alpha_deg": POS,
         "elite_threshold": (float, 0.0, 1.0, False),
-        "temperature": _POS,
+        "temperature": POS,
         "weighting": (str, ("ce", "softmax")),
         "shrinkage": (str, ("ledoit-wolf", "oas", "none")),
     },
@@ -105,36 +96,6 @@ _TOP = {"name", "description", "n_radars", "targets", "radars", "obstacles", "fo
 _TOP |= set(_RULES[""])
 
 
-def _fmt_range(rule: tuple) -> str:
-    typ, lo, hi, incl = rule
-    name = {int: "an integer", float: "a number"}[typ]
-    left = ">=" if incl else ">"
-    if hi == INF:
-        return f"{name} {left} {lo}"
-    return f"{name} in {'[' if incl else '('}{lo}, {hi}]"
-
-
-def _check(field: str, value: Any, rule: tuple) -> Any:
-    if rule[0] is bool:
-        if not isinstance(value, bool):
-            raise ScenarioError(f"{field} = {value!r}: must be true or false")
-        return value
-    if rule[0] is str:
-        if value not in rule[1]:
-            raise ScenarioError(f"{field} = {value!r}: must be one of {', '.join(rule[1])}")
-        return value
-    typ, lo, hi, incl = rule
-    ok_type = isinstance(value, int | float) and not isinstance(value, bool)
-    if typ is int:
-        ok_type = isinstance(value, int) and not isinstance(value, bool)
-    if not ok_type:
-        raise ScenarioError(f"{field} = {value!r}: must be {_fmt_range(rule)}")
-    v = typ(value)
-    if not math.isfinite(v) or v > hi or v < lo or (v == lo and not incl):
-        raise ScenarioError(f"{field} = {value!r}: must be {_fmt_range(rule)}")
-    return v
-
-
 def _table(name: str, raw: Any) -> Any:
     cls = _TABLES[name]
     if not isinstance(raw, dict):
@@ -143,7 +104,7 @@ def _table(name: str, raw: Any) -> Any:
     for key in raw:
         if key not in rules:
             raise ScenarioError(f"{name}.{key}: unknown field; allowed: {', '.join(rules)}")
-    return cls(**{k: _check(f"{name}.{k}", v, rules[k]) for k, v in raw.items()})
+    return cls(**{k: check(f"{name}.{k}", v, rules[k]) for k, v in raw.items()})
 
 
 def _targets(raw: Any) -> tuple[tuple[float, ...], ...]:
@@ -165,7 +126,7 @@ def _numeric_rows(field: str, raw: list, columns: str) -> tuple[tuple[float, ...
     for i, row in enumerate(raw):
         if not isinstance(row, list) or len(row) != width:
             raise ScenarioError(f"{field}[{i}] = {row!r}: must be {width} numbers [{columns}]")
-        rows.append(tuple(_check(f"{field}[{i}]", v, (float, -INF, INF, True)) for v in row))
+        rows.append(tuple(check(f"{field}[{i}]", v, (float, -INF, INF, True)) for v in row))
     return tuple(rows)
 
 
@@ -182,12 +143,12 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         raise ScenarioError(f"name = {name!r}: must be a non-empty [A-Za-z0-9_] string")
     kwargs: dict[str, Any] = {
         "name": name,
-        "n_radars": _check("n_radars", raw["n_radars"], (int, 1, 1000, True)),
+        "n_radars": check("n_radars", raw["n_radars"], (int, 1, 1000, True)),
         "target_init": _targets(raw["targets"]),
     }
     for key, rule in _RULES[""].items():
         if key in raw:
-            kwargs[key] = _check(key, raw[key], rule)
+            kwargs[key] = check(key, raw[key], rule)
     for key in _TABLES:
         if key in raw:
             kwargs[{"radar_equation": "radar_eq"}.get(key, key)] = _table(key, raw[key])
@@ -196,7 +157,7 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
     obstacles = raw.get("obstacles", [])
     if not isinstance(obstacles, list):
         raise ScenarioError("obstacles: must be an array of tables")
-    from mjx_radar import scenario_obstacles as so  # imports this module's helpers
+    from mjx_radar.io import scenario_obstacles as so  # imports this module's helpers
 
     kwargs["obstacles"] = tuple(so.obstacle(i, o, base) for i, o in enumerate(obstacles))
     if "forest" in raw:
@@ -207,7 +168,7 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
 
 
 def _check_consistency(s: Scenario) -> None:
-    from mjx_radar import scenario_obstacles
+    from mjx_radar.io import scenario_obstacles
 
     scenario_obstacles.check_radar_clearance(s)
     t = s.timing

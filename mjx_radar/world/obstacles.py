@@ -48,7 +48,7 @@ class SdfGrid(NamedTuple):
     resolution: jnp.ndarray
 
 
-def _rot(yaw: float) -> np.ndarray:
+def rotation_z(yaw: float) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
@@ -64,7 +64,7 @@ def _mesh_local(path: str, scale: float) -> tuple[np.ndarray, np.ndarray]:
 def mesh_vertices(obs: Obstacle) -> np.ndarray:
     """``[V, 3]`` world vertices of a mesh obstacle (scaled, rotated by yaw, translated)."""
     local, _ = _mesh_local(obs.path, float(obs.scale))
-    return local @ _rot(obs.yaw).T + np.asarray(obs.pos)
+    return local @ rotation_z(obs.yaw).T + np.asarray(obs.pos)
 
 
 def _hull_2d(points: np.ndarray) -> np.ndarray:
@@ -79,7 +79,7 @@ def footprint_polygon(obs: Obstacle) -> np.ndarray:
     if obs.kind == "box":
         sx, sy = obs.size[0], obs.size[1]
         corners = np.array([[sx, sy, 0], [-sx, sy, 0], [-sx, -sy, 0], [sx, -sy, 0]], float)
-        return (corners @ _rot(obs.yaw).T)[:, :2] + np.asarray(obs.pos[:2])
+        return (corners @ rotation_z(obs.yaw).T)[:, :2] + np.asarray(obs.pos[:2])
     if obs.kind == "mesh":
         return _hull_2d(mesh_vertices(obs)[:, :2])
     raise ValueError(f"obstacle.kind: {obs.kind!r} has no polygon footprint")

@@ -17,8 +17,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar import closed_loop, results
 from mjx_radar.config import Scenario
+from mjx_radar.io import results
+from mjx_radar.simulation import closed_loop
 
 
 @functools.cache

@@ -1,7 +1,7 @@
 """One MPC control step for the radars: the radar objective optimised by MPPI.
 
-Joins the task (:mod:`mjx_radar.objective`) and the task-agnostic optimiser
-(:mod:`mjx_radar.mppi`): builds the planning context from the predicted CKF
+Joins the task (:mod:`mjx_radar.task.objective`) and the task-agnostic optimiser
+(:mod:`mjx_radar.control.mppi`): builds the planning context from the predicted CKF
 estimate, turns the scenario's proposal std (``a`` in m/s², ``alpha`` in deg/s²)
 and control limits into per-dimension arrays over the N radars' flattened
 controls ``[H, 2N]``, and runs :func:`mppi.optimize`. Used by the closed loop and
@@ -15,8 +15,10 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from mjx_radar import kinematics, mppi, objective
 from mjx_radar.config import Scenario
+from mjx_radar.control import mppi
+from mjx_radar.physics import kinematics
+from mjx_radar.task import objective
 
 
 def make_planner(scenario: Scenario, method: str) -> Callable:

@@ -5,8 +5,8 @@ Each frame copies the saved radar and drone states of one filter step into an
 appends user geoms within ``scene.maxgeom`` (most important first): radar and
 drone markers, CKF estimates with 2-sigma ellipsoids, R2T / R2R rings, radar
 trails (last 25 control steps) and the MPPI samples coloured by weight. The
-OpenGL backend (EGL or OSMesa) is chosen by :mod:`mjx_radar.gl`. :class:`Trial`
-and :func:`load_trial` are shared with :mod:`mjx_radar.snapshot`.
+OpenGL backend (EGL or OSMesa) is chosen by :mod:`mjx_radar.viz.gl`. :class:`Trial`
+and :func:`load_trial` are shared with :mod:`mjx_radar.viz.snapshot`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli import InputError, positive_int
+from mjx_radar.cli.args import positive_int
+from mjx_radar.errors import InputError
 
 CAMERAS = ("top", "chase", "free")
 TRAIL_CONTROL_STEPS = 25
@@ -65,8 +66,8 @@ class Trial:
 
 def load_trial(run_dir, trial: int = 0) -> Trial:
     """Loads one trial of a complete run directory; raises ``InputError`` on bad input."""
-    from mjx_radar import results
-    from mjx_radar.scenario import ScenarioError, load_scenario
+    from mjx_radar.io import results
+    from mjx_radar.io.scenario import ScenarioError, load_scenario
 
     run_dir = Path(run_dir)
     if not (run_dir / "run.json").is_file() or not (run_dir / "trajectories.npz").is_file():
@@ -110,7 +111,7 @@ def scene_model(tr: Trial, camera: str = "top", aspect: float = 4 / 3):
     The ``top`` camera is orthographic: the free camera's ``fovy`` is then the view
     height [m] (MuJoCo's convention), set here to fit the trial's area.
     """
-    from mjx_radar.scene import build_scene
+    from mjx_radar.physics.scene import build_scene
 
     model, index = build_scene(tr.radar.shape[1], tr.target.shape[1], tr.dt, tr.scenario.obstacles)
     lo, hi = tr.bounds()
@@ -291,7 +292,7 @@ def render_run(
     import mujoco
     from tqdm import tqdm
 
-    from mjx_radar import gl
+    from mjx_radar.viz import gl
 
     run_dir = Path(run_dir)
     out_path = Path(out_path) if out_path is not None else run_dir / "video.mp4"

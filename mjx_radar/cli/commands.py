@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import shutil
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli import InputError, positive_int
+from mjx_radar.cli.args import check_placement, load_with_overrides, positive_int, seed
 from mjx_radar.config import METHODS
-from mjx_radar.scenario import load_scenario, resolve_path
+from mjx_radar.errors import InputError
+from mjx_radar.io.scenario import load_scenario, resolve_path
 
 
 def add_validate_arguments(p: argparse.ArgumentParser) -> None:
@@ -21,7 +21,7 @@ def add_validate_arguments(p: argparse.ArgumentParser) -> None:
 
 def validate_main(args) -> int:
     s = load_scenario(args.scenario)
-    _check_placement(s, s.seed, 1)
+    check_placement(s, s.seed, 1)
     print(
         f"ok: {s.name}: {s.n_radars} radars, {s.n_targets} targets, {s.timing.steps} steps "
         f"of {s.timing.dt_filter} s, control every {s.timing.dt_control} s, "
@@ -33,7 +33,7 @@ def validate_main(args) -> int:
 def add_run_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
     p.add_argument("--method", default="ddr-sfim", choices=METHODS, help="default ddr-sfim")
-    p.add_argument("--seed", type=_seed, default=None, help="base seed (default: scenario's)")
+    p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
     p.add_argument("--steps", type=positive_int("--steps"), default=None, help="filter steps")
     p.add_argument("--trials", type=positive_int("--trials", 100_000), default=1)
     p.add_argument("--out", type=Path, default=None, help="output dir (default runs/NAME_METHOD)")
@@ -45,39 +45,6 @@ def add_run_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--seed = {text!r}: must be an integer") from None
-    if not 0 <= value < 2**31:
-        raise argparse.ArgumentTypeError(f"--seed = {value}: must be in [0, 2^31 - 1]")
-    return value
-
-
-def _check_placement(scenario, seed: int, trials: int) -> None:
-    from mjx_radar.placement import check_placeable
-
-    try:
-        check_placeable(scenario, seed, trials)
-    except ValueError as err:
-        raise InputError(str(err)) from None
-
-
-def load_with_overrides(name: str, rollouts: str | None, steps: int | None):
-    """Loads a scenario, applies ``--rollouts`` and checks ``--steps``: ``(scenario, steps)``."""
-    s = load_scenario(name)
-    if rollouts:
-        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollouts))
-    steps = steps or s.timing.steps
-    if steps % s.timing.control_every:
-        raise InputError(
-            f"--steps = {steps}: must be a multiple of dt_control/dt_filter = "
-            f"{s.timing.control_every} (scenario {s.name})"
-        )
-    return s, steps
 
 
 def prepare(args, default_out: str):
@@ -93,11 +60,12 @@ def prepare(args, default_out: str):
 def run_main(args) -> int:
     from tqdm import tqdm
 
-    from mjx_radar import results, runner
-    from mjx_radar.sensing import noise_constant
+    from mjx_radar.estimation.sensing import noise_constant
+    from mjx_radar.io import results
+    from mjx_radar.simulation import runner
 
     s, steps, seed, out = prepare(args, "{name}_" + args.method)
-    _check_placement(s, seed, args.trials)
+    check_placement(s, seed, args.trials)
     trials = np.arange(args.trials)
     print(
         f"{s.name}: {args.method}, {args.trials} trial(s) x {steps} steps, seed {seed}, "
@@ -145,7 +113,7 @@ def run_main(args) -> int:
         f"wall {res['wall_s']:.1f} s incl. compile; results in {out}"
     )
     if args.video:
-        from mjx_radar import render
+        from mjx_radar.viz import render
 
         render.render_run(out, trial=0, out_path=out / "video.mp4")
     return 0

@@ -10,7 +10,7 @@ State conventions (arrays, float32 unless x64 is on):
 One :func:`step` writes the controls (radar ``[a, alpha]``, drone white
 acceleration ``w``) and the servo set-points (mean velocity over the step,
 ``v + a dt / 2``) into ``ctrl`` and calls ``mjx.step``. With the deadbeat servo
-gains of :mod:`mjx_radar.scene` this is exactly the Euler map of SPEC §2/§3
+gains of :mod:`mjx_radar.physics.scene` this is exactly the Euler map of SPEC §2/§3
 (``qvel`` after a step holds the mean velocity over that step, not the state's
 velocity). Obstacles add real contacts that stop a radar (truth plant only:
 the planner's plant is built without them, its rollouts stay contact-free and fast).
@@ -31,7 +31,7 @@ import numpy as np
 from mujoco import mjx
 
 from mjx_radar.config import RadarLimits, Scenario
-from mjx_radar.scene import SceneIndex, build_scene
+from mjx_radar.physics.scene import SceneIndex, build_scene
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -29,21 +29,10 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar import (
-    ckf,
-    fisher,
-    kinematics,
-    linalg,
-    motion,
-    mppi,
-    objective,
-    occlusion,
-    physics,
-    placement,
-)
 from mjx_radar.config import Scenario
-from mjx_radar.planner import make_planner
-from mjx_radar.sensing import (
+from mjx_radar.control import mppi
+from mjx_radar.estimation import ckf, fisher, linalg
+from mjx_radar.estimation.sensing import (
     ccr_noise_cov,
     ccr_variance,
     ddr_noise_cov,
@@ -51,22 +40,15 @@ from mjx_radar.sensing import (
     range_model,
     sample_ranges,
 )
+from mjx_radar.physics import kinematics, motion
+from mjx_radar.physics import plant as physics
+from mjx_radar.simulation import placement
+from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.task import objective
+from mjx_radar.task.planner import make_planner
+from mjx_radar.world import occlusion
 
 N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video
-
-
-class TrialStreams(NamedTuple):
-    placement: jax.Array
-    estimate: jax.Array
-    drones: jax.Array
-    measurement: jax.Array
-    planner: jax.Array
-
-
-def trial_streams(seed: int, trial) -> TrialStreams:
-    """The fixed random streams of one trial (identical for every method)."""
-    key = jax.random.fold_in(jax.random.PRNGKey(seed), trial)
-    return TrialStreams(*jax.random.split(key, 5))
 
 
 class StepRecord(NamedTuple):

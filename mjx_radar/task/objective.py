@@ -33,9 +33,12 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar import fisher, kinematics, linalg, motion, obstacles, occlusion, physics
 from mjx_radar.config import METHODS, Scenario
-from mjx_radar.sensing import ccr_variance, noise_constant
+from mjx_radar.estimation import fisher, linalg
+from mjx_radar.estimation.sensing import ccr_variance, noise_constant
+from mjx_radar.physics import kinematics, motion
+from mjx_radar.physics import plant as physics
+from mjx_radar.world import obstacles, occlusion
 
 
 class PlanContext(NamedTuple):
@@ -79,7 +82,7 @@ def plan_context(scenario: Scenario, radar_state, mean, cov) -> PlanContext:
         mean: [6M] predicted stacked target mean.
         cov: [6M, 6M] predicted covariance.
     """
-    from mjx_radar import ckf
+    from mjx_radar.estimation import ckf
 
     m = scenario.n_targets
     a = motion.cv_transition(scenario.timing.dt_control, m, dtype=mean.dtype)

@@ -2,7 +2,7 @@
 
 MuJoCo reads ``MUJOCO_GL`` once, when ``mujoco`` is first imported, so the
 command line calls :func:`configure` at the very start of
-:func:`mjx_radar.cli.main`, before any module that imports ``mujoco`` is loaded.
+:func:`mjx_radar.cli.main.main`, before any module that imports ``mujoco`` is loaded.
 The choice, highest priority first:
 
 1. ``--gl egl|osmesa`` on the command line;

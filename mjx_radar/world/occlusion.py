@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.config import Obstacle
-from mjx_radar.obstacles import _rot, mesh_vertices
+from mjx_radar.world.obstacles import mesh_vertices, rotation_z
 
 _TINY = 1e-9
 
@@ -46,7 +46,7 @@ class Occluders(NamedTuple):
 
 
 def _box_planes(obs: Obstacle) -> np.ndarray:
-    axes = _rot(obs.yaw).T  # rows = world directions of the local axes
+    axes = rotation_z(obs.yaw).T  # rows = world directions of the local axes
     c = np.asarray(obs.pos, float)
     rows = []
     for i in range(3):

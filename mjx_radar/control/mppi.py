@@ -29,7 +29,7 @@ row-major, i.e. index ``h*D + d``):
 
    If every weight vanishes (all costs non-finite) the best sample gets weight 1.
 5. Refit ``m' = sum_s w_s u_s`` and ``Sigma' = shrink(sum_s w_s (u_s - m')(u_s - m')^T)``
-   with the weighted estimator named by ``cfg.shrinkage`` (:mod:`mjx_radar.shrinkage`:
+   with the weighted estimator named by ``cfg.shrinkage`` (:mod:`mjx_radar.control.shrinkage`:
    Ledoit-Wolf, OAS or none). Zero-weight samples do not enter the fit.
 
 The loop is a ``jax.lax.scan``: wrap the caller's step function in ``jax.jit``
@@ -46,7 +46,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from mjx_radar.config import MPPIConfig
-from mjx_radar.shrinkage import ESTIMATORS
+from mjx_radar.control.shrinkage import ESTIMATORS
 
 CostFn = Callable[[Array], tuple[Array, Any]]
 

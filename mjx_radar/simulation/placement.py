@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.config import Scenario
+from mjx_radar.simulation.streams import trial_streams
 
 CANDIDATES = 512
 
@@ -81,7 +82,6 @@ def initial_conditions(scenario: Scenario, streams) -> Init:
 
 def check_placeable(scenario: Scenario, seed: int, trials: int) -> None:
     """Raises ValueError naming the placement fields if some trial cannot place its radars."""
-    from mjx_radar.closed_loop import trial_streams
 
     def ok(t):
         return place_radars(scenario, trial_streams(seed, t).placement)[1]

@@ -1,0 +1,66 @@
+"""Argument types and shared checks of the ``mjx-radar`` sub-commands."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from mjx_radar.config import METHODS
+from mjx_radar.errors import InputError
+from mjx_radar.io.scenario import load_scenario
+
+
+def positive_int(name: str, hi: int = 10**9):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: must be an integer") from None
+        if not 1 <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{name} = {value}: must be in [1, {hi}]")
+        return value
+
+    return parse
+
+
+def method_list(text: str) -> list[str]:
+    methods = [m.strip() for m in text.split(",") if m.strip()]
+    for m in methods:
+        if m not in METHODS:
+            raise argparse.ArgumentTypeError(f"--methods: {m!r} is not one of {', '.join(METHODS)}")
+    if not methods:
+        raise argparse.ArgumentTypeError("--methods: empty list")
+    return methods
+
+
+def seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seed = {text!r}: must be an integer") from None
+    if not 0 <= value < 2**31:
+        raise argparse.ArgumentTypeError(f"--seed = {value}: must be in [0, 2^31 - 1]")
+    return value
+
+
+def check_placement(scenario, seed: int, trials: int) -> None:
+    from mjx_radar.simulation.placement import check_placeable
+
+    try:
+        check_placeable(scenario, seed, trials)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+
+
+def load_with_overrides(name: str, rollouts: str | None, steps: int | None):
+    """Loads a scenario, applies ``--rollouts`` and checks ``--steps``: ``(scenario, steps)``."""
+    s = load_scenario(name)
+    if rollouts:
+        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollouts))
+    steps = steps or s.timing.steps
+    if steps % s.timing.control_every:
+        raise InputError(
+            f"--steps = {steps}: must be a multiple of dt_control/dt_filter = "
+            f"{s.timing.control_every} (scenario {s.name})"
+        )
+    return s, steps

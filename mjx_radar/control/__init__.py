@@ -1,0 +1,1 @@
+"""Task-agnostic MPPI with adaptive importance sampling and covariance shrinkage (SPEC §7)."""

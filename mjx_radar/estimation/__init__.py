@@ -1,0 +1,1 @@
+"""Range sensing, the cubature Kalman filter and Fisher information (SPEC §1, §4, §5)."""

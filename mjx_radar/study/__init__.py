@@ -1,0 +1,1 @@
+"""Resumable Monte Carlo studies, their statistics and the report (SPEC §9)."""

@@ -1,0 +1,1 @@
+"""The radar-placement task: methods, cost terms, objective and the MPC step (SPEC §6)."""

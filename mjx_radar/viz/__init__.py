@@ -1,0 +1,1 @@
+"""Offscreen rendering, videos and the two-panel snapshot (host side)."""

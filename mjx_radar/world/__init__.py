@@ -1,0 +1,1 @@
+"""Obstacles and maps: footprint signed distance and line of sight."""
