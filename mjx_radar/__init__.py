@@ -1,7 +1,6 @@
 """mjx_radar: mobile radars re-positioned by MPPI over MuJoCo-MJX rollouts."""
 
 from mjx_radar.config import (
-    METHODS,
     MPCConfig,
     MPPIConfig,
     Obstacle,
@@ -11,10 +10,15 @@ from mjx_radar.config import (
     Timing,
 )
 from mjx_radar.io.scenario import ScenarioError, load_scenario
+from mjx_radar.task.method import METHODS as _METHODS
+from mjx_radar.task.method import Method, parse_method
+
+METHODS = tuple(_METHODS)  # method names (SPEC §9)
 
 __all__ = [
     "METHODS",
     "MPCConfig",
+    "Method",
     "MPPIConfig",
     "Obstacle",
     "RadarEquation",
@@ -23,5 +27,6 @@ __all__ = [
     "ScenarioError",
     "Timing",
     "load_scenario",
+    "parse_method",
 ]
 __version__ = "0.1.0"

@@ -10,8 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-METHODS = ("stationary", "ccr-sfim", "ccr-pfim", "ddr-sfim", "ddr-pfim")
-
 
 @dataclass(frozen=True)
 class RadarEquation:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-from mjx_radar.config import METHODS
 from mjx_radar.errors import InputError
 from mjx_radar.io.scenario import load_scenario
+from mjx_radar.task.method import METHODS
 
 
 def positive_int(name: str, hi: int = 10**9):

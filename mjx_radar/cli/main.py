@@ -26,6 +26,20 @@ COMMANDS = {
 }
 
 
+COMPILING = ("run", "study")  # sub-commands that compile XLA programs
+
+
+def add_cache_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("compilation cache")
+    g.add_argument(
+        "--cache-dir",
+        default=None,
+        help="persistent XLA compilation cache (default $MJX_RADAR_CACHE_DIR or "
+        "~/.cache/mjx_radar/xla)",
+    )
+    g.add_argument("--no-cache", action="store_true", help="compile without the persistent cache")
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # one line, exit 2 (argparse prints usage otherwise)
         raise InputError(f"{self.prog}: {message}")
@@ -50,6 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
             p.set_defaults(missing=module)
             continue
         getattr(mod, f"add_{name}_arguments", getattr(mod, "add_arguments", None))(p)
+        if name in COMPILING:
+            add_cache_arguments(p)
         p.set_defaults(handler=getattr(mod, f"{name}_main", getattr(mod, "main", None)))
     return parser
 
@@ -70,6 +86,10 @@ def main(argv: list[str] | None = None) -> int:
             )
             return 1
         _quiet_mujoco_import()
+        if args.command in COMPILING and not args.no_cache:
+            from mjx_radar.simulation import compile_cache
+
+            compile_cache.enable(args.cache_dir)
         return int(args.handler(args) or 0)
     except (InputError, ScenarioError) as err:
         print(f"error: {err}", file=sys.stderr)

@@ -29,23 +29,14 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.config import Scenario
 from mjx_radar.control import mppi
-from mjx_radar.estimation import ckf, fisher, linalg
-from mjx_radar.estimation.sensing import (
-    ccr_noise_cov,
-    ccr_variance,
-    ddr_noise_cov,
-    noise_constant,
-    range_model,
-    sample_ranges,
-)
-from mjx_radar.physics import kinematics, motion
+from mjx_radar.estimation import ckf, fisher, linalg, measurement
+from mjx_radar.physics import kinematics
 from mjx_radar.physics import plant as physics
 from mjx_radar.simulation import placement
 from mjx_radar.simulation.streams import trial_streams
-from mjx_radar.task import objective
 from mjx_radar.task.planner import make_planner
+from mjx_radar.task.task import RadarTask, process_noise
 from mjx_radar.world import occlusion
 
 N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video
@@ -101,28 +92,44 @@ class LoopCarry(NamedTuple):
     u_plan: jax.Array  # [H, 2N] warm start of MPPI
 
 
-def init_carry(scenario: Scenario, seed: int, trial) -> tuple[LoopCarry, jax.Array]:
+def init_carry(task: RadarTask, params, trial) -> tuple[LoopCarry, jax.Array]:
     """Initial loop state of a trial and whether its radars could be placed."""
-    init = placement.initial_conditions(scenario, trial_streams(seed, trial))
-    plant = physics.truth_plant(scenario)
-    m, n = scenario.n_targets, scenario.n_radars
+    sc = task.scenario
+    init = placement.initial_conditions(sc, params, trial_streams(params.seed, trial))
+    m, n = sc.n_targets, sc.n_radars
     carry = LoopCarry(
-        data=physics.init_data(plant, init.radar_state, init.target_state),
+        data=physics.init_data(task.truth, init.radar_state, init.target_state),
         mean=init.mean,
         cov=init.cov,
-        pfim=jnp.broadcast_to(jnp.eye(6) / scenario.p0, (m, 6, 6)),
-        u_plan=jnp.zeros((scenario.mpc.horizon, 2 * n)),
+        pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (m, 6, 6)),
+        u_plan=jnp.zeros((sc.mpc.horizon, 2 * n)),
     )
     return carry, init.ok
 
 
+def _idle_plan(task: RadarTask, u_plan):
+    """The control record of a period without planning (radars stay put)."""
+    sc = task.scenario
+    n, h = sc.n_radars, sc.mpc.horizon
+    zeros = jnp.zeros((n, 2))
+    rec = ControlRecord(
+        zeros,
+        jnp.zeros((h, n, 2)),
+        jnp.zeros((N_KEEP_SAMPLES, h, n, 2)),
+        jnp.zeros(N_KEEP_SAMPLES),
+        jnp.zeros(N_KEEP_SAMPLES),
+    )
+    return zeros, u_plan, rec
+
+
 def advance(
-    scenario: Scenario, method: str, seed: int, trial, carry: LoopCarry, start, periods: int
+    task: RadarTask, params, trial, carry: LoopCarry, start, periods: int
 ) -> tuple[LoopCarry, StepRecord, ControlRecord]:
     """Advances a trial by ``periods`` control periods starting at control step ``start``.
 
     Args:
-        scenario, method, seed: static.
+        task: the scenario's task (static).
+        params: :class:`~mjx_radar.task.params.TaskParams` (runtime; method included).
         trial: trial index (traced).
         carry: the loop state after ``start`` control periods.
         start: index of the first control period (traced int).
@@ -132,97 +139,77 @@ def advance(
         ``(carry, steps, controls)``: steps with leading size periods * control_every,
         controls with leading size ``periods``.
     """
-    model, info_kind = objective.parse_method(method)
-    t = scenario.timing
-    every = t.control_every
-    n, m, h = scenario.n_radars, scenario.n_targets, scenario.mpc.horizon
-    c = noise_constant(scenario.radar_eq, m)
-    sigma_r2 = ccr_variance(c, scenario.mpc.r2t)
-    plant = physics.truth_plant(scenario)
-    a_f = motion.cv_transition(t.dt_filter, m)
-    q_f = motion.cv_process_noise(t.dt_filter, scenario.sigma_w2, m)
-    a6 = motion.cv_transition(t.dt_filter, 1)
-    w6 = motion.cv_process_noise(t.dt_filter, scenario.sigma_w2, 1)
-    planner = None if info_kind == "none" else make_planner(scenario, method)
-    streams = trial_streams(seed, trial)
-    occ = occlusion.occluders(scenario.obstacles) if scenario.obstacles else None
+    sc = task.scenario
+    every = sc.timing.control_every
+    n, m = sc.n_radars, sc.n_targets
+    model, noise, flags = task.measurement, params.noise, params.method
+    plant = task.truth
+    a_f, q_f = task.a_filter, process_noise(task, params)
+    w6 = params.sigma_w2 * task.w6_filter_unit
+    planner = make_planner(task)
+    streams = trial_streams(params.seed, trial)
+    r_filter = measurement.noise_cov_fn(model, noise, flags.ccr)
+    update_kw = {"residual": model.residual} if model.dim > 1 else {}
 
     def filter_step(carry, k, u):
         data, mean, cov, pfim = carry
         mean, cov = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
-        w = kinematics.sample_white_accel(
-            jax.random.fold_in(streams.drones, k), m, scenario.sigma_w2
-        )
+        accel_key = jax.random.fold_in(streams.drones, k)
+        w = kinematics.sample_white_accel(accel_key, m, params.sigma_w2)
         data = physics.step(plant, data, u, w)
         radars = physics.radar_state(plant, data)
         truth = physics.target_state(plant, data)
-        z = sample_ranges(
-            jax.random.fold_in(streams.measurement, k), radars[:, :3], truth[:, :3], c
-        )
-        if model == "ddr":
-            r = lambda z_hat: ddr_noise_cov(z_hat, c)  # noqa: E731
-        else:
-            r = ccr_noise_cov(n * m, sigma_r2)
+        key = jax.random.fold_in(streams.measurement, k)
+        z = model.sample(key, radars[:, :3], truth[:, :3], noise).reshape(-1)
         vis = None  # [N, M] line of sight (truth geometry); blocked pairs are skipped
-        if occ is not None:
-            vis = occlusion.line_of_sight(occ, radars[:, :3], truth[:, :3])
-        keep = None if vis is None else vis.reshape(-1)
-        post = ckf.update(mean, cov, z, range_model(radars[:, :3]), r, mask=keep)
+        if task.occluders is not None:
+            vis = occlusion.line_of_sight(task.occluders, radars[:, :3], truth[:, :3])
+        keep = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
+        h = measurement.measurement_function(model, radars[:, :3])
+        post = ckf.update(mean, cov, z, h, r_filter, mask=keep, **update_kw)
         # A diverged misspecified filter (CCR noise model) can overflow float32 in the
         # update; keep the prediction then, so no NaN ever propagates (SPEC §4).
         ok = jnp.all(jnp.isfinite(post[0])) & jnp.all(jnp.isfinite(post[1]))
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
-        jd = fisher.data_information(fisher.sfim(radars[:, :3], truth[:, :3], c, mask=vis))
-        pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, a6, w6, jd)
+        j3 = measurement.information_dense(
+            model, radars[:, :3], truth[:, :3], noise, jnp.asarray(False), mask=vis
+        )
+        jd = fisher.data_information(j3)
+        pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, task.a6_filter, w6, jd)
         crlb = jnp.sqrt(jnp.mean(jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)))
         rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov, m)
         n_vis = jnp.int32(n * m) if vis is None else jnp.sum(vis).astype(jnp.int32)
         contacts = physics.obstacle_contacts(plant, data)
         rec = StepRecord(
-            truth,
-            mean,
-            jnp.diagonal(cov),
-            radars,
-            rmse_pos,
-            rmse_state,
-            nees,
-            crlb,
-            contacts,
-            n_vis,
-        )
+            truth, mean, jnp.diagonal(cov), radars, rmse_pos, rmse_state, nees, crlb,
+            contacts, n_vis,
+        )  # fmt: skip
         return (data, mean, cov, pfim), rec
 
-    def plan(carry, j, u_plan):
-        data, mean, cov, _ = carry
-        if planner is None:
-            zeros = jnp.zeros((n, 2))
-            rec = ControlRecord(
-                zeros,
-                jnp.zeros((h, n, 2)),
-                jnp.zeros((N_KEEP_SAMPLES, h, n, 2)),
-                jnp.zeros(N_KEEP_SAMPLES),
-                jnp.zeros(N_KEEP_SAMPLES),
-            )
-            return zeros, u_plan, rec
+    def plan(loop, j, u_plan):
+        data, mean, cov, _ = loop
         # MPPI plans from the estimate predicted to the time of this step.
         pm, pc = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
         key = jax.random.fold_in(streams.planner, j)
-        res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key)
-        u = res.mean[0].reshape(n, 2)
+        res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, params)
         keep = slice(0, N_KEEP_SAMPLES)
         rec = ControlRecord(
-            u,
+            res.mean[0].reshape(n, 2),
             mean_plan.radar_xy,
             res.aux.radar_xy[keep],
             res.weights[keep],
             res.costs[keep],
         )
-        return u, mppi.shift(res.mean), rec
+        return rec.control, mppi.shift(res.mean), rec
 
     def control_period(lc: LoopCarry, j):
         loop = (lc.data, lc.mean, lc.cov, lc.pfim)
-        u, u_plan, crec = plan(loop, j, lc.u_plan)
+        u, u_plan, crec = jax.lax.cond(
+            flags.plans,
+            lambda: plan(loop, j, lc.u_plan),
+            lambda: _idle_plan(task, lc.u_plan),
+        )
         ks = j * every + 1 + jnp.arange(every)
         loop, srec = jax.lax.scan(lambda c_, k: filter_step(c_, k, u), loop, ks)
         return LoopCarry(*loop, u_plan), (srec, crec)
@@ -233,13 +220,12 @@ def advance(
     return carry, srec, crec
 
 
-def simulate(scenario: Scenario, method: str, seed: int, trial, steps: int | None = None):
+def simulate(task: RadarTask, params, trial, steps: int | None = None):
     """Runs one closed-loop trial from its start.
 
     Args:
-        scenario: the scenario (static).
-        method: one of ``config.METHODS`` (static).
-        seed: base seed (static).
+        task: the scenario's task (static).
+        params: runtime parameters (method, numbers, seed).
         trial: trial index (traced int; vmap over it for many trials).
         steps: number of filter steps K (static); default ``scenario.timing.steps``.
 
@@ -247,10 +233,11 @@ def simulate(scenario: Scenario, method: str, seed: int, trial, steps: int | Non
         :class:`TrialResult` with ``steps`` of leading size K and ``controls`` of
         leading size K / control_every.
     """
-    k_total = scenario.timing.steps if steps is None else steps
-    every = scenario.timing.control_every
+    sc = task.scenario
+    k_total = sc.timing.steps if steps is None else steps
+    every = sc.timing.control_every
     if k_total % every:
         raise ValueError(f"steps: {k_total} must be a multiple of {every}")
-    carry, ok = init_carry(scenario, seed, trial)
-    _, srec, crec = advance(scenario, method, seed, trial, carry, 0, k_total // every)
+    carry, ok = init_carry(task, params, trial)
+    _, srec, crec = advance(task, params, trial, carry, 0, k_total // every)
     return TrialResult(srec, crec, ok)

@@ -34,14 +34,19 @@ class Init(NamedTuple):
     ok: jax.Array  # [] bool
 
 
-def place_radars(scenario: Scenario, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Rejection-samples radar states.
+
+    Args:
+        scenario: the scenario shape (``radar_init`` non-empty: fixed starts).
+        params: :class:`~mjx_radar.task.params.TaskParams` (box, keep-outs, starts).
+        key: the trial's placement stream.
 
     Returns:
         ``([N, 6] radar states, ok)``.
     """
-    n, w = scenario.n_radars, scenario.placement_half_width
-    targets = jnp.asarray(scenario.target_init)[:, :3]
+    n, w = scenario.n_radars, params.placement_half_width
+    targets = params.target_init[:, :3]
     k_xy, k_th = jax.random.split(key)
     cand = jax.random.uniform(k_xy, (n, CANDIDATES, 2), minval=-w, maxval=w)
     cand3 = jnp.concatenate([cand, jnp.zeros((n, CANDIDATES, 1))], axis=-1)
@@ -49,42 +54,48 @@ def place_radars(scenario: Scenario, key: jax.Array) -> tuple[jax.Array, jax.Arr
     placed = jnp.zeros((n, 3))
     all_ok = jnp.array(True)
     for i in range(n):  # static loop over radars (N is small and static)
-        ok = d_rt[i] >= scenario.mpc.r2t
+        ok = d_rt[i] >= params.r2t
         if i:
             d_rr = jnp.linalg.norm(cand3[i][:, None] - placed[None, :i], axis=-1).min(-1)
-            ok &= d_rr >= scenario.mpc.r2r
+            ok &= d_rr >= params.r2r
         first = jnp.argmax(ok)
         placed = placed.at[i].set(cand3[i, first])
         all_ok &= ok[first]
     theta = jax.random.uniform(k_th, (n,), minval=-jnp.pi, maxval=jnp.pi)
     theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
     if scenario.radar_init:  # fixed start given by the scenario file
-        fixed = jnp.asarray(scenario.radar_init, jnp.float32)
+        fixed = params.radar_init
         placed = jnp.concatenate([fixed[:, :2], jnp.zeros((n, 1))], axis=-1)
         theta = fixed[:, 2]
         d_rt = jnp.linalg.norm(placed[:, None] - targets[None], axis=-1)
         d_rr = jnp.linalg.norm(placed[:, None] - placed[None], axis=-1) + 1e9 * jnp.eye(n)
-        all_ok = jnp.all(d_rt >= scenario.mpc.r2t) & jnp.all(d_rr >= scenario.mpc.r2r)
+        all_ok = jnp.all(d_rt >= params.r2t) & jnp.all(d_rr >= params.r2r)
     zeros = jnp.zeros(n)
     states = jnp.stack([placed[:, 0], placed[:, 1], zeros, theta, zeros, zeros], axis=-1)
     return states, all_ok
 
 
-def initial_conditions(scenario: Scenario, streams) -> Init:
+def initial_conditions(scenario: Scenario, params, streams) -> Init:
     """Radar placement, true target states and the consistent initial estimate."""
-    radars, ok = place_radars(scenario, streams.placement)
-    targets = jnp.asarray(scenario.target_init, jnp.float32)
+    radars, ok = place_radars(scenario, params, streams.placement)
+    targets = params.target_init
     dim = 6 * scenario.n_targets
-    cov = scenario.p0 * jnp.eye(dim)
-    err = jnp.sqrt(scenario.p0) * jax.random.normal(streams.estimate, (dim,))
+    cov = params.p0 * jnp.eye(dim)
+    err = jnp.sqrt(params.p0) * jax.random.normal(streams.estimate, (dim,))
     return Init(radars, targets, targets.reshape(-1) + err, cov, ok)
 
 
 def check_placeable(scenario: Scenario, seed: int, trials: int) -> None:
     """Raises ValueError naming the placement fields if some trial cannot place its radars."""
 
+    from mjx_radar.task.method import METHODS
+    from mjx_radar.task.params import shape_key, task_params
+
+    shape = shape_key(scenario)
+    params = task_params(scenario, METHODS["stationary"], seed)
+
     def ok(t):
-        return place_radars(scenario, trial_streams(seed, t).placement)[1]
+        return place_radars(shape, params, trial_streams(params.seed, t).placement)[1]
 
     oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.arange(trials)))
     if not oks.all():

@@ -4,12 +4,20 @@ A batch of trials is advanced in segments of control periods by one jitted,
 vmapped call per segment (the loop inside a segment never leaves the device);
 between segments the host only updates the progress bar. Results come back as
 numpy arrays with leading axes ``[T, ...]``.
+
+One program per scenario *shape* (:func:`mjx_radar.task.params.shape_key`), segment
+length, output kind and batch size: the method and the scenario's numbers are
+runtime arguments (:class:`~mjx_radar.task.params.TaskParams`), so every method of
+a scenario, and every scenario that differs only in its numbers, share it (and the
+persistent compilation cache, :mod:`mjx_radar.simulation.compile_cache`, keeps it
+between processes). Compilation is ahead of time and timed separately.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+import threading
 import time
 from collections.abc import Callable
 
@@ -20,60 +28,84 @@ import numpy as np
 from mjx_radar.config import Scenario
 from mjx_radar.io import results
 from mjx_radar.simulation import closed_loop
+from mjx_radar.task.method import parse_method
+from mjx_radar.task.params import shape_key, task_params
+from mjx_radar.task.task import RadarTask, make_task
 
 
 @functools.cache
-def _compiled(scenario: Scenario, method: str, seed: int, periods: int, full: bool):
-    def one(trial, carry, start):
-        carry, steps, controls = closed_loop.advance(
-            scenario, method, seed, trial, carry, start, periods
-        )
+def _programs(task: RadarTask, periods: int, full: bool):
+    def one(trial, carry, start, params):
+        carry, steps, controls = closed_loop.advance(task, params, trial, carry, start, periods)
         if not full:
             steps = {k: getattr(steps, k) for k in results.METRIC_COLUMNS}
             controls = None
         return carry, steps, controls
 
-    init = jax.jit(jax.vmap(lambda t: closed_loop.init_carry(scenario, seed, t)))
-    step = jax.jit(jax.vmap(one, in_axes=(0, 0, None)), donate_argnums=1)
+    def init_one(trial, params):
+        return closed_loop.init_carry(task, params, trial)
+
+    init = jax.jit(jax.vmap(init_one, in_axes=(0, None)))
+    step = jax.jit(jax.vmap(one, in_axes=(0, 0, None, None)), donate_argnums=1)
     return init, step
 
 
-_EXECUTABLES: dict = {}  # (scenario, method, seed, periods, full, batch) -> (init, step)
+_EXECUTABLES: dict = {}  # (task, periods, full, batch, sharding) -> (init, step)
+_LOCK = threading.Lock()
 
 
-def precompile(
-    jobs, batch: int, steps: int, full: bool = False, workers: int | None = None
-) -> float:
-    """Compiles the programs of several ``(scenario, method, seed)`` jobs concurrently.
+def compile_programs(
+    scenario: Scenario, batch: int, periods: int, full: bool = False, sharding=None
+) -> tuple[tuple, float]:
+    """Ahead-of-time compiled ``(init, step)`` for a scenario's shape; ``(programs, seconds)``.
+
+    Seconds are 0 when the programs were compiled before in this process (a hit in the
+    persistent cache still takes the time to trace and load).
+    """
+    task = make_task(shape_key(scenario))
+    key = (task, periods, full, batch, sharding)
+    with _LOCK:
+        if key in _EXECUTABLES:
+            return _EXECUTABLES[key], 0.0
+    t0 = time.perf_counter()
+    init, step = _programs(task, periods, full)
+    params = jax.tree_util.tree_map(
+        lambda x: jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x)),
+        task_params(scenario, parse_method("stationary")),
+    )
+    trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=sharding)
+    carry = jax.eval_shape(init, trials, params)[0]
+    start = jax.ShapeDtypeStruct((), jnp.int32)
+    programs = (
+        init.lower(trials, params).compile(),
+        step.lower(trials, carry, start, params).compile(),
+    )
+    with _LOCK:
+        _EXECUTABLES[key] = programs
+    return programs, time.perf_counter() - t0
+
+
+def precompile(jobs, batch: int, steps: int, full: bool = False, workers: int | None = None):
+    """Compiles the programs of several scenarios concurrently; returns the wall time [s].
 
     XLA compilation releases the GIL, so a thread pool compiles the programs of a
-    study's scenario x method pairs in parallel on the host's cores instead of one
-    after the other between GPU runs (compilation was ~45% of the paper study's time).
-    :func:`run_trials` then uses the executables for batches of ``batch`` trials on
-    the default device.
-
-    Returns:
-        Wall time [s] spent compiling.
+    study's scenario shapes in parallel on the host's cores. ``jobs`` holds scenarios
+    (or tuples whose first item is the scenario); scenarios of the same shape share one
+    program.
     """
     from concurrent.futures import ThreadPoolExecutor
 
-    def compile_one(job):
-        scenario, method, seed = job
-        periods = segment_periods(scenario, steps)
-        key = (scenario, method, seed, periods, full, batch)
-        if key in _EXECUTABLES:
-            return
-        init, step = _compiled(scenario, method, seed, periods, full)
-        trials = jax.ShapeDtypeStruct((batch,), jnp.int32)
-        carry = jax.eval_shape(init, trials)[0]
-        _EXECUTABLES[key] = (
-            init.lower(trials).compile(),
-            step.lower(trials, carry, 0).compile(),
-        )
-
+    shapes = {}
+    for job in jobs:
+        s = job[0] if isinstance(job, tuple) else job
+        shapes.setdefault(shape_key(s), s)
+    todo = list(shapes.values())
+    if not todo:
+        return 0.0
     t0 = time.perf_counter()
-    with ThreadPoolExecutor(max_workers=workers or min(len(jobs), os.cpu_count() or 1)) as pool:
-        list(pool.map(compile_one, jobs))
+    workers = workers or min(len(todo), os.cpu_count() or 1)
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        list(pool.map(lambda s: compile_programs(s, batch, segment_periods(s, steps), full), todo))
     return time.perf_counter() - t0
 
 
@@ -88,7 +120,7 @@ def segment_periods(scenario: Scenario, steps: int, target_segments: int = 20) -
 
 def run_trials(
     scenario: Scenario,
-    method: str,
+    method,
     seed: int,
     trials,
     steps: int,
@@ -96,12 +128,13 @@ def run_trials(
     progress: Callable[[int], None] | None = None,
     periods: int | None = None,
     sharding: jax.sharding.Sharding | None = None,
+    phase: Callable[[str], None] | None = None,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
     Args:
-        scenario: scenario (static).
-        method: one of ``config.METHODS``.
+        scenario: scenario (its numbers are runtime arguments of the program).
+        method: a :class:`~mjx_radar.task.method.Method` or its name.
         seed: base seed.
         trials: [T] trial indices (common random numbers across methods).
         steps: filter steps K (a multiple of the control period).
@@ -109,38 +142,37 @@ def run_trials(
         progress: called with the number of filter steps done after each segment.
         periods: control periods per segment (default: :func:`segment_periods`).
         sharding: optional sharding of the trial axis (e.g. a ``NamedSharding`` over a
-            1-D ``Mesh`` of ``jax.devices()``); the trial indices are placed with it and
-            jit propagates it to the whole batch, so each device runs its slice of the
-            trials. ``T`` must be a multiple of the number of devices. ``None``: default
-            device.
+            1-D ``Mesh`` of ``jax.devices()``). ``T`` must be a multiple of the number
+            of devices. ``None``: default device.
+        phase: called with ``"compiling"`` and ``"simulating"`` as the run moves on.
 
     Returns:
         dict of numpy arrays: ``rmse_pos, rmse_state, nees, crlb_pos, obstacle_contacts,
         visible_pairs`` [T, K] (:data:`results.METRIC_COLUMNS`), and if
         ``full`` the fields of ``StepRecord`` / ``ControlRecord`` with leading [T, ...],
-        plus ``placement_ok`` [T], ``wall_s`` (including compilation) and ``control_hz``
-        (control periods per second of the batch, excluding the first, compiling, segment).
+        plus ``placement_ok`` [T], ``compile_s`` (ahead-of-time compilation, 0 if this
+        process compiled it before), ``sim_s`` (the simulation), ``wall_s`` (both) and
+        ``control_hz`` (control periods per second of the batch during the simulation).
     """
     every = scenario.timing.control_every
     if steps % every:
         raise ValueError(f"steps: {steps} must be a multiple of {every}")
     periods = periods or segment_periods(scenario, steps)
-    init, step = _compiled(scenario, method, seed, periods, full)
+    params = task_params(scenario, parse_method(method), seed)
     trials = jnp.asarray(trials, jnp.int32)
+    if phase:
+        phase("compiling")
+    (init, step), compile_s = compile_programs(scenario, trials.shape[0], periods, full, sharding)
     if sharding is not None:
         trials = jax.device_put(trials, sharding)
-    else:
-        init, step = _EXECUTABLES.get(
-            (scenario, method, seed, periods, full, trials.shape[0]), (init, step)
-        )
+    if phase:
+        phase("simulating")
     t0 = time.perf_counter()
-    carry, ok = init(trials)
+    carry, ok = init(trials, params)
     chunks = []
-    t_first = None
     for start in range(0, steps // every, periods):
-        carry, srec, crec = step(trials, carry, start)
+        carry, srec, crec = step(trials, carry, jnp.int32(start), params)
         chunks.append(jax.device_get((srec, crec)))
-        t_first = t_first or time.perf_counter()
         if progress is not None:
             progress(periods * every)
     out: dict = {}
@@ -151,11 +183,9 @@ def run_trials(
         for k in chunks[0][1]._fields:
             out[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
     out["placement_ok"] = np.asarray(ok)
-    t_end = time.perf_counter()
-    out["wall_s"] = t_end - t0
-    # Control periods per second after the first segment (which includes compilation).
-    rest = steps // every - periods
-    out["control_hz"] = rest / (t_end - t_first) if rest else float("nan")
+    sim_s = time.perf_counter() - t0
+    out |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
+    out["control_hz"] = (steps // every) / sim_s
     return out
 
 

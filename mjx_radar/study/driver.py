@@ -38,8 +38,8 @@ import numpy as np
 import pandas as pd
 
 from mjx_radar.cli.args import method_list, positive_int
-from mjx_radar.config import METHODS
 from mjx_radar.errors import InputError
+from mjx_radar.task.method import METHODS
 
 #: arguments that must be the same when a study is resumed
 CONFIG_KEYS = ("scenarios", "methods", "trials", "steps", "seed", "chunk", "rollouts")

@@ -1,11 +1,11 @@
 """One MPC control step for the radars: the radar objective optimised by MPPI.
 
 Joins the task (:mod:`mjx_radar.task.objective`) and the task-agnostic optimiser
-(:mod:`mjx_radar.control.mppi`): builds the planning context from the predicted CKF
-estimate, turns the scenario's proposal std (``a`` in m/s², ``alpha`` in deg/s²)
-and control limits into per-dimension arrays over the N radars' flattened
-controls ``[H, 2N]``, and runs :func:`mppi.optimize`. Used by the closed loop and
-by the benchmarks, so both time and run the same step.
+(:mod:`mjx_radar.control.mppi`): builds the planning context from the CKF estimate,
+turns the scenario's proposal std (``a`` in m/s², ``alpha`` in deg/s²) and control
+limits into per-dimension arrays over the N radars' flattened controls ``[H, 2N]``,
+and runs :func:`mppi.optimize`. Used by the closed loop and by the benchmarks, so
+both time and run the same step.
 """
 
 from __future__ import annotations
@@ -15,34 +15,32 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.config import Scenario
 from mjx_radar.control import mppi
 from mjx_radar.physics import kinematics
 from mjx_radar.task import objective
 
 
-def make_planner(scenario: Scenario, method: str) -> Callable:
-    """Returns ``plan(radar_state[N,6], mean[6M], cov[6M,6M], u_plan[H,2N], key)``.
+def make_planner(task) -> Callable:
+    """Returns ``plan(radar_state[N,6], mean[6M], cov[6M,6M], u_plan[H,2N], key, params)``.
 
     ``plan`` gives ``(result, mean_plan)``: the :class:`mppi.MPPIResult` over the
     flattened controls ``[H, 2N]`` (apply ``result.mean[0]``, warm-start the next
     step with ``mppi.shift(result.mean)``) and the :class:`objective.Plan` of the
-    optimised mean sequence. ``mean``/``cov`` are the estimate predicted to the
-    planning time. Jittable; ``scenario`` and ``method`` are static.
+    optimised mean sequence. ``mean``/``cov`` are the estimate at the time of
+    ``radar_state``. Jittable; ``task`` is static, ``params`` a runtime pytree.
     """
-    n = scenario.n_radars
-    cost_fn = objective.make_objective(scenario, method)
-    lower, upper = kinematics.control_bounds(scenario.limits)
+    sc = task.scenario
+    n = sc.n_radars
+    cost_fn = objective.make_objective(task)
+    lower, upper = kinematics.control_bounds(sc.limits)
     lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
-    init_std = jnp.tile(
-        jnp.array([scenario.mppi.std_accel, jnp.deg2rad(scenario.mppi.std_alpha_deg)]), n
-    )
+    init_std = jnp.tile(jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), n)
 
-    def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key):
-        ctx = objective.plan_context(scenario, radar_state, mean, cov)
+    def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key, params):
+        ctx = objective.plan_context(task, radar_state, mean, cov)
         res = mppi.optimize(
-            lambda u: cost_fn(u, ctx), u_plan, key, scenario.mppi, init_std, lower, upper
+            lambda u: cost_fn(u, ctx, params), u_plan, key, sc.mppi, init_std, lower, upper
         )
-        return res, cost_fn(res.mean, ctx)[1]
+        return res, cost_fn(res.mean, ctx, params)[1]
 
     return plan

@@ -1,0 +1,111 @@
+"""Cost terms of the radar-placement objective (SPEC §6), one small pure function each.
+
+A term maps the rolled-out horizon to a per-step cost ``[H]`` (undiscounted); the
+objective (:mod:`mjx_radar.task.objective`) is ``Σ_terms Σ_t γ^t term_t`` and reports
+every term's discounted value. With t = 0..H-1 indexing the radar state after control
+t+1 and E_p the mean over the CKF cubature points of the target states at that time:
+
+* ``information``: ``−E_p[Σ_m log det J_m(t)]`` with J the SFIM, or the PFIM recursion
+  started from the filter's information (method flag ``pfim``; only that branch runs);
+  the measurement model gives the per-pair information (DDR or CCR noise: flag ``ccr``);
+* ``radar_radar``: ``α1 · #{radar pairs closer than R2R}``;
+* ``radar_target``: ``α2 · E_p[#{radar-target pairs closer than R2T}]``;
+* ``obstacle`` (scenes with obstacles): ``α_obs Σ_n relu(margin − φ(p_n(t)))``, φ the
+  footprints' signed distance -- metres of intrusion into the keep-out band.
+
+Adding a term: write ``def my_term(h: Horizon, task, params) -> [H]`` here and list it
+in :func:`cost_terms` (docs/extending.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.estimation import fisher, measurement
+from mjx_radar.world import obstacles, occlusion
+
+
+class Horizon(NamedTuple):
+    """What cost terms see of one candidate plan.
+
+    Attributes:
+        controls: [H, N, 2] the candidate controls.
+        radar: [H, N, 6] rolled-out radar states.
+        target_points: [H, P, M, 6] cubature points of the targets (P = 12M).
+        info0: [M, 6, 6] current filter information per target (PFIM start).
+    """
+
+    controls: jax.Array
+    radar: jax.Array
+    target_points: jax.Array
+    info0: jax.Array
+
+
+class CostTerm(NamedTuple):
+    name: str
+    fn: Callable[[Horizon, Any, Any], jax.Array]  # (horizon, task, params) -> [H]
+
+
+def information(h: Horizon, task, params) -> jax.Array:
+    radar_pos = h.radar[..., :3]
+    tgt_pos = h.target_points[..., :3]  # [H, P, M, 3]
+    vis = None  # [H, 1, N, M] line of sight to the predicted target means
+    if task.occluders is not None:
+        vis = occlusion.line_of_sight(task.occluders, radar_pos, tgt_pos.mean(1))[:, None]
+    j3 = measurement.information(
+        task.measurement, radar_pos[:, None], tgt_pos, params.noise, params.method.ccr, vis
+    )  # packed [H, P, M, 6]
+
+    def sfim(j3):
+        return fisher.logdet_packed(j3).sum(-1).mean(-1)
+
+    def pfim(j3):
+        jd = fisher.data_information(fisher.unpack_sym3(j3.mean(1)))  # [H, M, 6, 6]
+        w6 = params.sigma_w2 * task.w6_unit
+
+        def rec(jm, jdt):
+            jm = jax.vmap(fisher.pfim_step, (0, None, None, 0))(jm, task.a6, w6, jdt)
+            return jm, jm
+
+        _, jseq = jax.lax.scan(rec, h.info0, jd)
+        return fisher.logdet(jseq).sum(-1)
+
+    return -jax.lax.cond(params.method.pfim, pfim, sfim, j3)
+
+
+def radar_radar(h: Horizon, task, params) -> jax.Array:
+    pos = h.radar[..., :3]
+    n = pos.shape[1]
+    iu, ju = jnp.triu_indices(n, k=1)
+    d = jnp.linalg.norm(pos[:, iu] - pos[:, ju], axis=-1)  # [H, pairs]
+    return params.alpha_r2r * jnp.sum(d < params.r2r, axis=-1).astype(pos.dtype)
+
+
+def radar_target(h: Horizon, task, params) -> jax.Array:
+    pos = h.radar[..., :3]
+    tgt = h.target_points[..., :3]
+    d = jnp.linalg.norm(pos[:, None, :, None] - tgt[:, :, None], axis=-1)  # [H, P, N, M]
+    count = jnp.mean(jnp.sum(d < params.r2t, axis=(-1, -2)), axis=-1)
+    return params.alpha_r2t * count.astype(pos.dtype)
+
+
+def obstacle(h: Horizon, task, params) -> jax.Array:
+    mpc = task.scenario.mpc
+    depth = jax.nn.relu(mpc.obs_margin - obstacles.sdf(task.obstacle_grid, h.radar[..., :2]))
+    return mpc.alpha_obs * jnp.sum(depth, axis=-1)
+
+
+def cost_terms(scenario) -> tuple[CostTerm, ...]:
+    """The terms of a scenario's objective, in reporting order."""
+    terms = [
+        CostTerm("information", information),
+        CostTerm("radar_radar", radar_radar),
+        CostTerm("radar_target", radar_target),
+    ]
+    if scenario.obstacles and scenario.mpc.alpha_obs > 0:
+        terms.append(CostTerm("obstacle", obstacle))
+    return tuple(terms)

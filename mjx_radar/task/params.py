@@ -1,0 +1,95 @@
+"""A scenario split into its compiled *shape* and its runtime *parameters*.
+
+One compiled program serves every scenario of the same shape (N radars, M targets,
+horizon, MPPI samples and iterations, clocks, obstacles, rollout backend,
+measurement model): the numbers users vary between runs -- the method, the radar
+equation, the keep-out distances and weights, the discount, the initial states, the
+process noise, ``p0`` and the seed -- enter the program as a :class:`TaskParams`
+pytree of arrays, so changing them hits the compilation cache.
+
+:func:`shape_key` blanks those numbers in the (hashable, static) scenario with
+``None``: any code that still reads one of them from the static scenario fails at
+trace time instead of silently using a stale value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_radar.config import RadarEquation, Scenario
+from mjx_radar.estimation import measurement
+from mjx_radar.task.method import Method, MethodFlags
+
+
+class TaskParams(NamedTuple):
+    """Runtime numbers of a scenario and method (all arrays; unbatched over trials).
+
+    Shapes: ``target_init [M, 6]``, ``radar_init [N, 3]`` (zeros without fixed starts),
+    the rest scalars.
+    """
+
+    method: MethodFlags
+    noise: measurement.NoiseParams
+    seed: Any  # uint32 base seed of the trial streams
+    sigma_w2: Any  # target white-acceleration variance [m²/s⁴]
+    p0: Any  # initial covariance p0·I
+    placement_half_width: Any  # [m]
+    target_init: Any  # [M, 6]
+    radar_init: Any  # [N, 3] x, y, theta
+    gamma: Any  # discount
+    r2t: Any  # radar-target keep-out [m]
+    r2r: Any  # radar-radar keep-out [m]
+    alpha_r2r: Any
+    alpha_r2t: Any
+
+
+def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> TaskParams:
+    """The runtime parameters of ``scenario`` (host values, float32) for ``method``."""
+    mpc = scenario.mpc
+    f32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
+    n = scenario.n_radars
+    radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
+    return TaskParams(
+        method=method.flags(),
+        noise=measurement.noise_params(scenario),
+        seed=jnp.asarray(scenario.seed if seed is None else seed, jnp.uint32),
+        sigma_w2=f32(scenario.sigma_w2),
+        p0=f32(scenario.p0),
+        placement_half_width=f32(scenario.placement_half_width),
+        target_init=f32(scenario.target_init),
+        radar_init=f32(radar_init),
+        gamma=f32(mpc.gamma),
+        r2t=f32(mpc.r2t),
+        r2r=f32(mpc.r2r),
+        alpha_r2r=f32(mpc.alpha_r2r),
+        alpha_r2t=f32(mpc.alpha_r2t),
+    )
+
+
+def shape_key(scenario: Scenario) -> Scenario:
+    """``scenario`` with every runtime number replaced by ``None`` (the compiled shape).
+
+    Two scenarios with equal keys run on the same compiled program. Obstacle scenes
+    keep ``placement_half_width`` (it sizes the obstacle cost's distance grid).
+    """
+    blank_rows = lambda rows: tuple((None,) * len(r) for r in rows)  # noqa: E731
+    mpc = dataclasses.replace(
+        scenario.mpc, gamma=None, r2t=None, r2r=None, alpha_r2r=None, alpha_r2t=None
+    )
+    blank_eq = RadarEquation(**{f.name: None for f in dataclasses.fields(RadarEquation)})
+    return dataclasses.replace(
+        scenario,
+        name="",
+        seed=None,
+        sigma_w2=None,
+        p0=None,
+        placement_half_width=(scenario.placement_half_width if scenario.obstacles else None),
+        radar_eq=blank_eq,
+        target_init=blank_rows(scenario.target_init),
+        radar_init=blank_rows(scenario.radar_init),
+        mpc=mpc,
+    )

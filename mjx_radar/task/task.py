@@ -1,0 +1,104 @@
+"""The radar task, built once per scenario shape (hydrax's Task, brax's System).
+
+A :class:`RadarTask` holds everything static that the closed loop and the planner
+need: the scenario shape (:func:`mjx_radar.task.params.shape_key`), the truth and
+planner plants, the planner's rollout backend, the measurement model, the cost
+terms, the CV matrices of the filter and planning clocks and the obstacle data.
+Everything numeric that users vary is in :class:`mjx_radar.task.params.TaskParams`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.config import Scenario
+from mjx_radar.estimation import measurement
+from mjx_radar.physics import kinematics, motion
+from mjx_radar.physics import plant as physics
+from mjx_radar.task import costs
+from mjx_radar.world import obstacles, occlusion
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RadarTask:
+    """Static parts of a scenario (hashable by identity: a ``jit`` static).
+
+    Attributes:
+        scenario: the scenario shape (runtime numbers blanked).
+        measurement: the measurement model (range, range + azimuth, ...).
+        terms: the objective's cost terms.
+        rollout: ``(radar_state[N,6], u[H,N,2]) -> [H,N,6]`` planner rollout.
+        truth: the truth plant (radars, drones, obstacles).
+        occluders: obstacles for line of sight (truth always, planner if ``mpc.los``).
+        plan_occluders: ``occluders`` if the planner is occlusion-aware, else None.
+        obstacle_grid: signed-distance grid of footprints (obstacle cost) or None.
+        a_filter, q_filter_unit: CV transition and process noise per unit σ_W² at
+            the filter step, ``[6M, 6M]``.
+        a_control: CV transition at the control step ``[6M, 6M]``.
+        a6, w6_unit: one target's control-step transition / unit process noise [6, 6].
+        a6_filter, w6_filter_unit: the same at the filter step (the PCRLB).
+    """
+
+    scenario: Scenario
+    measurement: Any
+    terms: tuple[costs.CostTerm, ...]
+    rollout: Callable
+    truth: physics.Plant
+    occluders: Any
+    plan_occluders: Any
+    obstacle_grid: Any
+    a_filter: jax.Array
+    q_filter_unit: jax.Array
+    a_control: jax.Array
+    a6: jax.Array
+    w6_unit: jax.Array
+    a6_filter: jax.Array
+    w6_filter_unit: jax.Array
+
+
+def _rollout_backend(scenario: Scenario) -> Callable:
+    if scenario.mpc.rollout == "mjx":
+        plant = physics.planner_plant(scenario)
+        return lambda state, u: physics.radar_rollout(plant, state, u)
+    dt, limits = scenario.timing.dt_control, scenario.limits
+    return lambda state, u: kinematics.unicycle_rollout(state, u, dt, limits)
+
+
+@functools.cache
+def make_task(shape: Scenario) -> RadarTask:
+    """Builds the task of a scenario shape (cached: one task per shape and process)."""
+    t, m, mpc = shape.timing, shape.n_targets, shape.mpc
+    occ = occlusion.occluders(shape.obstacles) if shape.obstacles else None
+    grid = None
+    if shape.obstacles and mpc.alpha_obs > 0:
+        grid = obstacles.sdf_grid(
+            shape.obstacles, shape.placement_half_width, max(64.0, 4.0 * mpc.obs_margin)
+        )
+    return RadarTask(
+        scenario=shape,
+        measurement=measurement.make_model(getattr(shape, "measurement", None)),
+        terms=costs.cost_terms(shape),
+        rollout=_rollout_backend(shape),
+        truth=physics.truth_plant(shape),
+        occluders=occ,
+        plan_occluders=occ if (occ is not None and mpc.los) else None,
+        obstacle_grid=grid,
+        a_filter=motion.cv_transition(t.dt_filter, m),
+        q_filter_unit=motion.cv_process_noise(t.dt_filter, 1.0, m),
+        a_control=motion.cv_transition(t.dt_control, m),
+        a6=motion.cv_transition(t.dt_control, 1),
+        w6_unit=motion.cv_process_noise(t.dt_control, 1.0, 1),
+        a6_filter=motion.cv_transition(t.dt_filter, 1),
+        w6_filter_unit=motion.cv_process_noise(t.dt_filter, 1.0, 1),
+    )
+
+
+def process_noise(task: RadarTask, params) -> jax.Array:
+    """Filter-step process noise ``σ_W² Q₁`` ``[6M, 6M]``."""
+    return jnp.asarray(params.sigma_w2, task.q_filter_unit.dtype) * task.q_filter_unit
