@@ -149,6 +149,12 @@ def show(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def key_name(key: Any) -> str:
+    """A table key for a message: as is if short and printable, else its cut ``repr``."""
+    ok = isinstance(key, str) and key.isprintable() and 0 < len(key) <= 40
+    return key if ok else show(key, 40)
+
+
 def fmt_range(rule_: Rule | tuple) -> str:
     return as_rule(rule_).describe()
 

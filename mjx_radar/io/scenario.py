@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from mjx_radar.config import Scenario
-from mjx_radar.io.checks import Rows, Rule, ScenarioError, check, show
+from mjx_radar.io.checks import Rows, Rule, ScenarioError, check, key_name, show
 
 MAX_ROWS = 1000  # targets / radars rows at most
 
@@ -81,8 +81,10 @@ def _read(cls: type, raw: Any, prefix: str, extra: tuple[str, ...] = ()) -> dict
     for key in raw:
         if key not in allowed and key not in extra:
             if not prefix:
-                raise ScenarioError(f"{show(key)[1:-1]}: unknown field")
-            raise ScenarioError(f"{prefix}{key}: unknown field; allowed: {', '.join(allowed)}")
+                raise ScenarioError(f"{key_name(key)}: unknown field")
+            raise ScenarioError(
+                f"{prefix}{key_name(key)}: unknown field; allowed: {', '.join(allowed)}"
+            )
     kwargs: dict[str, Any] = {}
     for f, typ in fields:
         key = toml_name(f)

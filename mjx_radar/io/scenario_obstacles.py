@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from mjx_radar.config import SCENE, Obstacle, Scenario
-from mjx_radar.io.checks import Rule, ScenarioError, check, show
+from mjx_radar.io.checks import Rule, ScenarioError, check, key_name, show
 
 _COORD = Rule(float, -SCENE, SCENE)
 _SIZE = Rule(float, 0.0, 1e4, lo_open=True)
@@ -47,7 +47,7 @@ def obstacle(i: int, raw: Any, base: Path, allow_external: bool = False) -> Obst
     for key in raw:
         if key not in allowed:
             raise ScenarioError(
-                f"{field}.{show(key)[1:-1]}: unknown field; allowed: {', '.join(allowed)}"
+                f"{field}.{key_name(key)}: unknown field; allowed: {', '.join(allowed)}"
             )
     pos = raw.get("pos", [0.0, 0.0, 0.0])
     if not isinstance(pos, list) or len(pos) != 3:
@@ -152,7 +152,7 @@ def forest(raw: Any, radar_init) -> tuple[Obstacle, ...]:
     for key in raw:
         if key not in _FOREST:
             raise ScenarioError(
-                f"forest.{show(key)[1:-1]}: unknown field; allowed: {', '.join(_FOREST)}"
+                f"forest.{key_name(key)}: unknown field; allowed: {', '.join(_FOREST)}"
             )
     v: dict[str, Any] = {}
     for key, (rule, default) in _FOREST.items():
