@@ -60,10 +60,16 @@ def toml_name(f: dataclasses.Field) -> str:
 @functools.cache
 def config_fields(cls: type) -> tuple[tuple[dataclasses.Field, type], ...]:
     """``(field, resolved type)`` of the fields of ``cls`` that carry a rule or a table."""
-    hints = typing.get_type_hints(cls)
-    return tuple(
-        (f, hints[f.name]) for f in dataclasses.fields(cls) if {"rule", "table"} & set(f.metadata)
-    )
+    out = []
+    for f in dataclasses.fields(cls):
+        if "table" in f.metadata:
+            typ = f.default_factory
+            if not (isinstance(typ, type) and dataclasses.is_dataclass(typ)):
+                typ = typing.get_type_hints(cls)[f.name]
+            out.append((f, typ))
+        elif "rule" in f.metadata:
+            out.append((f, object))
+    return tuple(out)
 
 
 def _required(f: dataclasses.Field) -> bool:
