@@ -2,7 +2,9 @@
 
 Every dataclass here is frozen and hashable so a whole :class:`Scenario` can be
 passed as a static argument to ``jax.jit``. Units are SI (m, s, rad, W, Hz).
-Loading and validation of scenario files lives in :mod:`mjx_radar.io.scenario`.
+Loading and validation of scenario files lives in :mod:`mjx_radar.io.scenario`; each
+field's allowed range is its metadata here (``rule``/``flag``/``choice``/``table``/``rows``
+of :mod:`mjx_radar.io.checks`), so a new parameter is one edit in this module.
 """
 
 from __future__ import annotations
@@ -10,38 +12,99 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
+
+SCENE = 1e5  # |x|, |y| bound of every position [m] (float32 keeps ~1 cm there)
+TARGET_COLUMNS = (  # plausibility bounds of an initial target state (docs/scenarios.md)
+    ("x", col(-SCENE, SCENE, "m")),
+    ("y", col(-SCENE, SCENE, "m")),
+    ("z", col(0.0, 1e4, "m", lo_open=True)),  # above the ground plane of the radars
+    ("vx", col(-1e3, 1e3, "m/s")),
+    ("vy", col(-1e3, 1e3, "m/s")),
+    ("vz", col(-1e3, 1e3, "m/s")),
+)
+RADAR_COLUMNS = (("x", col(-SCENE, SCENE, "m")), ("y", col(-SCENE, SCENE, "m")),
+                 ("theta", col(-10.0, 10.0, "rad")))  # fmt: skip
+
 
 @dataclass(frozen=True)
 class RadarEquation:
     """Radar-equation parameters (SPEC §1, paper Table "Radar Equation")."""
 
-    fc: float = 1e8  # carrier frequency [Hz]
-    loss: float = 1.0  # general loss factor L [-]
-    gain_tx: float = 200.0  # transmit gain [-]
-    gain_rx: float = 200.0  # receive gain [-]
-    r_ref: float = 500.0  # range at which SNR equals snr_db [m]
-    rcs: float = 1.0  # radar cross section [m^2]
-    power_tx: float = 1000.0  # transmit power [W]
-    snr_db: float = -20.0  # SNR at r_ref [dB]
+    fc: float = field(
+        default=1e8,
+        metadata=rule(float, 0.0, 1e12, lo_open=True, doc="carrier frequency", unit="Hz"),
+    )
+    loss: float = field(
+        default=1.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="general loss factor L")
+    )
+    gain_tx: float = field(
+        default=200.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="transmit gain")
+    )
+    gain_rx: float = field(
+        default=200.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="receive gain")
+    )
+    r_ref: float = field(
+        default=500.0,
+        metadata=rule(float, 1.0, 1e5, doc="range at which SNR equals snr_db", unit="m"),
+    )
+    rcs: float = field(
+        default=1.0,
+        metadata=rule(float, 0.0, INF, lo_open=True, doc="radar cross section", unit="m^2"),
+    )
+    power_tx: float = field(
+        default=1000.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="transmit power", unit="W")
+    )
+    snr_db: float = field(
+        default=-20.0, metadata=rule(float, -200.0, 200.0, doc="SNR at r_ref", unit="dB")
+    )
 
 
 @dataclass(frozen=True)
 class RadarLimits:
     """Unicycle control and state limits (SPEC §3), symmetric about zero."""
 
-    accel: float = 35.0  # |a| [m/s^2]
-    alpha: float = math.pi  # |alpha| [rad/s^2]
-    speed: float = 50.0  # |v| [m/s]
-    omega: float = 2.0 * math.pi  # |omega| [rad/s]
+    accel: float = field(
+        default=35.0, metadata=rule(float, 0.0, 1e4, lo_open=True, doc="|a| bound", unit="m/s^2")
+    )
+    alpha: float = field(
+        default=math.pi,
+        metadata=rule(float, 0.0, 1e4, lo_open=True, doc="|alpha| bound", unit="rad/s^2"),
+    )
+    speed: float = field(
+        default=50.0, metadata=rule(float, 0.0, 1e3, lo_open=True, doc="|v| bound", unit="m/s")
+    )
+    omega: float = field(
+        default=2.0 * math.pi,
+        metadata=rule(float, 0.0, 1e3, lo_open=True, doc="|omega| bound", unit="rad/s"),
+    )
 
 
 @dataclass(frozen=True)
 class Timing:
     """Filter and control clocks (SPEC §4, §9)."""
 
-    dt_filter: float = 0.025  # CKF / truth step [s]
-    dt_control: float = 0.1  # MPPI step [s]; an integer multiple of dt_filter
-    steps: int = 600  # filter steps per trial
+    dt_filter: float = field(
+        default=0.025,
+        metadata=rule(float, 0.0, 1.0, lo_open=True, doc="CKF / truth step", unit="s"),
+    )
+    dt_control: float = field(
+        default=0.1,
+        metadata=rule(
+            float,
+            0.0,
+            10.0,
+            lo_open=True,
+            doc="MPPI step; an integer multiple of dt_filter",
+            unit="s",
+        ),
+    )
+    steps: int = field(
+        default=600,
+        metadata=rule(
+            int, 1, 10_000_000, doc="filter steps per trial; a multiple of dt_control/dt_filter"
+        ),
+    )
 
     @property
     def control_every(self) -> int:
@@ -53,30 +116,78 @@ class Timing:
 class MPCConfig:
     """MPC objective weights and horizon (SPEC §6)."""
 
-    horizon: int = 15  # K, steps of dt_control
-    gamma: float = 0.95  # discount
-    r2t: float = 125.0  # radar-target keep-out [m]
-    r2r: float = 10.0  # radar-radar keep-out [m]
-    alpha_r2r: float = 500.0  # weight of radar-radar violations
-    alpha_r2t: float = 1000.0  # weight of radar-target violations
-    alpha_obs: float = 1000.0  # weight of obstacle intrusion [1/m] (only with obstacles)
-    obs_margin: float = 6.0  # keep-out from obstacle footprints, radar centre [m]
-    los: bool = False  # planner drops occluded radar-target pairs (truth always does)
-    rollout: str = "mjx"  # "mjx" (MuJoCo-MJX physics) | "analytic" (closed-form unicycle)
+    horizon: int = field(default=15, metadata=rule(int, 1, 1000, doc="K, steps of dt_control"))
+    gamma: float = field(default=0.95, metadata=rule(float, 0.0, 1.0, lo_open=True, doc="discount"))
+    r2t: float = field(
+        default=125.0, metadata=rule(float, 0.0, 1e4, doc="radar-target keep-out", unit="m")
+    )
+    r2r: float = field(
+        default=10.0, metadata=rule(float, 0.0, 1e4, doc="radar-radar keep-out", unit="m")
+    )
+    alpha_r2r: float = field(
+        default=500.0, metadata=rule(float, 0.0, 1e9, doc="weight of radar-radar violations")
+    )
+    alpha_r2t: float = field(
+        default=1000.0, metadata=rule(float, 0.0, 1e9, doc="weight of radar-target violations")
+    )
+    alpha_obs: float = field(
+        default=1000.0,
+        metadata=rule(
+            float, 0.0, 1e9, doc="weight of obstacle intrusion (only with obstacles)", unit="1/m"
+        ),
+    )
+    obs_margin: float = field(
+        default=6.0,
+        metadata=rule(
+            float, 0.0, 1e3, doc="keep-out from obstacle footprints, radar centre", unit="m"
+        ),
+    )
+    los: bool = field(
+        default=False,
+        metadata=flag("planner drops occluded radar-target pairs (truth always does)"),
+    )
+    rollout: str = field(
+        default="mjx",
+        metadata=choice(
+            "mjx", "analytic", doc="planner rollouts: MuJoCo-MJX physics or closed-form unicycle"
+        ),
+    )
 
 
 @dataclass(frozen=True)
 class MPPIConfig:
     """MPPI with adaptive importance sampling (SPEC §7). Task-agnostic."""
 
-    samples: int = 200
-    iterations: int = 5
-    std_accel: float = 25.0  # initial proposal std of a [m/s^2]
-    std_alpha_deg: float = 45.0  # initial proposal std of alpha [deg/s^2]
-    weighting: str = "ce"  # "ce" | "softmax"
-    elite_threshold: float = 0.9  # ce: elites are costs <= (1 - thr) quantile
-    temperature: float = 0.1  # softmax temperature
-    shrinkage: str = "ledoit-wolf"  # "ledoit-wolf" | "oas" | "none"
+    samples: int = field(
+        default=200, metadata=rule(int, 2, 1_000_000, doc="rollouts per iteration")
+    )
+    iterations: int = field(
+        default=5, metadata=rule(int, 1, 1000, doc="adaptive importance-sampling iterations")
+    )
+    std_accel: float = field(
+        default=25.0,
+        metadata=rule(float, 0.0, 1e4, lo_open=True, doc="initial proposal std of a", unit="m/s^2"),
+    )
+    std_alpha_deg: float = field(
+        default=45.0,
+        metadata=rule(
+            float, 0.0, 1e5, lo_open=True, doc="initial proposal std of alpha", unit="deg/s^2"
+        ),
+    )
+    weighting: str = field(default="ce", metadata=choice("ce", "softmax", doc="sample weighting"))
+    elite_threshold: float = field(
+        default=0.9,
+        metadata=rule(
+            float, 0.0, 1.0, lo_open=True, doc="ce: elites are costs <= (1 - thr) quantile"
+        ),
+    )
+    temperature: float = field(
+        default=0.1, metadata=rule(float, 0.0, 1e6, lo_open=True, doc="softmax temperature")
+    )
+    shrinkage: str = field(
+        default="ledoit-wolf",
+        metadata=choice("ledoit-wolf", "oas", "none", doc="covariance shrinkage"),
+    )
 
 
 @dataclass(frozen=True)
@@ -87,32 +198,59 @@ class Obstacle:
     height); mesh: ``path`` to an OBJ/STL file, ``scale`` uniform.
     """
 
-    kind: str
+    kind: str = field(metadata=choice("box", "cylinder", "mesh", doc="obstacle type"))
     pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
     size: tuple[float, ...] = ()
-    yaw: float = 0.0
+    yaw: float = field(
+        default=0.0, metadata=rule(float, -10.0, 10.0, doc="rotation about z", unit="rad")
+    )
     path: str = ""
-    scale: float = 1.0
+    scale: float = field(
+        default=1.0, metadata=rule(float, 0.0, 1e3, lo_open=True, doc="uniform mesh scale")
+    )
 
 
 @dataclass(frozen=True)
 class Scenario:
     """Everything that defines an experiment. Hashable (static under jit)."""
 
-    name: str
-    n_radars: int
-    target_init: tuple[tuple[float, ...], ...]  # [M][6] rows x y z vx vy vz
-    seed: int = 0
-    sigma_w2: float = 10.0  # target white-acceleration variance [m^2/s^4]
-    p0: float = 50.0  # initial CKF covariance P0 = p0 * I
-    placement_half_width: float = 400.0  # radars placed in [-w, w]^2
-    radar_eq: RadarEquation = field(default_factory=RadarEquation)
-    limits: RadarLimits = field(default_factory=RadarLimits)
-    timing: Timing = field(default_factory=Timing)
-    mpc: MPCConfig = field(default_factory=MPCConfig)
-    mppi: MPPIConfig = field(default_factory=MPPIConfig)
-    obstacles: tuple[Obstacle, ...] = ()
-    radar_init: tuple[tuple[float, ...], ...] = ()  # optional fixed [N][3] rows x y theta
+    name: str = field(metadata=name_rule("scenario name (file names of results)"))
+    n_radars: int = field(metadata=rule(int, 1, 1000, doc="number of radars N"))
+    target_init: tuple[tuple[float, ...], ...] = field(  # [M][6] rows x y z vx vy vz
+        metadata=rows(
+            TARGET_COLUMNS, doc="initial target states, one row per target", toml="targets"
+        )
+    )
+    seed: int = field(default=0, metadata=rule(int, 0, 2**31 - 1, doc="base seed of the trials"))
+    sigma_w2: float = field(
+        default=10.0,
+        metadata=rule(float, 0.0, 1e4, doc="target white-acceleration variance", unit="m^2/s^4"),
+    )
+    p0: float = field(
+        default=50.0,
+        metadata=rule(float, 1e-6, 1e6, doc="initial CKF covariance P0 = p0 * I", unit="m^2"),
+    )
+    placement_half_width: float = field(
+        default=400.0,
+        metadata=rule(float, 0.0, 1e5, lo_open=True, doc="radars placed in [-w, w]^2", unit="m"),
+    )
+    radar_eq: RadarEquation = field(
+        default_factory=RadarEquation,
+        metadata=table("radar equation (SPEC 1)", toml="radar_equation"),
+    )
+    limits: RadarLimits = field(
+        default_factory=RadarLimits, metadata=table("radar control and state limits")
+    )
+    timing: Timing = field(default_factory=Timing, metadata=table("filter and control clocks"))
+    mpc: MPCConfig = field(default_factory=MPCConfig, metadata=table("MPC objective and horizon"))
+    mppi: MPPIConfig = field(default_factory=MPPIConfig, metadata=table("MPPI sampler"))
+    obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] and [forest]: io.scenario_obstacles
+    radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
+        default=(),
+        metadata=rows(
+            RADAR_COLUMNS, count="n_radars", doc="optional fixed radar starts", toml="radars"
+        ),
+    )
 
     @property
     def n_targets(self) -> int:
