@@ -20,7 +20,7 @@ COMMANDS = {
     "validate": ("mjx_radar.cli.commands", "check a scenario file"),
     "run": ("mjx_radar.cli.commands", "run the closed loop on a scenario"),
     "study": ("mjx_radar.study.driver", "Monte Carlo study over scenarios and methods (resumable)"),
-    "report": ("mjx_radar.study.report", "figures and tables of a study directory"),
+    "report": ("mjx_radar.cli.report", "figures and tables of a study directory"),
     "render": ("mjx_radar.viz.render", "render a saved run to MP4/GIF"),
     "snapshot": ("mjx_radar.viz.snapshot", "two-panel scene + FIM heat-map figure of a run"),
 }

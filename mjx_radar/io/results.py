@@ -10,7 +10,8 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
                            trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
                            nees [-], crlb_pos [m], obstacle_contacts [-] (radars
                            touching an obstacle), visible_pairs [-] (radar-target
-                           pairs with line of sight)
+                           pairs with line of sight), lost [0/1] (lost-track flag of
+                           that step: simulation.track_health, docs/statistics.md)
     DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
                            control steps, S kept MPPI samples, H horizon):
                              time_s [K], target [T,K,M,6], mean [T,K,6M],
@@ -41,6 +42,7 @@ METRIC_COLUMNS = (
     "crlb_pos",
     "obstacle_contacts",  # radars touching an obstacle (0 without obstacles)
     "visible_pairs",  # radar-target pairs with line of sight (N*M without obstacles)
+    "lost",  # 1.0 when the track is lost at that step (simulation.track_health), else 0.0
 )
 
 
