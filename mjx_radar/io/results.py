@@ -10,7 +10,8 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
                            trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
                            nees [-], crlb_pos [m], obstacle_contacts [-] (radars
                            touching an obstacle), visible_pairs [-] (radar-target
-                           pairs with line of sight), lost [0/1] (lost-track flag of
+                           pairs with line of sight), diverged [0/1] (numerical failure;
+                           values kept finite), lost [0/1] (lost-track flag of
                            that step: simulation.track_health, docs/statistics.md)
     DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
                            control steps, S kept MPPI samples, H horizon):
@@ -43,6 +44,7 @@ METRIC_COLUMNS = (
     "obstacle_contacts",  # radars touching an obstacle (0 without obstacles)
     "visible_pairs",  # radar-target pairs with line of sight (N*M without obstacles)
     "lost",  # 1.0 when the track is lost at that step (simulation.track_health), else 0.0
+    "diverged",  # 1.0 when the filter became non-finite / not positive definite, else 0.0
 )
 
 

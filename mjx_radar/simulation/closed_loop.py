@@ -33,7 +33,7 @@ from mjx_radar.control import mppi
 from mjx_radar.estimation import ckf, fisher, linalg, measurement
 from mjx_radar.physics import kinematics
 from mjx_radar.physics import plant as physics
-from mjx_radar.simulation import placement
+from mjx_radar.simulation import placement, track_health
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import RadarTask, process_noise
@@ -55,6 +55,8 @@ class StepRecord(NamedTuple):
     crlb_pos: jax.Array  # [] sqrt(mean_m tr[J_m^-1]_pos), PFIM along the truth
     obstacle_contacts: jax.Array  # [] int32 radars in contact with an obstacle
     visible_pairs: jax.Array  # [] int32 radar-target pairs with line of sight (of N*M)
+    lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
+    diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
 
 
 class ControlRecord(NamedTuple):
@@ -90,6 +92,7 @@ class LoopCarry(NamedTuple):
     cov: jax.Array  # [6M, 6M] posterior covariance
     pfim: jax.Array  # [M, 6, 6] PFIM along the true trajectory (for the PCRLB)
     u_plan: jax.Array  # [H, 2N] warm start of MPPI
+    health: track_health.HealthState  # lost-track detector state
 
 
 def init_carry(task: RadarTask, params, trial) -> tuple[LoopCarry, jax.Array]:
@@ -103,6 +106,7 @@ def init_carry(task: RadarTask, params, trial) -> tuple[LoopCarry, jax.Array]:
         cov=init.cov,
         pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (m, 6, 6)),
         u_plan=jnp.zeros((sc.mpc.horizon, 2 * n)),
+        health=track_health.init_health(m),
     )
     return carry, init.ok
 
@@ -152,8 +156,8 @@ def advance(
     update_kw = {"residual": model.residual} if model.dim > 1 else {}
 
     def filter_step(carry, k, u):
-        data, mean, cov, pfim = carry
-        mean, cov = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
+        data, mean0, cov0, pfim, health = carry
+        mean, cov = ckf.predict(mean0, cov0, lambda x: a_f @ x, q_f)
         accel_key = jax.random.fold_in(streams.drones, k)
         w = kinematics.sample_white_accel(accel_key, m, params.sigma_w2)
         data = physics.step(plant, data, u, w)
@@ -168,9 +172,16 @@ def advance(
         h = measurement.measurement_function(model, radars[:, :3])
         post = ckf.update(mean, cov, z, h, r_filter, mask=keep, **update_kw)
         # A diverged misspecified filter (CCR noise model) can overflow float32 in the
-        # update; keep the prediction then, so no NaN ever propagates (SPEC §4).
-        ok = jnp.all(jnp.isfinite(post[0])) & jnp.all(jnp.isfinite(post[1]))
+        # update; keep the prediction then (or, if that overflowed too, the last
+        # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
+        finite = lambda a, b: jnp.all(jnp.isfinite(a)) & jnp.all(jnp.isfinite(b))  # noqa: E731
+        ok_pred = finite(mean, cov)
+        blown = ~(ok_pred & finite(*post))
+        mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
+        ok = finite(*post)
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
+        health, flags_h = track_health.step_health(health, truth, mean, cov, sc.timing.dt_filter)
+        diverged = flags_h.diverged | blown
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
         j3 = measurement.information_dense(
             model, radars[:, :3], truth[:, :3], noise, jnp.asarray(False), mask=vis
@@ -183,12 +194,12 @@ def advance(
         contacts = physics.obstacle_contacts(plant, data)
         rec = StepRecord(
             truth, mean, jnp.diagonal(cov), radars, rmse_pos, rmse_state, nees, crlb,
-            contacts, n_vis,
+            contacts, n_vis, flags_h.lost | diverged, diverged,
         )  # fmt: skip
-        return (data, mean, cov, pfim), rec
+        return (data, mean, cov, pfim, health), rec
 
     def plan(loop, j, u_plan):
-        data, mean, cov, _ = loop
+        data, mean, cov = loop[:3]
         # MPPI plans from the estimate predicted to the time of this step.
         pm, pc = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
         key = jax.random.fold_in(streams.planner, j)
@@ -204,7 +215,7 @@ def advance(
         return rec.control, mppi.shift(res.mean), rec
 
     def control_period(lc: LoopCarry, j):
-        loop = (lc.data, lc.mean, lc.cov, lc.pfim)
+        loop = (lc.data, lc.mean, lc.cov, lc.pfim, lc.health)
         u, u_plan, crec = jax.lax.cond(
             flags.plans,
             lambda: plan(loop, j, lc.u_plan),
@@ -212,7 +223,8 @@ def advance(
         )
         ks = j * every + 1 + jnp.arange(every)
         loop, srec = jax.lax.scan(lambda c_, k: filter_step(c_, k, u), loop, ks)
-        return LoopCarry(*loop, u_plan), (srec, crec)
+        data, mean, cov, pfim, health = loop
+        return LoopCarry(data, mean, cov, pfim, u_plan, health), (srec, crec)
 
     js = start + jnp.arange(periods)
     carry, (srec, crec) = jax.lax.scan(control_period, carry, js)
