@@ -27,12 +27,12 @@ exists is complete.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from mjx_radar.io.atomic import atomic_write  # also used as results.atomic_write
 
 METRIC_COLUMNS = (
     "rmse_pos",
@@ -42,21 +42,6 @@ METRIC_COLUMNS = (
     "obstacle_contacts",  # radars touching an obstacle (0 without obstacles)
     "visible_pairs",  # radar-target pairs with line of sight (N*M without obstacles)
 )
-
-
-def atomic_write(path: Path, write) -> None:
-    """Calls ``write(tmp_path)`` then renames the temporary file onto ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def metrics_frame(
