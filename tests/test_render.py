@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from mjx_radar.cli.main import main as cli
 from mjx_radar.estimation import fisher
 from mjx_radar.viz import gl
-from mjx_radar.viz.render import RADAR_RGB, frame_camera, load_trial, scene_model, set_state
+from mjx_radar.viz.overlays import RADAR_RGB
+from mjx_radar.viz.render import frame_camera, scene_model, set_state
+from mjx_radar.viz.run_dir import load_trial
 
+cli_main = importlib.import_module("mjx_radar.cli.main")  # the package exports main()
 pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")  # ffmpeg subprocess
 STEPS = 20
 SIZE = (320, 240)  # width, height
@@ -37,7 +40,16 @@ def _gl_backend() -> str | None:
 
 
 @pytest.fixture(scope="module")
-def run_dir(tmp_path_factory):
+def cli():
+    """``mjx_radar.cli.main`` with render/snapshot dispatched to their cli modules."""
+    with pytest.MonkeyPatch.context() as mp:
+        for name in ("render", "snapshot"):
+            mp.setitem(cli_main.COMMANDS, name, (f"mjx_radar.cli.{name}", name))
+        yield cli_main
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory, cli):
     out = tmp_path_factory.mktemp("render") / "run"
     argv = ["run", str(SMOKE), "--steps", str(STEPS), "--out", str(out)]
     assert cli.main([*argv, "--rollouts", "analytic"]) == 0
@@ -45,7 +57,7 @@ def run_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def video(run_dir):
+def video(run_dir, cli):
     import imageio.v2 as imageio
 
     backend = _gl_backend()
@@ -123,7 +135,7 @@ def test_radar_pixels_follow_radar_state(run_dir, video):
         assert moved_px @ np.array([moved_world[0], -moved_world[1]]) > 0
 
 
-def test_gif_and_subsampled_frames(run_dir, video):
+def test_gif_and_subsampled_frames(run_dir, video, cli):
     import imageio.v2 as imageio
 
     path = run_dir / "clip.gif"
@@ -146,7 +158,7 @@ def test_fim_heatmap_matches_direct_sfim(run_dir):
         assert heat[i, j] == pytest.approx(direct, rel=1e-4, abs=1e-4)
 
 
-def test_snapshot_writes_png(run_dir):
+def test_snapshot_writes_png(run_dir, cli):
     path = run_dir / "snap.png"
     assert cli.main(["snapshot", str(run_dir), "--step", str(STEPS), "--out", str(path)]) == 0
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -164,7 +176,7 @@ def test_snapshot_writes_png(run_dir):
         (["snapshot", "{missing}", "--step", "1", "--out", "{out}.png"], "RUN_DIR"),
     ],
 )
-def test_bad_input_exits_2_without_output(run_dir, tmp_path, capsys, argv, needle):
+def test_bad_input_exits_2_without_output(run_dir, tmp_path, capsys, cli, argv, needle):
     fill = dict(run=run_dir, missing=tmp_path / "nope", out=tmp_path / "result")
     assert cli.main([a.format(**fill) for a in argv]) == 2
     err = capsys.readouterr().err

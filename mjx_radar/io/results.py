@@ -29,12 +29,12 @@ exists is complete.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from mjx_radar.io.atomic import atomic_write  # also used as results.atomic_write
 
 METRIC_COLUMNS = (
     "rmse_pos",
@@ -46,21 +46,6 @@ METRIC_COLUMNS = (
     "lost",  # 1.0 when the track is lost at that step (simulation.track_health), else 0.0
     "diverged",  # 1.0 when the filter became non-finite / not positive definite, else 0.0
 )
-
-
-def atomic_write(path: Path, write) -> None:
-    """Calls ``write(tmp_path)`` then renames the temporary file onto ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def metrics_frame(

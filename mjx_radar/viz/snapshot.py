@@ -1,23 +1,32 @@
 """``mjx-radar snapshot``: the paper's two-panel figure of one step of a saved run.
 
-Left: the top-down scene at step K (radars with their trails and R2T / R2R rings,
-true drones, CKF estimates with 2-sigma ellipses, MPPI samples coloured by
-weight). Right: ``log det`` of the DDR standard Fisher information (SPEC §5) of a
-target placed at each point of a grid over the free space, at the drones' mean
-altitude, for the radar positions at step K (:func:`fim_heatmap`, JAX, vmapped
-over the grid). Obstacle footprints are masked out of the heat map.
+Left: the top-down scene at step K (the overlays of :mod:`mjx_radar.viz.overlays`:
+radars with their trails and R2T / R2R rings, true drones, CKF estimates with
+2-sigma ellipses, MPPI samples coloured by weight) over the obstacle footprints.
+Right: ``log det`` of the DDR standard Fisher information (SPEC §5) of a target
+placed at each point of a grid over the free space, at the drones' mean altitude,
+for the radar positions at step K (:func:`fim_heatmap`, JAX, vmapped over the
+grid), with the footprints masked out.
+
+Footprints come from the planner's own signed distance
+(:func:`mjx_radar.world.obstacles.union_sdf`, exact per obstacle: rotated boxes,
+discs, convex hulls of meshes): a grid cell is an obstacle iff ``φ <= 0`` at its
+centre (:func:`obstacle_mask`).
 """
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli.args import positive_int
 from mjx_radar.errors import InputError
-from mjx_radar.viz.render import RADAR_RGB, TARGET_RGB, Trial, load_trial
+from mjx_radar.io.atomic import atomic_write, check_writable
+from mjx_radar.viz.overlays import draw_matplotlib, step_overlay
+from mjx_radar.viz.run_dir import Trial, load_trial
+
+FORMATS = (".png", ".pdf", ".svg")
+FOOTPRINT_CELLS = 400  # obstacle grid points along the longer side of the scene panel
 
 
 def fim_heatmap(radar_pos, xs, ys, z, C):
@@ -48,52 +57,70 @@ def fim_heatmap(radar_pos, xs, ys, z, C):
     return np.asarray(jax.jit(jax.vmap(one))(points)).reshape(gx.shape)
 
 
-def _obstacle_mask(obstacles, gx, gy) -> np.ndarray:
-    """True where a grid point lies inside an obstacle's footprint (box or cylinder)."""
-    mask = np.zeros(gx.shape, bool)
-    for obs in obstacles:
-        dx, dy = gx - obs.pos[0], gy - obs.pos[1]
-        if obs.kind == "cylinder":
-            mask |= dx**2 + dy**2 <= obs.size[0] ** 2
-        elif obs.kind == "box":
-            c, s = np.cos(obs.yaw), np.sin(obs.yaw)
-            u, v = c * dx + s * dy, -s * dx + c * dy
-            mask |= (np.abs(u) <= obs.size[0]) & (np.abs(v) <= obs.size[1])
-    return mask
+def map_grid(lo, hi, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(xs [nx], ys [ny])``: about ``cells`` points along the longer side of ``[lo, hi]``."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    n_x, n_y = np.maximum(np.round(cells * (hi - lo) / np.max(hi - lo)).astype(int), 2)
+    return np.linspace(lo[0], hi[0], n_x), np.linspace(lo[1], hi[1], n_y)
 
 
-def _scene_panel(ax, tr: Trial, k: int) -> None:
-    from matplotlib.collections import LineCollection
-    from matplotlib.patches import Circle, Ellipse
+def obstacle_mask(obstacles, xs, ys) -> np.ndarray:
+    """``[ny, nx]`` bool: True where ``(xs[j], ys[i])`` lies in a footprint (``φ <= 0``)."""
+    if not obstacles:
+        return np.zeros((len(ys), len(xs)), bool)
+    from mjx_radar.world.obstacles import union_sdf
 
-    c = tr.control_index(k)
-    w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
-    order = np.argsort(w)
-    segs = [tr.sample_xy[c, j, :, n] for j in order for n in range(tr.radar.shape[1])]
-    cols = np.repeat(w[order], tr.radar.shape[1])
-    lines = LineCollection(segs, array=cols, cmap="plasma", linewidths=0.8, alpha=0.8, zorder=2)
-    ax.add_collection(lines)
-    trail = tr.trail(k)
-    for n, (x, y) in enumerate(tr.radar[k, :, :2]):
-        rgb = RADAR_RGB[n % len(RADAR_RGB)]
-        ax.add_patch(Circle((x, y), tr.meta["r2t"], fill=False, ec="tab:red", lw=0.8, ls="--"))
-        ax.add_patch(Circle((x, y), tr.meta["r2r"], fill=False, ec="k", lw=0.8))
-        ax.plot(trail[:, n, 0], trail[:, n, 1], color=rgb, lw=1.5, zorder=3)
-        ax.plot(x, y, "s", color=rgb, ms=8, mec="k", zorder=4, label="radar" if n == 0 else None)
-    for m in range(tr.target.shape[1]):
-        rgb = TARGET_RGB[m % len(TARGET_RGB)]
-        (ex, ey), (sx, sy) = tr.mean[k, m, :2], tr.sigma[k, m, :2]
-        ax.add_patch(Ellipse((ex, ey), 4 * sx, 4 * sy, fill=False, ec=rgb, lw=1.0, zorder=5))
-        ax.plot(
-            *tr.target[k, m, :2], "x", color=rgb, ms=7, zorder=5, label="drone" if m == 0 else None
-        )  # noqa: E501
-        ax.plot(
-            ex, ey, "o", mfc="none", mec=rgb, ms=5, zorder=5, label="estimate" if m == 0 else None
-        )  # noqa: E501
-    for obs in tr.scenario.obstacles:
-        ax.add_patch(Circle(obs.pos[:2], max(obs.size[:2]), color="0.4", alpha=0.5))
-    ax.figure.colorbar(lines, ax=ax, label="MPPI sample weight (relative)", shrink=0.8)
-    ax.legend(loc="upper left", fontsize=7)
+    gx, gy = np.meshgrid(np.asarray(xs, float), np.asarray(ys, float))
+    return union_sdf(tuple(obstacles), np.stack([gx, gy], -1)) <= 0.0
+
+
+def _draw_footprints(ax, tr: Trial, lo, hi) -> None:
+    """The footprints as a filled grey image of :func:`obstacle_mask` (``gid="obstacles"``)."""
+    if not tr.scenario.obstacles:
+        return
+    xs, ys = map_grid(lo, hi, FOOTPRINT_CELLS)
+    mask = obstacle_mask(tr.scenario.obstacles, xs, ys)
+    dx, dy = (xs[1] - xs[0]) / 2, (ys[1] - ys[0]) / 2  # cell centres at the grid points
+    ax.imshow(
+        np.ma.masked_where(~mask, np.ones(mask.shape)),
+        origin="lower",
+        extent=(xs[0] - dx, xs[-1] + dx, ys[0] - dy, ys[-1] + dy),
+        cmap="gray",
+        vmin=0.0,
+        vmax=2.5,  # 1.0 -> 0.4 grey
+        alpha=0.5,
+        interpolation="nearest",
+        zorder=1,
+        gid="obstacles",
+    )
+
+
+def snapshot_figure(tr: Trial, k: int, grid: int = 120):
+    """The two-panel figure of filter step ``k`` (0-based) of a trial (caller closes it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lo, hi = tr.bounds()
+    xs, ys = map_grid(lo, hi, grid)
+    z = float(tr.target[k, :, 2].mean())
+    heat = fim_heatmap(tr.radar[k, :, :3], xs, ys, z, tr.meta["noise_constant"])
+    heat = np.ma.masked_where(obstacle_mask(tr.scenario.obstacles, xs, ys), heat)
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    _draw_footprints(left, tr, lo, hi)
+    lines = draw_matplotlib(left, step_overlay(tr, k))
+    fig.colorbar(lines, ax=left, label="MPPI sample weight (relative)", shrink=0.8)
+    left.legend(loc="upper left", fontsize=7)
+    im = right.imshow(heat, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), cmap="viridis")
+    fig.colorbar(im, ax=right, label=r"$\log\det J$ (DDR SFIM) [log m$^{-2}$]", shrink=0.8)
+    right.plot(*tr.radar[k, :, :2].T, "s", color="w", mec="k", ms=7)
+    right.plot(*tr.target[k, :, :2].T, "x", color="r", ms=7)
+    for ax, title in ((left, "scene"), (right, f"SFIM log det at z = {z:.0f} m")):
+        ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), xlabel="x [m]", ylabel="y [m]")
+        ax.set_aspect("equal")
+        ax.set_title(f"{title}, t = {(k + 1) * tr.dt:.2f} s", fontsize=10)
+    return fig
 
 
 def snapshot(run_dir, step: int, trial: int = 0, out_path=None, grid: int = 120) -> Path:
@@ -105,62 +132,30 @@ def snapshot(run_dir, step: int, trial: int = 0, out_path=None, grid: int = 120)
         trial: trial index in ``[0, T)``.
         out_path: image file (``.png``, ``.pdf``, ``.svg``); default
             ``run_dir/snapshot_step{step}.png``.
-        grid: heat-map grid points along the longer side.
+        grid: heat-map grid points along the longer side, in [2, 1000].
 
     Returns:
         The path written.
 
     Raises:
-        InputError: bad run directory, trial or step.
+        InputError: bad run directory, trial, step, grid, extension or an
+            unwritable ``out_path`` (all checked before drawing).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    out_path = Path(out_path or Path(run_dir) / f"snapshot_step{step}.png")
+    if out_path.suffix.lower() not in FORMATS:
+        raise InputError(f"--out = {str(out_path)!r}: extension must be .png, .pdf or .svg")
+    if not 2 <= grid <= 1000:
+        raise InputError(f"--grid = {grid}: must be in [2, 1000]")
     tr = load_trial(run_dir, trial)
     if not 1 <= step <= tr.steps:
         raise InputError(f"--step = {step}: must be in [1, {tr.steps}]")
-    out_path = Path(out_path or Path(run_dir) / f"snapshot_step{step}.png")
-    k = step - 1
-    lo, hi = tr.bounds()
-    n_x, n_y = np.maximum(np.round(grid * (hi - lo) / np.max(hi - lo)).astype(int), 2)
-    xs, ys = np.linspace(lo[0], hi[0], n_x), np.linspace(lo[1], hi[1], n_y)
-    z = float(tr.target[k, :, 2].mean())
-    heat = fim_heatmap(tr.radar[k, :, :3], xs, ys, z, tr.meta["noise_constant"])
-    heat = np.ma.masked_where(_obstacle_mask(tr.scenario.obstacles, *np.meshgrid(xs, ys)), heat)
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
-    _scene_panel(left, tr, k)
-    im = right.imshow(heat, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), cmap="viridis")
-    fig.colorbar(im, ax=right, label=r"$\log\det J$ (DDR SFIM) [log m$^{-2}$]", shrink=0.8)
-    right.plot(*tr.radar[k, :, :2].T, "s", color="w", mec="k", ms=7)
-    right.plot(*tr.target[k, :, :2].T, "x", color="r", ms=7)
-    for ax, title in ((left, "scene"), (right, f"SFIM log det at z = {z:.0f} m")):
-        ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), xlabel="x [m]", ylabel="y [m]")
-        ax.set_aspect("equal")
-        ax.set_title(f"{title}, t = {(k + 1) * tr.dt:.2f} s", fontsize=10)
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out_path.with_name(f".{out_path.stem}.partial{out_path.suffix}")
+    check_writable(out_path, "--out")
+    fig = snapshot_figure(tr, step - 1, grid)
+    fmt = out_path.suffix.lower().lstrip(".")
     try:
-        fig.savefig(tmp, dpi=110, format=out_path.suffix.lstrip(".") or "png")
-        tmp.replace(out_path)
+        atomic_write(out_path, lambda tmp: fig.savefig(tmp, dpi=110, format=fmt))
     finally:
         plt.close(fig)
-        tmp.unlink(missing_ok=True)
     return out_path
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("run_dir", type=Path, help="a complete run directory (mjx-radar run --out)")
-    p.add_argument("--step", type=int, required=True, help="filter step K in [1, steps]")
-    p.add_argument("--trial", type=int, default=0, help="trial index (default 0)")
-    p.add_argument("--out", type=Path, default=None, help="image (RUN_DIR/snapshot_stepK.png)")
-    p.add_argument("--grid", type=positive_int("--grid", 1000), default=120, help="heat-map grid")
-
-
-def main(args) -> int:
-    if args.out is not None and args.out.suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise InputError(f"--out = {str(args.out)!r}: extension must be .png, .pdf or .svg")
-    path = snapshot(args.run_dir, args.step, args.trial, args.out, args.grid)
-    print(f"wrote {path}")
-    return 0
