@@ -82,6 +82,20 @@ class MPPIConfig:
 
 
 @dataclass(frozen=True)
+class MeasurementConfig:
+    """Measurement model of each radar-target pair (see :mod:`mjx_radar.estimation.measurement`).
+
+    ``model``: "range" (round-trip range, SPEC §1) or "range-azimuth" (range plus
+    monopulse azimuth). The azimuth noise follows from the radar equation with the
+    beamwidth and monopulse slope below.
+    """
+
+    model: str = "range"  # "range" | "range-azimuth"
+    beamwidth_deg: float = 3.0  # 3 dB beamwidth theta_3dB [deg]
+    monopulse_slope: float = 1.6  # monopulse slope k_m [-]
+
+
+@dataclass(frozen=True)
 class Obstacle:
     """A static obstacle. ``kind`` is "box", "cylinder" or "mesh".
 
@@ -113,6 +127,7 @@ class Scenario:
     timing: Timing = field(default_factory=Timing)
     mpc: MPCConfig = field(default_factory=MPCConfig)
     mppi: MPPIConfig = field(default_factory=MPPIConfig)
+    measurement: MeasurementConfig = field(default_factory=MeasurementConfig)
     obstacles: tuple[Obstacle, ...] = ()
     radar_init: tuple[tuple[float, ...], ...] = ()  # optional fixed [N][3] rows x y theta
 
