@@ -191,6 +191,27 @@ class MPPIConfig:
 
 
 @dataclass(frozen=True)
+class MeasurementConfig:
+    """Measurement model of each radar-target pair (see :mod:`mjx_radar.estimation.measurement`).
+
+    ``model``: "range" (round-trip range, SPEC §1) or "range-azimuth" (range plus
+    monopulse azimuth). The azimuth noise follows from the radar equation with the
+    beamwidth and monopulse slope below.
+    """
+
+    model: str = field(
+        default="range", metadata=choice("range", "range-azimuth", doc="measurement model")
+    )
+    beamwidth_deg: float = field(
+        default=3.0,
+        metadata=rule(float, 0.0, 90.0, lo_open=True, doc="3 dB beamwidth theta_3dB", unit="deg"),
+    )
+    monopulse_slope: float = field(
+        default=1.6, metadata=rule(float, 0.0, 10.0, lo_open=True, doc="monopulse slope k_m")
+    )
+
+
+@dataclass(frozen=True)
 class Obstacle:
     """A static obstacle. ``kind`` is "box", "cylinder" or "mesh".
 
@@ -244,6 +265,9 @@ class Scenario:
     timing: Timing = field(default_factory=Timing, metadata=table("filter and control clocks"))
     mpc: MPCConfig = field(default_factory=MPCConfig, metadata=table("MPC objective and horizon"))
     mppi: MPPIConfig = field(default_factory=MPPIConfig, metadata=table("MPPI sampler"))
+    measurement: MeasurementConfig = field(
+        default_factory=MeasurementConfig, metadata=table("measurement model (docs/measurement.md)")
+    )
     obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] and [forest]: io.scenario_obstacles
     radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
         default=(),

@@ -17,6 +17,15 @@ Update (points redrawn from (x̂⁻, P⁻), as in the standard CKF)::
 ``R`` is an array ``[p, p]`` or a callable ``R(ẑ) -> [p, p]`` (the DDR model
 evaluates its variance ``C (ẑ/2)⁴`` at the predicted measurement).
 
+An optional ``residual(a[p], b[p]) -> [p]`` replaces the subtraction of
+measurements (e.g. wrapping azimuth differences to (−π, π]). With it the
+deviations about the reference are ``dZ_i = residual(Z_i, h(x̂))``, the predicted
+measurement is ``ẑ = h(x̂) + mean dZ_i`` (not re-wrapped: only differences are
+used), the deviations are centred on their mean and the innovation is
+``residual(z, ẑ)``. So a point cloud straddling a branch cut is averaged in the
+tangent space at ``h(x̂)`` rather than across the cut. Without it the update is
+the plain (bit-identical) subtraction.
+
 An optional boolean ``mask[p]`` drops measurements (False: e.g. line of sight
 blocked) exactly: their rows/columns of Pzz become the identity, their columns
 of Pxz and their innovations zero, so their gain columns vanish and the update
@@ -108,7 +117,7 @@ def predict(mean, cov, f, Q):
     return m, linalg.symmetrize(P)
 
 
-def update(mean, cov, z, h, R, mask=None):
+def update(mean, cov, z, h, R, mask=None, residual=None):
     """CKF measurement update.
 
     Args:
@@ -118,6 +127,8 @@ def update(mean, cov, z, h, R, mask=None):
         h: measurement function ``h(x[n]) -> [p]`` of one state vector.
         R: ``[p, p]`` noise covariance, or a callable ``R(z_hat[p]) -> [p, p]``.
         mask: optional ``[p]`` bool, True where the measurement is used (default all).
+        residual: optional ``residual(a[p], b[p]) -> [p]``, the difference ``a − b``
+            of two measurements (angles wrapped); default plain subtraction.
 
     Returns:
         ``(mean[n], cov[n, n])`` posterior moments.
@@ -126,12 +137,19 @@ def update(mean, cov, z, h, R, mask=None):
     cov = jnp.asarray(cov, mean.dtype)
     dx = cubature_offsets(cov)
     zs = jax.vmap(h)(mean[None, :] + dx)
-    z_hat, dz = _moments(zs, h(mean))
+    if residual is None:
+        z_hat, dz = _moments(zs, h(mean))
+    else:
+        ref = h(mean)
+        dv = jax.vmap(residual, in_axes=(0, None))(zs, ref)
+        m = jnp.mean(dv, axis=0)
+        z_hat, dz = ref + m, dv - m[None, :]
     w = 1.0 / dx.shape[0]
     Rm = R(z_hat) if callable(R) else R
     Pzz = w * dz.T @ dz + Rm
     Pxz = w * dx.T @ dz
-    innov = jnp.asarray(z, mean.dtype) - z_hat
+    z = jnp.asarray(z, mean.dtype)
+    innov = z - z_hat if residual is None else residual(z, z_hat)
     if mask is not None:
         keep = jnp.asarray(mask, bool)
         eye = jnp.eye(keep.shape[0], dtype=Pzz.dtype)

@@ -1,88 +1,300 @@
-"""TEMPORARY minimal range model (replaced by the measurement-model branch)."""
+"""Pluggable radar measurement models: range (SPEC §1) and range + azimuth.
+
+A model maps radar positions ``[N, 3]`` and target positions ``[M, 3]`` to one
+measurement vector of ``dim`` components per pair, ``z[N, M, dim]``; stacked for
+the CKF row-major ``(n, m, component)``. With ``d = p_T − p_R``, ``r = ‖d‖``,
+``u = d / r``, ``ρ² = d_x² + d_y²``:
+
+* range (``dim = 1``): ``z = 2r + ν_r``, DDR ``var ν_r = C r⁴``, CCR ``σ_R² = C·R2T⁴``.
+* range-azimuth (``dim = 2``): additionally ``φ = atan2(d_y, d_x) + ν_φ`` (wrapped to
+  (−π, π]), DDR ``var ν_φ = c_az r⁴``, CCR ``σ_φ² = c_az·R2T⁴``; ν_r, ν_φ independent.
+
+Azimuth noise (monopulse). The standard monopulse accuracy is
+``σ_φ = θ_3dB / (k_m √(2·SNR(r)))`` with the SNR of the radar equation (SPEC §1,
+whose noise power carries the factor M)::
+
+    SNR(r) = P_r(r) / σ_a² = SNR_ref (R_ref / r)⁴,   SNR_ref = 10^(snr_db/10) / M,
+    var φ  = θ_3dB² r⁴ / (2 k_m² SNR_ref R_ref⁴) = c_az r⁴.
+
+Fisher information of one pair (positions, 3×3). For a Gaussian ``N(μ(p), v(p))``
+``J = ∇μ ∇μᵀ / v + ∇v ∇vᵀ / (2 v²)``. Range: ``∇μ = 2u``, ``∇v = 4 C r³ u`` give
+``J_r = (4/(C r⁴) + 8/r²) u uᵀ`` (DDR) and ``4 u uᵀ / σ_R²`` (CCR). Azimuth:
+``∇φ = (−d_y, d_x, 0) / ρ²``, ``∇v = 4 c_az r³ u`` give
+``J_φ = ∇φ ∇φᵀ / (c_az r⁴) + 8 u uᵀ / r²`` (DDR) and ``∇φ ∇φᵀ / σ_φ²`` (CCR). As
+ν_r, ν_φ are independent the log-likelihoods add and the cross terms of the score
+covariance vanish: ``J = J_r + J_φ``. (The wrap is ignored: valid while σ_φ ≪ π.)
+``ρ²`` is floored by :data:`RHO2_EPS` so a target straight above a radar gives
+finite numbers (no NaN); azimuth information still grows like 1/ρ² there.
+
+Adding a model: subclass :class:`MeasurementModel` (frozen dataclass, new ``name``
+and ``dim``), implement ``predict``, ``variance``, ``sample``, ``residual``,
+``pair_information``, and register it in :data:`MODELS`.
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from mjx_radar.config import MeasurementConfig, RadarEquation, Scenario
 from mjx_radar.estimation import fisher, sensing
+
+__all__ = [  # noqa: RUF022
+    "RHO2_EPS", "NoiseParams", "MeasurementModel", "RangeModel", "RangeAzimuthModel", "MODELS",
+    "make_model", "noise_params", "wrap_angle", "information", "information_dense",
+    "measurement_function", "noise_cov_fn", "flat_residual",
+]  # fmt: skip
+
+RHO2_EPS = 1e-10
+"""Floor [m²] on ρ² in ∇φ: bias < 1e-9 for ρ > 1 cm; float32-safe (ρ = 0: 1/ρ⁴ = 1e20)."""
 
 
 class NoiseParams(NamedTuple):
-    c: jax.Array
-    sigma_r2: jax.Array
-    c_az: jax.Array
-    sigma_az2: jax.Array
+    """Runtime noise constants (scalars, may be traced)."""
+
+    c: jax.Array  # DDR range constant C: var(2d) = C d⁴ [1/m²]
+    sigma_r2: jax.Array  # CCR range variance C·R2T⁴ [m²]
+    c_az: jax.Array  # DDR azimuth constant: var(φ) = c_az d⁴ [rad²/m⁴]
+    sigma_az2: jax.Array  # CCR azimuth variance c_az·R2T⁴ [rad²]
+
+
+def wrap_angle(a):
+    """Wrap angles to (−π, π]: ``π − mod(π − a, 2π)``."""
+    return jnp.pi - jnp.mod(jnp.pi - a, 2.0 * jnp.pi)
+
+
+def _select(ccr, ddr_value, ccr_value):
+    """``ccr ? ccr_value : ddr_value`` for a Python or a traced boolean."""
+    if isinstance(ccr, (bool, np.bool_)):
+        return ccr_value if ccr else ddr_value
+    return jnp.where(ccr, ccr_value, ddr_value)
+
+
+def _diff(radar_pos, target_pos):
+    """``d[..., N, M, 3] = target − radar`` in a floating dtype."""
+    radar_pos, target_pos = jnp.asarray(radar_pos), jnp.asarray(target_pos)
+    dtype = jnp.result_type(radar_pos, target_pos, float)
+    return target_pos[..., None, :, :].astype(dtype) - radar_pos[..., :, None, :].astype(dtype)
+
+
+def _range_terms(x, y, z, params, ccr):
+    """Range information as ``g`` with ``J_r = g d dᵀ`` (same arithmetic as fisher)."""
+    r2 = x * x + y * y + z * z
+    g_ddr = fisher.ddr_weight(params.c)(r2) / r2
+    g_ccr = (4.0 / params.sigma_r2) / r2
+    return r2, _select(ccr, g_ddr, g_ccr)
+
+
+def _pack(g, x, y, z):
+    return [g * x * x, g * x * y, g * x * z, g * y * y, g * y * z, g * z * z]
 
 
 @dataclasses.dataclass(frozen=True)
-class RangeModel:
+class MeasurementModel:
+    """Base class: measurements of one radar-target pair (hashable, static under jit)."""
+
+    name: str = ""
+    dim: int = 0
+
+    def predict(self, radar_pos, target_pos):
+        """Noiseless ``h``: ``[..., N, 3]``, ``[..., M, 3]`` -> ``[..., N, M, dim]``."""
+        raise NotImplementedError
+
+    def variance(self, z_hat, params: NoiseParams, ccr):
+        """Filter noise variance at a (predicted) measurement ``[..., dim]`` -> ``[..., dim]``."""
+        raise NotImplementedError
+
+    def sample(self, key, radar_pos, target_pos, params: NoiseParams):
+        """Truth draw (DDR variances at the true distance) ``-> [N, M, dim]``."""
+        raise NotImplementedError
+
+    def residual(self, a, b):
+        """``a − b`` of measurements ``[..., dim]`` (angles wrapped to (−π, π])."""
+        raise NotImplementedError
+
+    def pair_information(self, d, params: NoiseParams, ccr):
+        """Position FIM of one pair, ``d[..., 3] = target − radar`` -> packed ``[..., 6]``."""
+        raise NotImplementedError
+
+
+@dataclasses.dataclass(frozen=True)
+class RangeModel(MeasurementModel):
+    """Round-trip range ``z = 2‖d‖`` (SPEC §1); identical numbers to :mod:`sensing`."""
+
     name: str = "range"
     dim: int = 1
 
     def predict(self, radar_pos, target_pos):
-        d = target_pos[None, :, :] - radar_pos[:, None, :]
-        return 2.0 * jnp.sqrt(jnp.sum(d**2, -1))[..., None]
+        d = _diff(radar_pos, target_pos)
+        return (2.0 * jnp.sqrt(jnp.sum(d**2, axis=-1)))[..., None]
 
     def variance(self, z_hat, params, ccr):
-        return jnp.where(ccr, params.sigma_r2, params.c * (z_hat / 2.0) ** 4)
+        z_hat = jnp.asarray(z_hat)
+        return _select(ccr, params.c * (z_hat / 2.0) ** 4, jnp.full_like(z_hat, params.sigma_r2))
 
     def sample(self, key, radar_pos, target_pos, params):
-        d = sensing.ranges(radar_pos, target_pos).reshape(-1)
-        eps = jax.random.normal(key, d.shape, dtype=d.dtype)
-        z = 2.0 * d + jnp.sqrt(jnp.asarray(params.c, d.dtype)) * d**2 * eps
-        return z.reshape(radar_pos.shape[0], target_pos.shape[0], 1)
+        z = sensing.sample_ranges(key, radar_pos, target_pos, params.c)
+        return z.reshape(jnp.shape(radar_pos)[0], jnp.shape(target_pos)[0], 1)
 
     def residual(self, a, b):
         return a - b
 
     def pair_information(self, d, params, ccr):
-        r2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]
-        inv = 1.0 / r2
-        w = jnp.where(ccr, 4.0 / params.sigma_r2, inv * ((4.0 / params.c) * inv + 8.0))
-        g = w / r2
         x, y, z = d[..., 0], d[..., 1], d[..., 2]
-        return jnp.stack([g * x * x, g * x * y, g * x * z, g * y * y, g * y * z, g * z * z], -1)
+        _, g = _range_terms(x, y, z, params, ccr)
+        return jnp.stack(_pack(g, x, y, z), axis=-1)
 
 
-def make_model(name: str = "range"):
-    return RangeModel()
+@dataclasses.dataclass(frozen=True)
+class RangeAzimuthModel(MeasurementModel):
+    """Round-trip range and azimuth ``atan2(d_y, d_x)`` (monopulse noise, module doc)."""
+
+    name: str = "range-azimuth"
+    dim: int = 2
+
+    def predict(self, radar_pos, target_pos):
+        d = _diff(radar_pos, target_pos)
+        rng = 2.0 * jnp.sqrt(jnp.sum(d**2, axis=-1))
+        return jnp.stack([rng, jnp.arctan2(d[..., 1], d[..., 0])], axis=-1)
+
+    def variance(self, z_hat, params, ccr):
+        q = (jnp.asarray(z_hat)[..., 0] / 2.0) ** 4
+        ddr = jnp.stack([params.c * q, params.c_az * q], axis=-1)
+        const = [jnp.full_like(q, params.sigma_r2), jnp.full_like(q, params.sigma_az2)]
+        return _select(ccr, ddr, jnp.stack(const, axis=-1))
+
+    def sample(self, key, radar_pos, target_pos, params):
+        """Range draws use ``key`` as :func:`sensing.sample_ranges`; azimuth ``fold_in(key, 1)``."""
+        z = self.predict(radar_pos, target_pos)
+        d = z[..., 0] / 2.0
+        rng = RangeModel().sample(key, radar_pos, target_pos, params)[..., 0]
+        eps = jax.random.normal(jax.random.fold_in(key, 1), d.shape, dtype=d.dtype)
+        az = wrap_angle(z[..., 1] + jnp.sqrt(jnp.asarray(params.c_az, d.dtype)) * d**2 * eps)
+        return jnp.stack([rng, az], axis=-1)
+
+    def residual(self, a, b):
+        r = a - b
+        return jnp.stack([r[..., 0], wrap_angle(r[..., 1])], axis=-1)
+
+    def pair_information(self, d, params, ccr):
+        x, y, z = d[..., 0], d[..., 1], d[..., 2]
+        r2, g = _range_terms(x, y, z, params, ccr)
+        # ∇φ∇φᵀ = (y², −xy, 0, x², 0, 0) / ρ⁴, scaled by 1/var(φ); plus 8 u uᵀ / r² (DDR).
+        # Products of inverses keep float32 in range for ranges from ~1 m to ~100 km.
+        ir, irho = 1.0 / r2, 1.0 / (x * x + y * y + RHO2_EPS)
+        a_ddr = ((1.0 / params.c_az) * ir * ir) * (irho * irho)
+        a = _select(ccr, a_ddr, (1.0 / params.sigma_az2) * (irho * irho))
+        g = g + _select(ccr, 8.0 * ir * ir, jnp.zeros_like(r2))
+        xx, xy, xz, yy, yz, zz = _pack(g, x, y, z)
+        return jnp.stack([xx + a * y * y, xy - a * x * y, xz, yy + a * x * x, yz, zz], axis=-1)
 
 
-def information(model, radar_pos, target_pos, params, ccr, mask=None):
+MODELS = {"range": RangeModel, "range-azimuth": RangeAzimuthModel}
+
+
+def make_model(name: str) -> MeasurementModel:
+    """Model by name (``"range"`` | ``"range-azimuth"``); ValueError otherwise."""
+    if name not in MODELS:
+        raise ValueError(f"unknown measurement model {name!r}; expected one of {sorted(MODELS)}")
+    return MODELS[name]()
+
+
+def noise_params(source, n_targets=None, r2t=None, measurement=None, dtype=None) -> NoiseParams:
+    """Noise constants from the radar equation (host float64, returned as ``dtype``).
+
+    Args:
+        source: a :class:`Scenario` (then the other arguments default to its
+            ``n_targets``, ``mpc.r2t`` and ``measurement``) or a :class:`RadarEquation`.
+        n_targets: int M (noise power carries the factor M, SPEC §1).
+        r2t: float, CCR reference range R2T [m].
+        measurement: MeasurementConfig (beamwidth, monopulse slope); default its defaults.
+        dtype: array dtype (default: JAX's default float).
+
+    Returns:
+        ``NoiseParams(C, C·R2T⁴, c_az, c_az·R2T⁴)`` with
+        ``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, ``SNR_ref = 10^(snr_db/10) / M``.
+    """
+    if isinstance(source, Scenario):
+        n_targets = source.n_targets if n_targets is None else n_targets
+        r2t = source.mpc.r2t if r2t is None else r2t
+        measurement = source.measurement if measurement is None else measurement
+        source = source.radar_eq
+    if not isinstance(source, RadarEquation) or n_targets is None or r2t is None:
+        raise ValueError("noise_params needs a Scenario, or a RadarEquation with n_targets and r2t")
+    meas = measurement or MeasurementConfig()
+    if not (meas.beamwidth_deg > 0 and meas.monopulse_slope > 0):
+        raise ValueError("beamwidth_deg and monopulse_slope must be > 0")
+    if not (math.isfinite(float(r2t)) and float(r2t) > 0):
+        raise ValueError(f"r2t must be finite and > 0 m, got {r2t!r}")
+    c = sensing.noise_constant(source, n_targets)
+    snr_ref = 10.0 ** (float(source.snr_db) / 10.0) / int(n_targets)
+    theta, k_m = math.radians(float(meas.beamwidth_deg)), float(meas.monopulse_slope)
+    c_az = theta**2 / (2.0 * k_m**2 * snr_ref * float(source.r_ref) ** 4)
+    r4 = float(r2t) ** 4
+    dt = dtype or jnp.result_type(float)
+    return NoiseParams(*(jnp.asarray(v, dt) for v in (c, c * r4, c_az, c_az * r4)))
+
+
+def information(model: MeasurementModel, radar_pos, target_pos, params, ccr, mask=None):
+    """Position FIM of every target summed over radars, packed.
+
+    Accumulated radar by radar elementwise (like :func:`fisher.sfim_packed`): no 3×3 temporaries.
+
+    Args:
+        model: measurement model.
+        radar_pos: ``[..., N, 3]`` radar positions (broadcast against target batch dims).
+        target_pos: ``[..., M, 3]`` target positions.
+        params: :class:`NoiseParams`.
+        ccr: bool (Python or traced): use the CCR constants instead of DDR.
+        mask: optional ``[..., N, M]`` bool/0-1; False pairs contribute nothing.
+
+    Returns:
+        ``[..., M, 6]``: ``Σ_n J_nm`` as ``(xx, xy, xz, yy, yz, zz)`` [1/m²].
+    """
+    radar_pos, target_pos = jnp.asarray(radar_pos), jnp.asarray(target_pos)
     acc = None
     for n in range(radar_pos.shape[-2]):
-        d = target_pos - radar_pos[..., n : n + 1, :]
-        g = model.pair_information(d, params, ccr)
+        term = model.pair_information(target_pos - radar_pos[..., n : n + 1, :], params, ccr)
         if mask is not None:
-            g = g * jnp.asarray(mask[..., n, :], g.dtype)[..., None]
-        acc = g if acc is None else acc + g
+            term = term * jnp.asarray(mask, term.dtype)[..., n, :, None]
+        acc = term if acc is None else acc + term
     return acc
 
 
-def information_dense(model, radar_pos, target_pos, params, ccr, mask=None):
+def information_dense(model: MeasurementModel, radar_pos, target_pos, params, ccr, mask=None):
+    """:func:`information` unpacked to symmetric ``[..., M, 3, 3]``."""
     return fisher.unpack_sym3(information(model, radar_pos, target_pos, params, ccr, mask))
 
 
-def measurement_function(model, radar_pos):
+def measurement_function(model: MeasurementModel, radar_pos):
+    """CKF measurement function ``h(x[6M]) -> [N·M·dim]`` (row-major n, m, component)."""
+    radar_pos = jnp.asarray(radar_pos)
+
     def h(x):
-        pos = jnp.reshape(x, (-1, 6))[:, :3]
-        return model.predict(radar_pos, pos).reshape(-1)
+        return model.predict(radar_pos, jnp.reshape(x, (-1, 6))[:, :3]).reshape(-1)
 
     return h
 
 
-def noise_cov_fn(model, params, ccr):
-    def r(z_hat):
+def noise_cov_fn(model: MeasurementModel, params: NoiseParams, ccr):
+    """``R(ẑ[p]) -> [p, p]`` diagonal, ``p = N·M·dim``, for :func:`ckf.update`."""
+
+    def R(z_hat):
         return jnp.diag(model.variance(z_hat.reshape(-1, model.dim), params, ccr).reshape(-1))
 
-    return r
+    return R
 
 
-def noise_params(scenario):
-    c = sensing.noise_constant(scenario.radar_eq, scenario.n_targets)
-    f = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
-    return NoiseParams(f(c), f(sensing.ccr_variance(c, scenario.mpc.r2t)), f(0.0), f(0.0))
+def flat_residual(model: MeasurementModel):
+    """Residual of flat stacked measurements ``(a[p], b[p]) -> [p]`` for :func:`ckf.update`."""
+
+    def residual(a, b):
+        a, b = jnp.asarray(a), jnp.broadcast_to(jnp.asarray(b), jnp.shape(a))
+        return model.residual(a.reshape(-1, model.dim), b.reshape(-1, model.dim)).reshape(-1)
+
+    return residual

@@ -153,7 +153,7 @@ def advance(
     planner = make_planner(task)
     streams = trial_streams(params.seed, trial)
     r_filter = measurement.noise_cov_fn(model, noise, flags.ccr)
-    update_kw = {"residual": model.residual} if model.dim > 1 else {}
+    update_kw = {"residual": measurement.flat_residual(model)} if model.dim > 1 else {}
 
     def filter_step(carry, k, u):
         data, mean0, cov0, pfim, health = carry

@@ -55,7 +55,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
     return TaskParams(
         method=method.flags(),
-        noise=measurement.noise_params(scenario),
+        noise=measurement.noise_params(scenario, dtype=jnp.float32),
         seed=jnp.asarray(scenario.seed if seed is None else seed, jnp.uint32),
         sigma_w2=f32(scenario.sigma_w2),
         p0=f32(scenario.p0),
@@ -81,6 +81,7 @@ def shape_key(scenario: Scenario) -> Scenario:
         scenario.mpc, gamma=None, r2t=None, r2r=None, alpha_r2r=None, alpha_r2t=None
     )
     blank_eq = RadarEquation(**{f.name: None for f in dataclasses.fields(RadarEquation)})
+    meas = dataclasses.replace(scenario.measurement, beamwidth_deg=None, monopulse_slope=None)
     return dataclasses.replace(
         scenario,
         name="",
@@ -92,4 +93,5 @@ def shape_key(scenario: Scenario) -> Scenario:
         target_init=blank_rows(scenario.target_init),
         radar_init=blank_rows(scenario.radar_init),
         mpc=mpc,
+        measurement=meas,
     )

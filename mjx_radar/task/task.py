@@ -82,7 +82,7 @@ def make_task(shape: Scenario) -> RadarTask:
         )
     return RadarTask(
         scenario=shape,
-        measurement=measurement.make_model(getattr(shape, "measurement", None)),
+        measurement=measurement.make_model(shape.measurement.model),
         terms=costs.cost_terms(shape),
         rollout=_rollout_backend(shape),
         truth=physics.truth_plant(shape),
