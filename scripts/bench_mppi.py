@@ -22,6 +22,7 @@ from mjx_radar.io.scenario import load_scenario
 from mjx_radar.simulation.placement import initial_conditions
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
+from mjx_radar.task.task import build
 
 
 def main() -> None:
@@ -34,12 +35,13 @@ def main() -> None:
     s = load_scenario(args.scenario)
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
     n = s.n_radars
-    init = initial_conditions(s, trial_streams(s.seed, 0))
-    plan = make_planner(s, args.method)
+    task, params = build(s, args.method)
+    init = initial_conditions(task.scenario, params, trial_streams(params.seed, 0))
+    plan = make_planner(task)
 
     @jax.jit
     def control(radar_state, mean, cov, u, key):
-        res, _ = plan(radar_state, mean, cov, u, key)
+        res, _ = plan(radar_state, mean, cov, u, key, params)
         return res.mean[0], mppi.shift(res.mean)
 
     u = jnp.zeros((s.mpc.horizon, 2 * n))

@@ -22,17 +22,19 @@ from mjx_radar.io.scenario import load_scenario
 from mjx_radar.simulation.placement import initial_conditions
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
+from mjx_radar.task.task import build
 
 
 def bench(s, calls: int, method: str = "ddr-sfim") -> tuple[float, float]:
     """(compile + first call, median call) seconds of one jitted MPPI control call."""
     n = s.n_radars
-    init = initial_conditions(s, trial_streams(s.seed, 0))
-    plan = make_planner(s, method)
+    task, params = build(s, method)
+    init = initial_conditions(task.scenario, params, trial_streams(params.seed, 0))
+    plan = make_planner(task)
 
     @jax.jit
     def control(radar_state, mean, cov, u, key):
-        res, _ = plan(radar_state, mean, cov, u, key)
+        res, _ = plan(radar_state, mean, cov, u, key, params)
         return res.mean[0], mppi.shift(res.mean)
 
     u = jnp.zeros((s.mpc.horizon, 2 * n))

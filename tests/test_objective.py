@@ -9,6 +9,7 @@ from mjx_radar.estimation.sensing import noise_constant
 from mjx_radar.io.scenario import scenario_from_dict
 from mjx_radar.simulation import closed_loop
 from mjx_radar.task import objective
+from mjx_radar.task.task import build
 
 HOVER = {
     "name": "hover",
@@ -23,7 +24,8 @@ HOVER = {
 
 def _run(raw, method="ddr-sfim"):
     s = scenario_from_dict(raw)
-    res = jax.jit(lambda: closed_loop.simulate(s, method, 0, 0))()
+    task, params = build(s, method, 0)
+    res = jax.jit(lambda: closed_loop.simulate(task, params, 0))()
     return s, res
 
 
@@ -70,8 +72,9 @@ def _objective_terms():
     radar = jnp.array([[100.0, 0, 0, 0, 0, 0], [105.0, 0, 0, 0, 0, 0]])  # 5 m apart < R2R
     mean = jnp.asarray(s.target_init, jnp.float32).reshape(-1)
     cov = 4.0 * jnp.eye(12)
-    ctx = objective.plan_context(s, radar, mean, cov)
-    cost, plan = objective.make_objective(s, "ddr-sfim")(jnp.zeros((4, 4)), ctx)
+    task, params = build(s, "ddr-sfim")
+    ctx = objective.plan_context(task, radar, mean, cov)
+    cost, plan = objective.make_objective(task)(jnp.zeros((4, 4)), ctx, params)
     c = noise_constant(s.radar_eq, 2)
     pts = np.asarray(ctx.target_points)  # [H, P, M, 6]
     info = 0.0
@@ -88,7 +91,10 @@ def _objective_terms():
     expected = -info + s.mpc.alpha_r2r * n_rr + s.mpc.alpha_r2t * n_rt
     # float64; the only difference is the O(1e-15) relative jitter of the factorisations.
     np.testing.assert_allclose(float(cost), expected, rtol=1e-9)
-    np.testing.assert_allclose(float(plan.info), info, rtol=1e-9)
+    np.testing.assert_allclose(-float(plan.terms["information"]), info, rtol=1e-9)
+    np.testing.assert_allclose(float(plan.terms["radar_radar"]), s.mpc.alpha_r2r * n_rr, rtol=1e-12)
+    np.testing.assert_allclose(float(plan.terms["radar_target"]), s.mpc.alpha_r2t * n_rt, rtol=1e-9)
+    assert set(plan.terms) == {"information", "radar_radar", "radar_target"}
 
 
 def test_pfim_objective_against_direct_recursion():
@@ -105,8 +111,9 @@ def test_pfim_objective_against_direct_recursion():
         radar = jnp.array([[200.0, 0, 0, 0, 0, 0], [-150.0, 90, 0, 0, 0, 0], [0, -210, 0, 0, 0, 0]])
         mean = jnp.asarray(s.target_init).reshape(-1)
         cov = jnp.diag(jnp.linspace(1.0, 9.0, 12))
-        ctx = objective.plan_context(s, radar, mean, cov)
-        _, plan = objective.make_objective(s, "ddr-pfim")(jnp.zeros((5, 6)), ctx)
+        task, params = build(s, "ddr-pfim")
+        ctx = objective.plan_context(task, radar, mean, cov)
+        _, plan = objective.make_objective(task)(jnp.zeros((5, 6)), ctx, params)
         from mjx_radar.physics import motion
 
         c = noise_constant(s.radar_eq, 2)
@@ -125,4 +132,4 @@ def test_pfim_objective_against_direct_recursion():
                 floored = j + fisher.INFO_FLOOR * np.eye(6)  # the documented log-det floor
                 info += s.mpc.gamma**t * np.linalg.slogdet(floored)[1]
         # float64 with numpy inverses as the reference; jitter is O(1e-15) relative.
-        np.testing.assert_allclose(float(plan.info), info, rtol=1e-9)
+        np.testing.assert_allclose(-float(plan.terms["information"]), info, rtol=1e-9)

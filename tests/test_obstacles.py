@@ -14,6 +14,7 @@ from mjx_radar.estimation.sensing import ddr_noise_cov, range_model
 from mjx_radar.io.scenario import ScenarioError, load_scenario, scenario_from_dict
 from mjx_radar.physics import plant as physics
 from mjx_radar.task import objective
+from mjx_radar.task.task import build
 from mjx_radar.world import obstacles, occlusion
 
 MESHES = Path(__file__).resolve().parent.parent / "scenarios" / "meshes"
@@ -207,10 +208,15 @@ def test_obstacle_cost_term():
     )
     obs = dataclasses.replace(base, obstacles=(Obstacle("cylinder", (210, 0, 5), (6, 5)),))
     state = jnp.array([[200.0, 0, 0, 0, 0, 0]])
-    ctx = objective.plan_context(base, state, jnp.asarray(base.target_init[0]), jnp.eye(6))
     u = jnp.zeros((5, 2))
-    c0, _ = objective.make_objective(base, "ddr-sfim")(u, ctx)
-    c1, _ = objective.make_objective(obs, "ddr-sfim")(u, ctx)
+    costs = []
+    for s in (base, obs):
+        task, params = build(s, "ddr-sfim")
+        ctx = objective.plan_context(task, state, jnp.asarray(s.target_init[0]), jnp.eye(6))
+        costs.append(objective.make_objective(task)(u, ctx, params))
+    (c0, p0), (c1, p1) = costs
+    assert "obstacle" not in p0.terms
+    np.testing.assert_allclose(float(c1 - c0), float(p1.terms["obstacle"]), rtol=1e-5)
     expect = base.mpc.alpha_obs * 2.0 * float(np.sum(base.mpc.gamma ** np.arange(5)))
     assert abs(float(c1 - c0) - expect) < 5e-3 * expect
 

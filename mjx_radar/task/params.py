@@ -48,14 +48,15 @@ class TaskParams(NamedTuple):
 
 
 def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> TaskParams:
-    """The runtime parameters of ``scenario`` (host values, float32) for ``method``."""
+    """The runtime parameters of ``scenario`` for ``method`` (JAX default float dtype)."""
     mpc = scenario.mpc
-    f32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
+    dtype = jnp.result_type(float)  # float32, or float64 under x64
+    f32 = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     n = scenario.n_radars
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
     return TaskParams(
         method=method.flags(),
-        noise=measurement.noise_params(scenario, dtype=jnp.float32),
+        noise=measurement.noise_params(scenario, dtype=dtype),
         seed=jnp.asarray(scenario.seed if seed is None else seed, jnp.uint32),
         sigma_w2=f32(scenario.sigma_w2),
         p0=f32(scenario.p0),

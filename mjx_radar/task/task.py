@@ -99,6 +99,20 @@ def make_task(shape: Scenario) -> RadarTask:
     )
 
 
+def build(scenario: Scenario, method="ddr-sfim", seed: int | None = None):
+    """``(task, params)`` of a scenario and method: the static task and the runtime numbers.
+
+    Args:
+        scenario: a validated scenario.
+        method: a :class:`~mjx_radar.task.method.Method` or its name.
+        seed: base seed (default the scenario's).
+    """
+    from mjx_radar.task.method import parse_method
+    from mjx_radar.task.params import shape_key, task_params
+
+    return make_task(shape_key(scenario)), task_params(scenario, parse_method(method), seed)
+
+
 def process_noise(task: RadarTask, params) -> jax.Array:
     """Filter-step process noise ``σ_W² Q₁`` ``[6M, 6M]``."""
     return jnp.asarray(params.sigma_w2, task.q_filter_unit.dtype) * task.q_filter_unit
