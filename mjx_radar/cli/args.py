@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 
 from mjx_radar.errors import InputError
-from mjx_radar.io.scenario import load_scenario
+from mjx_radar.io.scenario import load_scenario, load_with_overrides  # noqa: F401
 from mjx_radar.task.method import METHODS
 
 
@@ -50,17 +49,3 @@ def check_placement(scenario, seed: int, trials: int) -> None:
         check_placeable(scenario, seed, trials)
     except ValueError as err:
         raise InputError(str(err)) from None
-
-
-def load_with_overrides(name: str, rollouts: str | None, steps: int | None):
-    """Loads a scenario, applies ``--rollouts`` and checks ``--steps``: ``(scenario, steps)``."""
-    s = load_scenario(name)
-    if rollouts:
-        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollouts))
-    steps = steps or s.timing.steps
-    if steps % s.timing.control_every:
-        raise InputError(
-            f"--steps = {steps}: must be a multiple of dt_control/dt_filter = "
-            f"{s.timing.control_every} (scenario {s.name})"
-        )
-    return s, steps

@@ -19,7 +19,7 @@ from mjx_radar.errors import InputError
 COMMANDS = {
     "validate": ("mjx_radar.cli.commands", "check a scenario file"),
     "run": ("mjx_radar.cli.commands", "run the closed loop on a scenario"),
-    "study": ("mjx_radar.study.driver", "Monte Carlo study over scenarios and methods (resumable)"),
+    "study": ("mjx_radar.cli.study", "Monte Carlo study over scenarios and methods (resumable)"),
     "report": ("mjx_radar.cli.report", "figures and tables of a study directory"),
     "render": ("mjx_radar.cli.render", "render a saved run to MP4/GIF"),
     "snapshot": ("mjx_radar.cli.snapshot", "two-panel scene + FIM heat-map figure of a run"),

@@ -209,3 +209,17 @@ def resolve_path(path: str | Path) -> Path:
         return p
     bundled = Path(__file__).resolve().parent.parent.parent / "scenarios" / f"{p.name}.toml"
     return bundled if bundled.exists() else p
+
+
+def load_with_overrides(name: str, rollouts: str | None, steps: int | None):
+    """Loads a scenario, applies ``--rollouts`` and checks ``--steps``: ``(scenario, steps)``."""
+    s = load_scenario(name)
+    if rollouts:
+        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollouts))
+    steps = steps or s.timing.steps
+    if steps % s.timing.control_every:
+        raise ScenarioError(
+            f"--steps = {steps}: must be a multiple of dt_control/dt_filter = "
+            f"{s.timing.control_every} (scenario {s.name})"
+        )
+    return s, steps

@@ -24,6 +24,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar.config import Scenario
 from mjx_radar.io import results
@@ -33,8 +34,20 @@ from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import RadarTask, make_task
 
 
+def device_mesh(devices=None) -> Mesh:
+    """A 1-D mesh (axis ``"trial"``) over ``devices`` (default: every local device)."""
+    return Mesh(np.asarray(devices if devices is not None else jax.local_devices()), ("trial",))
+
+
 @functools.cache
-def _programs(task: RadarTask, periods: int, full: bool):
+def _programs(task: RadarTask, periods: int, full: bool, mesh: Mesh):
+    """``(init, step)``: the vmapped trial loop, ``shard_map``ped over the mesh's devices.
+
+    Every device runs the same per-device program on its own slice of the trials,
+    whatever the number of devices, so a trial's numbers depend only on the
+    per-device batch size, never on the device count (docs/scaling.md).
+    """
+
     def one(trial, carry, start, params):
         carry, steps, controls = closed_loop.advance(task, params, trial, carry, start, periods)
         if not full:
@@ -45,34 +58,52 @@ def _programs(task: RadarTask, periods: int, full: bool):
     def init_one(trial, params):
         return closed_loop.init_carry(task, params, trial)
 
-    init = jax.jit(jax.vmap(init_one, in_axes=(0, None)))
-    step = jax.jit(jax.vmap(one, in_axes=(0, 0, None, None)), donate_argnums=1)
-    return init, step
+    split, whole = PartitionSpec("trial"), PartitionSpec()
+    init = jax.shard_map(
+        jax.vmap(init_one, in_axes=(0, None)), mesh=mesh, in_specs=(split, whole),
+        out_specs=split, check_vma=False,
+    )  # fmt: skip
+    step = jax.shard_map(
+        jax.vmap(one, in_axes=(0, 0, None, None)), mesh=mesh,
+        in_specs=(split, split, whole, whole), out_specs=split, check_vma=False,
+    )  # fmt: skip
+    return jax.jit(init), jax.jit(step, donate_argnums=1)
 
 
-_EXECUTABLES: dict = {}  # (task, periods, full, batch, sharding) -> (init, step)
+_EXECUTABLES: dict = {}  # (task, periods, full, batch, mesh) -> (init, step)
 _LOCK = threading.Lock()
 
 
 def compile_programs(
-    scenario: Scenario, batch: int, periods: int, full: bool = False, sharding=None
+    scenario: Scenario, batch: int, periods: int, full: bool = False, mesh: Mesh | None = None
 ) -> tuple[tuple, float]:
     """Ahead-of-time compiled ``(init, step)`` for a scenario's shape; ``(programs, seconds)``.
+
+    Args:
+        scenario: the scenario (only its shape matters).
+        batch: trials per call, a multiple of the mesh's device count.
+        periods: control periods per segment.
+        full: return trajectories (else metrics only).
+        mesh: devices to spread the trials over (default: the default device).
 
     Seconds are 0 when the programs were compiled before in this process (a hit in the
     persistent cache still takes the time to trace and load).
     """
+    mesh = mesh if mesh is not None else device_mesh(jax.local_devices()[:1])
+    if batch % mesh.size:
+        raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
     task = make_task(shape_key(scenario))
-    key = (task, periods, full, batch, sharding)
+    key = (task, periods, full, batch, mesh)
     with _LOCK:
         if key in _EXECUTABLES:
             return _EXECUTABLES[key], 0.0
     t0 = time.perf_counter()
-    init, step = _programs(task, periods, full)
+    init, step = _programs(task, periods, full, mesh)
     params = jax.tree_util.tree_map(
         lambda x: jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x)),
         task_params(scenario, parse_method("stationary")),
     )
+    sharding = NamedSharding(mesh, PartitionSpec("trial"))
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=sharding)
     carry = jax.eval_shape(init, trials, params)[0]
     start = jax.ShapeDtypeStruct((), jnp.int32)
@@ -85,7 +116,9 @@ def compile_programs(
     return programs, time.perf_counter() - t0
 
 
-def precompile(jobs, batch: int, steps: int, full: bool = False, workers: int | None = None):
+def precompile(
+    jobs, batch: int, steps: int, full: bool = False, mesh=None, workers: int | None = None
+):
     """Compiles the programs of several scenarios concurrently; returns the wall time [s].
 
     XLA compilation releases the GIL, so a thread pool compiles the programs of a
@@ -105,7 +138,11 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, workers: int | 
     t0 = time.perf_counter()
     workers = workers or min(len(todo), os.cpu_count() or 1)
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        list(pool.map(lambda s: compile_programs(s, batch, segment_periods(s, steps), full), todo))
+        list(
+            pool.map(
+                lambda s: compile_programs(s, batch, segment_periods(s, steps), full, mesh), todo
+            )
+        )
     return time.perf_counter() - t0
 
 
@@ -127,7 +164,7 @@ def run_trials(
     full: bool = True,
     progress: Callable[[int], None] | None = None,
     periods: int | None = None,
-    sharding: jax.sharding.Sharding | None = None,
+    mesh: Mesh | None = None,
     phase: Callable[[str], None] | None = None,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
@@ -141,9 +178,8 @@ def run_trials(
         full: also return trajectories and MPPI samples (else only the metrics).
         progress: called with the number of filter steps done after each segment.
         periods: control periods per segment (default: :func:`segment_periods`).
-        sharding: optional sharding of the trial axis (e.g. a ``NamedSharding`` over a
-            1-D ``Mesh`` of ``jax.devices()``). ``T`` must be a multiple of the number
-            of devices. ``None``: default device.
+        mesh: devices to spread the trials over (:func:`device_mesh`); ``T`` must be a
+            multiple of their number. ``None``: the default device.
         phase: called with ``"compiling"`` and ``"simulating"`` as the run moves on.
 
     Returns:
@@ -162,9 +198,8 @@ def run_trials(
     trials = jnp.asarray(trials, jnp.int32)
     if phase:
         phase("compiling")
-    (init, step), compile_s = compile_programs(scenario, trials.shape[0], periods, full, sharding)
-    if sharding is not None:
-        trials = jax.device_put(trials, sharding)
+    (init, step), compile_s = compile_programs(scenario, trials.shape[0], periods, full, mesh)
+    trials = jax.device_put(trials, init.input_shardings[0][0])
     if phase:
         phase("simulating")
     t0 = time.perf_counter()
