@@ -82,6 +82,13 @@ class MPPIConfig:
 
 
 @dataclass(frozen=True)
+class FilterConfig:
+    """Structure of the tracking filter (issue 15)."""
+
+    structure: str = "joint"  # "joint" (paper's joint CKF) | "per-target" (filter bank)
+
+
+@dataclass(frozen=True)
 class Obstacle:
     """A static obstacle. ``kind`` is "box", "cylinder" or "mesh".
 
@@ -113,6 +120,7 @@ class Scenario:
     timing: Timing = field(default_factory=Timing)
     mpc: MPCConfig = field(default_factory=MPCConfig)
     mppi: MPPIConfig = field(default_factory=MPPIConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
     obstacles: tuple[Obstacle, ...] = ()
     radar_init: tuple[tuple[float, ...], ...] = ()  # optional fixed [N][3] rows x y theta
 
