@@ -203,7 +203,8 @@ def _plot(rows, path: Path, dev: str) -> None:
         ax1.loglog(*np.array(pts).T, "o-" if kind == "loop" else "s--", label=f"{kind}: {v}")
     ax1.set(xlabel="N·M", ylabel="wall time [s]", title=f"cost vs N·M ({dev})")
     ax1.grid(True, which="both", alpha=0.3)
-    ax1.legend(fontsize=8)
+    if ax1.lines:
+        ax1.legend(fontsize=8)
     for v, ax in (("objective", ax2), ("rmse_pos", ax2.twinx())):
         pts = sorted((r[3], r[4]) for r in rows if r[0] == "quality" and r[2] == v)
         if pts:
