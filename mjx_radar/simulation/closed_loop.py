@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.control import mppi
-from mjx_radar.estimation import ckf, fisher, linalg, measurement
+from mjx_radar.estimation import ckf, filter_bank, fisher, ground_prior, linalg, measurement
 from mjx_radar.physics import kinematics
 from mjx_radar.physics import plant as physics
 from mjx_radar.simulation import placement, track_health
@@ -153,24 +153,49 @@ def advance(
     planner = make_planner(task)
     streams = trial_streams(params.seed, trial)
     r_filter = measurement.noise_cov_fn(model, noise, flags.ccr)
-    update_kw = {"residual": measurement.flat_residual(model)} if model.dim > 1 else {}
+    residual = measurement.flat_residual(model) if model.dim > 1 else None
+    per_target = sc.filter.structure == "per-target"
+
+    def predict(mean, cov):
+        if per_target:  # M independent 6-D CKFs (block-diagonal covariance)
+            q6 = params.sigma_w2 * task.w6_filter_unit
+            return filter_bank.predict_joint(mean, cov, task.a6_filter, q6)
+        return ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
+
+    def update(mean, cov, z, radar_pos, vis):
+        if per_target:
+
+            def h_pair(r, x6):
+                return model.predict(r[None], x6[None, :3]).reshape(model.dim)
+
+            means, covs = filter_bank.joint_to_bank(mean, cov)
+            post = filter_bank.update_bank(
+                means, covs, z, radar_pos, h_pair, r_filter, mask=vis, residual=residual
+            )
+            mean, cov = filter_bank.bank_to_joint(*post)
+        else:
+            keep = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
+            h = measurement.measurement_function(model, radar_pos)
+            kw = {} if residual is None else {"residual": residual}
+            mean, cov = ckf.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep, **kw)
+        if sc.filter.ground_prior:
+            mean, cov = ground_prior.apply_ground_prior(mean, cov)
+        return mean, cov
 
     def filter_step(carry, k, u):
         data, mean0, cov0, pfim, health = carry
-        mean, cov = ckf.predict(mean0, cov0, lambda x: a_f @ x, q_f)
+        mean, cov = predict(mean0, cov0)
         accel_key = jax.random.fold_in(streams.drones, k)
         w = kinematics.sample_white_accel(accel_key, m, params.sigma_w2)
         data = physics.step(plant, data, u, w)
         radars = physics.radar_state(plant, data)
         truth = physics.target_state(plant, data)
         key = jax.random.fold_in(streams.measurement, k)
-        z = model.sample(key, radars[:, :3], truth[:, :3], noise).reshape(-1)
+        z = model.sample(key, radars[:, :3], truth[:, :3], noise)  # [N, M, dim]
         vis = None  # [N, M] line of sight (truth geometry); blocked pairs are skipped
         if task.occluders is not None:
             vis = occlusion.line_of_sight(task.occluders, radars[:, :3], truth[:, :3])
-        keep = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
-        h = measurement.measurement_function(model, radars[:, :3])
-        post = ckf.update(mean, cov, z, h, r_filter, mask=keep, **update_kw)
+        post = update(mean, cov, z, radars[:, :3], vis)
         # A diverged misspecified filter (CCR noise model) can overflow float32 in the
         # update; keep the prediction then (or, if that overflowed too, the last
         # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
@@ -201,7 +226,7 @@ def advance(
     def plan(loop, j, u_plan):
         data, mean, cov = loop[:3]
         # MPPI plans from the estimate predicted to the time of this step.
-        pm, pc = ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
+        pm, pc = predict(mean, cov)
         key = jax.random.fold_in(streams.planner, j)
         res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, params)
         keep = slice(0, N_KEEP_SAMPLES)

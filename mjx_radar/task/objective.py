@@ -58,15 +58,21 @@ def plan_context(task, radar_state, mean, cov) -> PlanContext:
         mean: [6M] stacked target mean at the same instant as ``radar_state``.
         cov: [6M, 6M] its covariance.
     """
-    m = task.scenario.n_targets
-    a = task.a_control.astype(mean.dtype)
-    pts = ckf.horizon_points(mean, cov, lambda x: a @ x, task.scenario.mpc.horizon)
+    sc = task.scenario
+    m, h = sc.n_targets, sc.mpc.horizon
     blocks = jnp.stack([cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
-    return PlanContext(
-        radar_state=radar_state,
-        target_points=pts.reshape(pts.shape[0], pts.shape[1], m, 6),
-        info0=linalg.psd_inv(blocks),
-    )
+    if sc.filter.structure == "per-target":
+        # Independent targets: 12 cubature points per target, point i of every target
+        # in configuration i (each target's expectation is over its own points).
+        a6 = task.a6.astype(mean.dtype)
+        pts = jax.vmap(lambda x, p: ckf.horizon_points(x, p, lambda v: a6 @ v, h), (0, 0), 2)(
+            mean.reshape(m, 6), blocks
+        )  # [H, 12, M, 6]
+    else:
+        a = task.a_control.astype(mean.dtype)
+        pts = ckf.horizon_points(mean, cov, lambda x: a @ x, h)
+        pts = pts.reshape(pts.shape[0], pts.shape[1], m, 6)
+    return PlanContext(radar_state=radar_state, target_points=pts, info0=linalg.psd_inv(blocks))
 
 
 def make_objective(task):
