@@ -152,6 +152,20 @@ class MPCConfig:
             "mjx", "analytic", doc="planner rollouts: MuJoCo-MJX physics or closed-form unicycle"
         ),
     )
+    aligned: bool = field(
+        default=True,
+        metadata=flag(
+            "plan from the estimate at the radars' instant (false: the paper code's "
+            "one-filter-step lead of the targets)"
+        ),
+    )
+    substeps: int = field(
+        default=1,
+        metadata=rule(
+            int, 1, 100, doc="Euler sub-steps per control step in the planner's rollouts "
+            "(the plant integrates at dt_filter: substeps = dt_control/dt_filter matches it)",
+        ),
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -106,6 +106,7 @@ def run_main(args) -> int:
         "noise_constant": noise_constant(s.radar_eq, s.n_targets),
         "wall_s": res["wall_s"],
         "compile_s": res["compile_s"],
+        "precision": args.precision,
         "sim_s": res["sim_s"],
         "control_hz": control_hz,
     }

@@ -38,6 +38,12 @@ def add_cache_arguments(p: argparse.ArgumentParser) -> None:
         "~/.cache/mjx_radar/xla)",
     )
     g.add_argument("--no-cache", action="store_true", help="compile without the persistent cache")
+    p.add_argument(
+        "--precision",
+        choices=("float32", "float64"),
+        default="float32",
+        help="floating-point precision of the simulation (float64: x64 mode, slower)",
+    )
 
 
 class _Parser(argparse.ArgumentParser):
@@ -86,6 +92,10 @@ def main(argv: list[str] | None = None) -> int:
             )
             return 1
         _quiet_mujoco_import()
+        if args.command in COMPILING and args.precision == "float64":
+            import jax
+
+            jax.config.update("jax_enable_x64", True)  # before any array exists
         if args.command in COMPILING and not args.no_cache:
             from mjx_radar.simulation import compile_cache
 

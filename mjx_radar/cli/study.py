@@ -85,8 +85,9 @@ def main(args) -> int:
 
     times = driver.StudyTimes()
     scenarios, config = driver.load_scenarios(
-        args.scenarios, args.methods, args.trials, args.steps, args.seed, args.chunk, args.rollouts
-    )
+        args.scenarios, args.methods, args.trials, args.steps, args.seed, args.chunk,
+        args.rollouts, args.precision,
+    )  # fmt: skip
     worker = _worker(args)
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining)

@@ -225,8 +225,9 @@ def advance(
 
     def plan(loop, j, u_plan):
         data, mean, cov = loop[:3]
-        # MPPI plans from the estimate predicted to the time of this step.
-        pm, pc = predict(mean, cov)
+        # MPPI plans from the estimate at the radars' instant (mpc.aligned), or -- as
+        # the paper's code -- from the estimate predicted one filter step ahead.
+        pm, pc = (mean, cov) if sc.mpc.aligned else predict(mean, cov)
         key = jax.random.fold_in(streams.planner, j)
         res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, params)
         keep = slice(0, N_KEEP_SAMPLES)

@@ -72,6 +72,8 @@ def _programs(task: RadarTask, periods: int, full: bool, mesh: Mesh):
 
 _EXECUTABLES: dict = {}  # (task, periods, full, batch, mesh) -> (init, step)
 _LOCK = threading.Lock()
+#: one entry per compiled program: tracing + lowering vs XLA compilation (or cache load) [s]
+COMPILE_LOG: list[dict] = []
 
 
 def compile_programs(
@@ -107,13 +109,16 @@ def compile_programs(
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=sharding)
     carry = jax.eval_shape(init, trials, params)[0]
     start = jax.ShapeDtypeStruct((), jnp.int32)
-    programs = (
-        init.lower(trials, params).compile(),
-        step.lower(trials, carry, start, params).compile(),
-    )
+    lowered = (init.lower(trials, params), step.lower(trials, carry, start, params))
+    t1 = time.perf_counter()
+    programs = tuple(x.compile() for x in lowered)
+    t2 = time.perf_counter()
     with _LOCK:
         _EXECUTABLES[key] = programs
-    return programs, time.perf_counter() - t0
+        COMPILE_LOG.append({"n_radars": scenario.n_radars, "n_targets": scenario.n_targets,
+                            "batch": batch, "devices": mesh.size, "trace_lower_s": t1 - t0,
+                            "xla_compile_s": t2 - t1})  # fmt: skip
+    return programs, t2 - t0
 
 
 def precompile(

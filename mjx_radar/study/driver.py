@@ -41,7 +41,7 @@ from mjx_radar.errors import InputError
 from mjx_radar.task.method import METHODS
 
 #: settings that must be the same when a study is resumed (they change the numbers)
-CONFIG_KEYS = ("scenarios", "methods", "trials", "steps", "seed", "chunk", "rollouts")
+CONFIG_KEYS = ("scenarios", "methods", "trials", "steps", "seed", "chunk", "rollouts", "precision")
 
 
 @dataclass
@@ -75,7 +75,7 @@ class StudyTimes:
     start: float = field(default_factory=time.perf_counter)
 
 
-def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts):
+def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precision="float32"):
     """Scenarios with the command-line overrides and the study configuration."""
     from mjx_radar.io.scenario import load_with_overrides, resolve_path
 
@@ -90,6 +90,7 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts):
         scenarios.append((s, src, n_steps, s.seed if seed is None else seed))
     config = {"scenarios": entries, "methods": list(methods), "trials": trials}
     config |= {"steps": steps, "seed": seed, "chunk": chunk, "rollouts": rollouts}
+    config["precision"] = precision
     return scenarios, config
 
 
@@ -110,7 +111,7 @@ def check_out(out: Path, config: dict, resume: bool) -> dict | None:
     except (OSError, ValueError, KeyError, TypeError):
         raise InputError(f"{path}: damaged study manifest") from None
     for key in CONFIG_KEYS:
-        old, new = old_config.get(key), config[key]
+        old, new = old_config.get(key, "float32" if key == "precision" else None), config[key]
         if key == "scenarios":
             old = [(e["name"], e["sha256"]) for e in old or []]
             new = [(e["name"], e["sha256"]) for e in new]
@@ -217,6 +218,7 @@ def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices:
         "steps": {s.name: steps for s, _, steps, _ in scenarios},
         "seed": {s.name: seed for s, _, _, seed in scenarios},
         "chunk": config["chunk"],
+        "precision": config["precision"],
         "rollouts": {s.name: s.mpc.rollout for s, *_ in scenarios},
         "wall_s": time.perf_counter() - times.start,
         "compile_s": times.compile_s,

@@ -63,11 +63,24 @@ class RadarTask:
 
 
 def _rollout_backend(scenario: Scenario) -> Callable:
+    """``(state[N,6], u[H,N,2]) -> [H,N,6]``, each control held for ``mpc.substeps`` steps."""
+    k, limits = scenario.mpc.substeps, scenario.limits
+    dt = scenario.timing.dt_control / k
     if scenario.mpc.rollout == "mjx":
-        plant = physics.planner_plant(scenario)
-        return lambda state, u: physics.radar_rollout(plant, state, u)
-    dt, limits = scenario.timing.dt_control, scenario.limits
-    return lambda state, u: kinematics.unicycle_rollout(state, u, dt, limits)
+        plant = physics.planner_plant(scenario) if k == 1 else physics.make_plant(
+            scenario.n_radars, 0, dt, limits
+        )  # fmt: skip
+
+        def integrate(state, u):
+            return physics.radar_rollout(plant, state, u)
+    else:
+
+        def integrate(state, u):
+            return kinematics.unicycle_rollout(state, u, dt, limits)
+
+    if k == 1:
+        return integrate
+    return lambda state, u: integrate(state, jnp.repeat(u, k, axis=0))[k - 1 :: k]
 
 
 @functools.cache
