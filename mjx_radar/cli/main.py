@@ -91,11 +91,11 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 1
-        _quiet_mujoco_import()
         if args.command in COMPILING and args.precision == "float64":
             import jax
 
             jax.config.update("jax_enable_x64", True)  # before any array exists
+        _quiet_mujoco_import()
         if args.command in COMPILING and not args.no_cache:
             from mjx_radar.simulation import compile_cache
 
