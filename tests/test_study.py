@@ -67,7 +67,7 @@ def test_trial_independent_of_batch_mates(study_dir):
 
     s = load_scenario("smoke")
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout="analytic"))
-    res = runner.run_trials(s, "ddr-sfim", 3, [3, 1], 8, full=False, sharding=study._sharding()[0])
+    res = runner.run_trials(s, "ddr-sfim", 3, [3, 1], 8, full=False)
     frame = _frame(study_dir)
     ddr = frame[frame["method"] == "ddr-sfim"]
     for row, trial in enumerate((3, 1)):

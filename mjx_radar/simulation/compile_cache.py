@@ -16,6 +16,7 @@ import os
 from pathlib import Path
 
 _OFF = {"", "0", "off", "none", "false"}
+_DIR: list[Path] = []  # the directory enabled in this process (at most one)
 
 
 def default_dir() -> Path | None:
@@ -47,6 +48,19 @@ def enable(directory: str | Path | None = None) -> Path | None:
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    _DIR[:] = [path]
+    return path
+
+
+def program_dir() -> Path | None:
+    """Where traced programs are exported (``<cache>/programs``), or None if disabled."""
+    if not _DIR:
+        return None
+    path = _DIR[0] / "programs"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
     return path
 
 
@@ -55,3 +69,4 @@ def disable() -> None:
     import jax
 
     jax.config.update("jax_compilation_cache_dir", None)
+    _DIR.clear()
