@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 import tempfile
 import threading
@@ -167,6 +168,8 @@ def main(args) -> int:
     )
     print(est.compile_line(), file=sys.stderr, flush=True)
     trials = np.arange(args.trials)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)  # kill PID: the same clean exit as Ctrl-C
     try:
         res = simulate(lambda: _run(s, args.method, seed_, trials, steps))
     except KeyboardInterrupt:
@@ -187,6 +190,10 @@ def main(args) -> int:
 
         render.render_run(out, trial=0, out_path=out / "video.mp4")
     return EXIT_FAILURE if line and not args.keep_diverged else 0
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt
 
 
 def _run(s, method, seed_, trials, steps):
