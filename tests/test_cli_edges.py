@@ -127,7 +127,7 @@ def test_500_radars_warned_and_interruptible(tmp_path):
 # --- 3. Ctrl-C ------------------------------------------------------------------------
 
 
-def _interrupt_after_compile_line(argv, needle="compiling", sig=signal.SIGINT):
+def _interrupt_after_compile_line(argv, needle="compiling (", sig=signal.SIGINT):
     cmd = [sys.executable, "-m", "mjx_radar", *argv]
     t0 = time.perf_counter()
     proc = subprocess.Popen(
@@ -137,7 +137,7 @@ def _interrupt_after_compile_line(argv, needle="compiling", sig=signal.SIGINT):
     seen = []
     for line in proc.stderr:
         seen.append(line)
-        if "compiling" in line:
+        if needle in line:
             break
     assert any(needle in line for line in seen), "".join(seen)
     time.sleep(1.0)  # inside the compilation now

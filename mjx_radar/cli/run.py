@@ -154,28 +154,33 @@ def main(args) -> int:
     created = prepare_out(out, args.force)
     try:
         est = resources.check(s, args.trials, steps)
-        check_placement(s, seed_, args.trials)
     except BaseException:
         remove_dirs(created)
         raise
-    if args.force:
-        (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
     fmt = resources.fmt_bytes
     print(
         f"{s.name}: {args.method}, {args.trials} trial(s) x {steps} steps, seed {seed_}, "
         f"~{fmt(est.device_bytes)} device / ~{fmt(est.host_bytes)} host memory",
         file=sys.stderr,
     )
-    print(est.compile_line(), file=sys.stderr, flush=True)
-    trials = np.arange(args.trials)
+    if est.large:
+        print(f"warning: {est.large_line()}; Ctrl-C stops it", file=sys.stderr, flush=True)
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _terminate)  # kill PID: the same clean exit as Ctrl-C
+    trials = np.arange(args.trials)
     try:
+        simulate(lambda: check_placement(s, seed_, args.trials))  # compiles too: interruptible
+        if args.force:
+            (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
+        print(est.compile_line(), file=sys.stderr, flush=True)
         res = simulate(lambda: _run(s, args.method, seed_, trials, steps))
     except KeyboardInterrupt:
         remove_dirs(created)
         print("\ninterrupted: no results written", file=sys.stderr, flush=True)
         os._exit(EXIT_INTERRUPTED)  # the worker may be inside XLA; do not wait for it
+    except BaseException:
+        remove_dirs(created)
+        raise
     try:
         write_results(out, args, s, seed_, trials, steps, res)
     except KeyboardInterrupt:

@@ -82,14 +82,16 @@ class Estimate:
         return sum(self.host.values())
 
     def compile_line(self) -> str:
-        """One line announcing the compilation (and its size when large)."""
-        line = f"compiling ({self.summary}): this can take ~{self.compile_s:.0f} s"
-        if self.large:
-            line += (
-                f"; compiling a program this large can take minutes (N > {LARGE_N}, "
-                f"M > {LARGE_M}, N*M > {LARGE_NM} or > {LARGE_OBSTACLES} obstacles)"
-            )
-        return line
+        """One line announcing the compilation and its rough duration."""
+        return f"compiling ({self.summary}): this can take ~{self.compile_s:.0f} s"
+
+    def large_line(self) -> str:
+        """Why the program is large (meaningful when :attr:`large`)."""
+        return (
+            f"{self.summary}: compiling a program this large can take minutes "
+            f"(~{self.compile_s:.0f} s; large means N > {LARGE_N}, M > {LARGE_M}, "
+            f"N*M > {LARGE_NM} or > {LARGE_OBSTACLES} obstacles)"
+        )
 
 
 def estimate(scenario: Scenario, trials: int, steps: int, devices: int = 1) -> Estimate:
