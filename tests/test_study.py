@@ -63,7 +63,6 @@ def test_trial_independent_of_batch_mates(study_dir):
 
     from mjx_radar.io.scenario import load_scenario
     from mjx_radar.simulation import runner
-    from mjx_radar.study import driver as study
 
     s = load_scenario("smoke")
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout="analytic"))

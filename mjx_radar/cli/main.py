@@ -1,7 +1,9 @@
-"""The ``mjx-radar`` command line (SPEC §11).
+"""Mobile ground radars re-positioned by MPPI over MuJoCo-MJX rollouts to track drones.
 
-Exit codes: 0 success; 2 bad input (one line on stderr, no traceback, no result
-files); 1 anything else. Sub-commands live in their own modules, each with
+Exit codes: 0 success; 1 failure (e.g. diverged trials, results written); 2 bad
+input, an unusable ``--out`` or a run too large for the machine (one line on
+stderr, no traceback, no result files); 130 interrupted (Ctrl-C, no partial
+result files). Sub-commands live in their own modules, each with
 ``add_arguments(parser)`` and ``main(args) -> int``; this module only parses,
 dispatches and turns input errors into exit code 2.
 """
@@ -12,13 +14,14 @@ import argparse
 import contextlib
 import importlib
 import io
+import os
 import sys
 
-from mjx_radar.errors import InputError
+from mjx_radar.errors import EXIT_INPUT, EXIT_INTERRUPTED, InputError
 
 COMMANDS = {
-    "validate": ("mjx_radar.cli.commands", "check a scenario file"),
-    "run": ("mjx_radar.cli.commands", "run the closed loop on a scenario"),
+    "validate": ("mjx_radar.cli.validate", "check a scenario file"),
+    "run": ("mjx_radar.cli.run", "run the closed loop on a scenario"),
     "study": ("mjx_radar.cli.study", "Monte Carlo study over scenarios and methods (resumable)"),
     "report": ("mjx_radar.cli.report", "figures and tables of a study directory"),
     "render": ("mjx_radar.cli.render", "render a saved run to MP4/GIF"),
@@ -51,19 +54,28 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(f"{self.prog}: {message}")
 
 
-def _quiet_mujoco_import() -> None:
-    """Imports MJX with its optional-backend chatter ('Failed to import warp') silenced."""
-    with contextlib.redirect_stdout(io.StringIO()):
-        importlib.import_module("mujoco.mjx")
+@contextlib.contextmanager
+def _quiet():
+    """Swallows stdout and stderr chatter of imports (MJX prints 'Failed to import warp')."""
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        yield
+
+
+def _version() -> str:
+    from mjx_radar import __version__
+
+    return f"mjx-radar {__version__}"
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="mjx-radar", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, (module, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         try:
-            mod = importlib.import_module(module)
+            with _quiet():
+                mod = importlib.import_module(module)
         except ModuleNotFoundError as err:
             if err.name != module:
                 raise
@@ -77,12 +89,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from mjx_radar.viz.gl import configure
-
-    configure(argv)  # MUJOCO_GL must be set before anything imports mujoco
     from mjx_radar.io.scenario import ScenarioError
+    from mjx_radar.viz import gl
 
+    # imageio-ffmpeg starts ffmpeg with preexec_fn=os.setpgrp, which runs Python in a
+    # fork of this multithreaded (JAX) process: JAX warns "os.fork() was called ...
+    # will likely lead to a deadlock", rightly. Without preexec_fn, subprocess spawns
+    # ffmpeg without running Python in the child (no at-fork hooks, no warning); Ctrl-C
+    # then also reaches ffmpeg, which is what an interrupted render wants anyway.
+    os.environ.setdefault("IMAGEIO_FFMPEG_NO_PREVENT_SIGINT", "1")
     try:
+        gl.configure(argv)  # MUJOCO_GL must be set before anything imports mujoco
         args = build_parser().parse_args(argv)
         if getattr(args, "missing", None):
             print(
@@ -95,7 +112,9 @@ def main(argv: list[str] | None = None) -> int:
             import jax
 
             jax.config.update("jax_enable_x64", True)  # before any array exists
-        _quiet_mujoco_import()
+        with _quiet():
+            importlib.import_module("mujoco.mjx")
+        gl.restore()
         if args.command in COMPILING and not args.no_cache:
             from mjx_radar.simulation import compile_cache
 
@@ -103,10 +122,10 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.handler(args) or 0)
     except (InputError, ScenarioError) as err:
         print(f"error: {err}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -11,9 +11,15 @@ The choice, highest priority first:
 4. ``osmesa`` when ``libOSMesa`` is installed, else ``egl`` when ``libEGL`` is.
 
 Only rendering commands (``render``, ``run --video``) are configured; the others
-never touch OpenGL. :func:`make_renderer` builds a :class:`mujoco.Renderer` on the
-chosen backend even when ``mujoco`` was imported before :func:`configure` ran
-(e.g. inside a test session or a notebook).
+never touch OpenGL: for them ``MUJOCO_GL`` is set to ``disable`` while ``mujoco`` is
+imported (so ``MUJOCO_GL=osmesa`` without ``libOSMesa`` cannot break ``validate``), then
+restored. A rendering command whose backend library is missing is refused with one
+line (:class:`~mjx_radar.errors.InputError`), e.g. ``MUJOCO_GL=osmesa: libOSMesa not
+found; apt-get install libosmesa6 or set MUJOCO_GL=egl``.
+
+:func:`make_renderer` builds a :class:`mujoco.Renderer` on the chosen backend even
+when ``mujoco`` was imported before :func:`configure` ran (e.g. inside a test session
+or a notebook).
 """
 
 from __future__ import annotations
@@ -25,8 +31,13 @@ import shutil
 import sys
 from collections.abc import Sequence
 
+from mjx_radar.errors import InputError
+
 BACKENDS = ("egl", "osmesa")
 RENDER_COMMANDS = ("render",)
+# backend -> (library, Debian package, the other backend)
+_LIBRARIES = {"egl": ("EGL", "libegl1", "osmesa"), "osmesa": ("OSMesa", "libosmesa6", "egl")}
+_SAVED_GL: list = []  # MUJOCO_GL before a non-rendering command disabled it
 
 
 def _has_nvidia() -> bool:
@@ -66,10 +77,17 @@ def configure(argv: Sequence[str] | None = None) -> str | None:
 
     Returns:
         The backend now in ``MUJOCO_GL``, or ``None`` if the command does not render
-        (then the environment is left untouched).
+        (then ``MUJOCO_GL`` is ``disable`` until :func:`restore` when ``mujoco`` is not
+        imported yet).
+
+    Raises:
+        InputError: the rendering backend's library is not installed.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     if not _renders(argv):
+        if "mujoco" not in sys.modules:
+            _SAVED_GL.append(os.environ.get("MUJOCO_GL"))
+            os.environ["MUJOCO_GL"] = "disable"
         return None
     chosen = _flag_value(argv, "--gl")
     if chosen in BACKENDS:
@@ -79,9 +97,33 @@ def configure(argv: Sequence[str] | None = None) -> str | None:
         if backend is None:
             return None
         os.environ["MUJOCO_GL"] = backend
-    if os.environ["MUJOCO_GL"].lower() in BACKENDS:
-        os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"].lower())
+    backend = os.environ["MUJOCO_GL"].lower().strip()
+    if backend in BACKENDS:
+        check_library(backend)
+        os.environ.setdefault("PYOPENGL_PLATFORM", backend)
     return os.environ["MUJOCO_GL"]
+
+
+def check_library(backend: str) -> None:
+    """Raises :class:`InputError` (one line) if ``backend``'s OpenGL library is missing."""
+    lib, package, other = _LIBRARIES[backend]
+    if backend == "egl" and _has_nvidia():
+        return  # the NVIDIA driver ships its own libEGL
+    if not ctypes.util.find_library(lib):
+        raise InputError(
+            f"MUJOCO_GL={backend}: lib{lib} not found; apt-get install {package} "
+            f"or set MUJOCO_GL={other}"
+        )
+
+
+def restore() -> None:
+    """Restores the ``MUJOCO_GL`` that :func:`configure` disabled for a non-rendering command."""
+    while _SAVED_GL:
+        old = _SAVED_GL.pop()
+        if old is None:
+            os.environ.pop("MUJOCO_GL", None)
+        else:
+            os.environ["MUJOCO_GL"] = old
 
 
 def _context_class(backend: str):

@@ -1,0 +1,280 @@
+"""``mjx-radar run``: the closed loop on one scenario, results in a run directory.
+
+Before anything is compiled the command checks, each failure one line and exit 2:
+the scenario and options, that ``--out`` can be created and written (a probe file),
+that it does not hold a complete run (unless ``--force``), that the radars can be
+placed, and that the run fits in memory (:mod:`mjx_radar.simulation.resources`).
+The simulation runs in a worker thread so Ctrl-C is honoured at once, even in the
+middle of a long compilation: one line, exit 130, no result file. Results are
+written atomically, ``run.json`` last; an interrupted write removes what it wrote.
+``--force`` discards the old run's ``run.json`` before the simulation starts, so an
+interrupted overwrite never leaves a directory that looks complete. Trials whose
+filter diverged (``res["diverged"]``) make the command exit 1 after writing the
+results, unless ``--keep-diverged``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from mjx_radar.cli.args import check_placement, load_with_overrides, positive_int, seed
+from mjx_radar.config import METHODS
+from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
+    p.add_argument("--method", default="ddr-sfim", choices=METHODS, help="default ddr-sfim")
+    p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
+    p.add_argument(
+        "--steps",
+        type=positive_int("--steps"),
+        default=None,
+        help="filter steps (default: scenario's)",
+    )
+    p.add_argument(
+        "--trials",
+        type=positive_int("--trials", 100_000),
+        default=1,
+        help="Monte Carlo trials, run as one vmapped batch (default 1)",
+    )
+    p.add_argument("--out", type=Path, default=None, help="output dir (default runs/NAME_METHOD)")
+    p.add_argument(
+        "--rollouts",
+        choices=("mjx", "analytic"),
+        default=None,
+        help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
+    )
+    p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
+    p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
+    p.add_argument(
+        "--keep-diverged",
+        action="store_true",
+        help="exit 0 (with a warning) even if some trials' filters diverged",
+    )
+
+
+def prepare_out(out: Path, force: bool) -> list[Path]:
+    """Checks that ``out`` can hold a new run, creating it; returns the dirs it created.
+
+    Raises:
+        InputError: ``out`` is a file, holds a complete run (without ``force``), or
+            cannot be created or written (checked with a probe file).
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out = {str(out)!r}: exists and is not a directory")
+    if (out / "run.json").exists() and not force:
+        raise InputError(f"--out = {str(out)!r}: holds a complete run; pass --force or another dir")
+    created = [p for p in [out, *out.parents] if not p.exists()]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=out, prefix=".probe.", suffix=".part")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as err:
+        remove_dirs(created)
+        reason = err.strerror or type(err).__name__
+        raise InputError(f"--out = {str(out)!r}: cannot create or write there ({reason})") from None
+    return created
+
+
+def remove_dirs(created: list[Path]) -> None:
+    """Removes the directories :func:`prepare_out` created, if still empty (deepest first)."""
+    for d in created:
+        try:
+            d.rmdir()
+        except OSError:
+            return
+
+
+def simulate(fn):
+    """``fn()`` in a worker thread; Ctrl-C in the main thread is seen at once.
+
+    The main thread only waits (in short, interruptible slices), so a
+    ``KeyboardInterrupt`` is raised here even while the worker sits in a long XLA
+    compilation that would not return to Python for minutes.
+    """
+    box: dict = {}
+
+    def work():
+        try:
+            box["value"] = fn()
+        except BaseException as err:  # re-raised in the main thread
+            box["error"] = err
+
+    worker = threading.Thread(target=work, name="closed-loop", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.1)
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
+def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
+    """The one-line report of diverged trials (``None`` if none diverged).
+
+    Args:
+        diverged: [T, K] bool, True from the step a trial's estimate or covariance
+            became non-finite or non-positive-definite.
+        trials: [T] trial indices.
+        out: the run directory.
+        keep: ``--keep-diverged`` (a warning instead of an error).
+    """
+    if diverged is None:
+        return None
+    div = np.asarray(diverged, bool).reshape(len(trials), -1)
+    bad = np.flatnonzero(div.any(axis=1))
+    if bad.size == 0:
+        return None
+    first_step = div[bad].argmax(axis=1)  # 0-based step of each diverged trial
+    j = int(np.argmin(first_step))  # earliest; ties -> lowest trial
+    where = f"first at trial {int(trials[bad[j]])}, step {int(first_step[j]) + 1}"
+    head = f"{bad.size} of {len(trials)} trials diverged ({where}); results in {out}"
+    if keep:
+        return f"warning: {head}; kept (--keep-diverged)"
+    return f"error: {head}; pass --keep-diverged to accept"
+
+
+def main(args) -> int:
+    from mjx_radar.simulation import resources
+
+    s, steps = load_with_overrides(args.scenario, args.rollouts, args.steps)
+    seed_ = s.seed if args.seed is None else args.seed
+    out = args.out or Path("runs") / f"{s.name}_{args.method}"
+    created = prepare_out(out, args.force)
+    try:
+        est = resources.check(s, args.trials, steps)
+    except BaseException:
+        remove_dirs(created)
+        raise
+    fmt = resources.fmt_bytes
+    print(
+        f"{s.name}: {args.method}, {args.trials} trial(s) x {steps} steps, seed {seed_}, "
+        f"~{fmt(est.device_bytes)} device / ~{fmt(est.host_bytes)} host memory",
+        file=sys.stderr,
+    )
+    if est.large:
+        print(f"warning: {est.large_line()}; Ctrl-C stops it", file=sys.stderr, flush=True)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)  # kill PID: the same clean exit as Ctrl-C
+    trials = np.arange(args.trials)
+    try:
+        simulate(lambda: check_placement(s, seed_, args.trials))  # compiles too: interruptible
+        if args.force:
+            (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
+        print(est.compile_line(), file=sys.stderr, flush=True)
+        res = simulate(lambda: _run(s, args.method, seed_, trials, steps))
+    except KeyboardInterrupt:
+        remove_dirs(created)
+        print("\ninterrupted: no results written", file=sys.stderr, flush=True)
+        os._exit(EXIT_INTERRUPTED)  # the worker may be inside XLA; do not wait for it
+    except BaseException:
+        remove_dirs(created)
+        raise
+    try:
+        write_results(out, args, s, seed_, trials, steps, res)
+    except KeyboardInterrupt:
+        print("interrupted: no results written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    _summary(s, args, res, out)
+    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged)
+    if line:
+        print(line, file=sys.stderr)
+    if args.video:
+        from mjx_radar.viz import render
+
+        render.render_run(out, trial=0, out_path=out / "video.mp4")
+    return EXIT_FAILURE if line and not args.keep_diverged else 0
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt
+
+
+def _run(s, method, seed_, trials, steps):
+    from tqdm import tqdm
+
+    from mjx_radar.simulation import runner
+
+    with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
+        return runner.run_trials(
+            s, method, seed_, trials, steps, progress=bar.update, phase=bar.set_description_str
+        )
+
+
+def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
+    """Writes the run directory; on any error or Ctrl-C removes what it wrote."""
+    from mjx_radar.estimation.sensing import noise_constant
+    from mjx_radar.io import results
+    from mjx_radar.io.bundle import bundle_scenario
+    from mjx_radar.io.scenario import resolve_path
+
+    written: list[Path] = []
+    try:
+        dt = s.timing.dt_filter
+        time_s = dt * np.arange(1, steps + 1)
+        frame = results.metrics_frame(s.name, args.method, trials, time_s, res)
+        results.write_parquet(out / "metrics.parquet", frame)
+        written.append(out / "metrics.parquet")
+        keys = ("target", "mean", "cov_diag", "radar", "control", "plan_xy", "sample_xy")
+        keys += ("sample_weight", "sample_cost", "diverged")
+        traj = {k: res[k] for k in keys if k in res}
+        results.write_npz(out / "trajectories.npz", traj | {"time_s": time_s})
+        written.append(out / "trajectories.npz")
+        src = resolve_path(args.scenario)
+        written += bundle_scenario(src, out)
+        div = res.get("diverged")
+        meta = {
+            "scenario": s.name,
+            "scenario_file": "scenario.toml",  # relative to the run directory
+            "source_scenario": str(src.resolve()),
+            "method": args.method,
+            "seed": seed_,
+            "trials": args.trials,
+            "steps": steps,
+            "dt_filter": dt,
+            "dt_control": s.timing.dt_control,
+            "n_radars": s.n_radars,
+            "n_targets": s.n_targets,
+            "r2t": s.mpc.r2t,
+            "r2r": s.mpc.r2r,
+            "rollout": s.mpc.rollout,
+            "noise_constant": noise_constant(s.radar_eq, s.n_targets),
+            "wall_s": res["wall_s"],
+            "compile_s": res["compile_s"],
+            "sim_s": res["sim_s"],
+            "control_hz": res["control_hz"],
+            "precision": getattr(args, "precision", "float32"),
+            "lost_trials": int(np.asarray(res["lost"]).any(axis=-1).sum()),
+            "lost_steps": int(np.asarray(res["lost"]).sum()),
+        }
+        if div is not None:
+            meta["diverged_trials"] = [int(t) for t in trials[np.asarray(div).any(axis=-1)]]
+        results.write_json(out / "run.json", meta)
+    except BaseException:
+        for path in reversed(written):
+            path.unlink(missing_ok=True)
+        remove_dirs([out / "meshes"])
+        raise
+
+
+def _summary(s, args, res, out: Path) -> None:
+    rmse = float(np.mean(res["rmse_pos"]))
+    print(
+        f"mean position RMSE {rmse:.3f} m (final step {np.mean(res['rmse_pos'][:, -1]):.3f} m), "
+        f"PCRLB {np.mean(res['crlb_pos']):.3f} m; control rate {res['control_hz']:.1f} Hz for "
+        f"the batch of {args.trials} (real time: {1 / s.timing.dt_control:g} Hz), "
+        f"compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
+        f"{int(np.asarray(res['lost']).any(axis=-1).sum())} of {args.trials} trial(s) lost track; "
+        f"results in {out}"
+    )

@@ -1,0 +1,23 @@
+"""``mjx-radar validate``: load and check a scenario file without running it."""
+
+from __future__ import annotations
+
+import argparse
+
+from mjx_radar.cli.args import check_placement
+from mjx_radar.io.scenario import load_scenario
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
+
+
+def main(args) -> int:
+    s = load_scenario(args.scenario)
+    check_placement(s, s.seed, 1)
+    print(
+        f"ok: {s.name}: {s.n_radars} radars, {s.n_targets} targets, {s.timing.steps} steps "
+        f"of {s.timing.dt_filter} s, control every {s.timing.dt_control} s, "
+        f"{len(s.obstacles)} obstacles"
+    )
+    return 0

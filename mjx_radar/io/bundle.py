@@ -1,0 +1,131 @@
+"""A self-contained copy of a scenario file: the TOML plus its mesh files.
+
+``mjx-radar run --out DIR`` writes ``DIR/scenario.toml`` and copies every mesh the
+scenario names into ``DIR/meshes/``, rewriting the mesh paths of the copy relative
+to ``DIR`` (mesh paths are resolved relative to the scenario file's folder), so the
+run directory can be moved or archived and ``load_scenario(DIR/scenario.toml)``
+still finds its meshes. A scenario without meshes is copied verbatim (comments
+kept); with meshes the ``path = ...`` lines are rewritten in place when that
+reproduces the intended table, else the copy is re-serialised (comments lost).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+import tomllib
+from pathlib import Path
+
+from mjx_radar.io import results
+
+_PATH_LINE = re.compile(r"""^(\s*path\s*=\s*)("(?:[^"\\]|\\.)*"|'[^']*')(\s*(?:#.*)?)$""")
+
+
+def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
+    """Writes ``out_dir/scenario.toml`` (and ``out_dir/meshes/*``) from scenario ``src``.
+
+    Args:
+        src: the scenario file (already validated).
+        out_dir: the run directory.
+
+    Returns:
+        The files written, the scenario copy last (each written atomically).
+    """
+    src, out_dir = Path(src), Path(out_dir)
+    text = src.read_text()
+    raw = tomllib.loads(text)
+    obstacles = raw.get("obstacles", [])
+    meshes = [o for o in obstacles if isinstance(o, dict) and o.get("kind") == "mesh"]
+    written: list[Path] = []
+    if meshes:
+        mapping: dict[str, str] = {}  # path as written in src -> path relative to out_dir
+        copied: dict[Path, str] = {}  # resolved source mesh -> relative copy
+        for o in meshes:
+            given = str(o["path"])
+            source = (src.parent / given).resolve()
+            if source not in copied:
+                rel = _free_name(out_dir, source.name, set(copied.values()))
+                dest = out_dir / rel
+                results.atomic_write(dest, lambda tmp, s=source: shutil.copyfile(s, tmp))
+                written.append(dest)
+                copied[source] = rel
+            mapping[given] = copied[source]
+            o["path"] = copied[source]
+        text = _rewrite_paths(text, mapping, raw)
+    dest = out_dir / "scenario.toml"
+    results.atomic_write(dest, lambda tmp: Path(tmp).write_text(text))
+    return written + [dest]
+
+
+def _free_name(out_dir: Path, name: str, taken: set[str]) -> str:
+    stem, suffix = Path(name).stem, Path(name).suffix
+    rel, i = f"meshes/{name}", 1
+    while rel in taken:
+        rel, i = f"meshes/{stem}_{i}{suffix}", i + 1
+    return rel
+
+
+def _rewrite_paths(text: str, mapping: dict[str, str], expected: dict) -> str:
+    """``text`` with mesh ``path = ...`` lines rewritten; re-serialised if that fails."""
+    lines = []
+    for line in text.splitlines(keepends=True):
+        body = line.rstrip("\r\n")
+        match = _PATH_LINE.match(body)
+        if match:
+            value = tomllib.loads(f"v = {match.group(2)}")["v"]
+            if value in mapping:
+                body = match.group(1) + json.dumps(mapping[value]) + match.group(3)
+                line = body + line[len(line.rstrip("\r\n")) :]
+        lines.append(line)
+    rewritten = "".join(lines)
+    try:
+        if tomllib.loads(rewritten) == expected:
+            return rewritten
+    except tomllib.TOMLDecodeError:
+        pass
+    return dumps(expected)
+
+
+def dumps(table: dict) -> str:
+    """Minimal TOML writer for a parsed scenario (scalars, arrays, tables, arrays of tables)."""
+    out: list[str] = []
+    _table(out, table, [])
+    return "\n".join(out) + "\n"
+
+
+def _table(out: list[str], table: dict, prefix: list[str]) -> None:
+    subtables = []
+    for key, value in table.items():
+        if isinstance(value, dict):
+            subtables.append((key, value, False))
+        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            subtables.append((key, value, True))
+        else:
+            out.append(f"{_key(key)} = {_value(value)}")
+    for key, value, is_array in subtables:
+        name = ".".join(_key(k) for k in [*prefix, key])
+        for sub in value if is_array else [value]:
+            out.extend(["", f"[[{name}]]" if is_array else f"[{name}]"])
+            _table(out, sub, [*prefix, key])
+
+
+def _key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else f"{v:+}"[:4])
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
