@@ -99,6 +99,10 @@ def main(args) -> int:
     todo = [c for c in worker.mine(chunks) if not c.path.exists()]
     mesh = runner.device_mesh()
     n_dev, devices = mesh.size, str(list(mesh.devices.flat))
+    from mjx_radar.simulation import resources
+
+    for s, _, n_steps, _ in scenarios:  # refuse what cannot fit before compiling anything
+        resources.check(s, args.chunk * n_dev, n_steps, devices=n_dev)
     print(
         f"study: {len(scenarios)} scenario(s) x {len(args.methods)} method(s) x {args.trials} "
         f"trials, chunks of {args.chunk}; worker {worker.index + 1}/{worker.count}: "
