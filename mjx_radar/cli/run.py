@@ -26,13 +26,13 @@ from pathlib import Path
 import numpy as np
 
 from mjx_radar.cli.args import check_placement, load_with_overrides, positive_int, seed
-from mjx_radar.config import METHODS
 from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
+from mjx_radar.task.method import METHODS
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
-    p.add_argument("--method", default="ddr-sfim", choices=METHODS, help="default ddr-sfim")
+    p.add_argument("--method", default="ddr-sfim", choices=list(METHODS), help="default ddr-sfim")
     p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
     p.add_argument(
         "--steps",
