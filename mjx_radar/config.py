@@ -130,6 +130,11 @@ class MPCConfig:
     alpha_r2t: float = field(
         default=1000.0, metadata=rule(float, 0.0, 1e9, doc="weight of radar-target violations")
     )
+    alpha_effort: float = field(
+        default=0.0,
+        metadata=rule(float, 0.0, 1e9, doc="weight of the control effort (a/a_max)^2 + "
+                      "(alpha/alpha_max)^2 summed over radars (0: term off)"),
+    )  # fmt: skip
     alpha_obs: float = field(
         default=1000.0,
         metadata=rule(

@@ -11,7 +11,8 @@ t+1 and E_p the mean over the CKF cubature points of the target states at that t
 * ``radar_radar``: ``α1 · #{radar pairs closer than R2R}``;
 * ``radar_target``: ``α2 · E_p[#{radar-target pairs closer than R2T}]``;
 * ``obstacle`` (scenes with obstacles): ``α_obs Σ_n relu(margin − φ(p_n(t)))``, φ the
-  footprints' signed distance -- metres of intrusion into the keep-out band.
+  footprints' signed distance -- metres of intrusion into the keep-out band;
+* ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``.
 
 Adding a term: write ``def my_term(h: Horizon, task, params) -> [H]`` here and list it
 in :func:`cost_terms` (docs/extending.md).
@@ -99,6 +100,12 @@ def obstacle(h: Horizon, task, params) -> jax.Array:
     return mpc.alpha_obs * jnp.sum(depth, axis=-1)
 
 
+def control_effort(h: Horizon, task, params) -> jax.Array:
+    lim = task.scenario.limits
+    scaled = h.controls / jnp.asarray([lim.accel, lim.alpha], h.controls.dtype)
+    return task.scenario.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
+
+
 def cost_terms(scenario) -> tuple[CostTerm, ...]:
     """The terms of a scenario's objective, in reporting order."""
     terms = [
@@ -108,4 +115,6 @@ def cost_terms(scenario) -> tuple[CostTerm, ...]:
     ]
     if scenario.obstacles and scenario.mpc.alpha_obs > 0:
         terms.append(CostTerm("obstacle", obstacle))
+    if scenario.mpc.alpha_effort > 0:
+        terms.append(CostTerm("control_effort", control_effort))
     return tuple(terms)
