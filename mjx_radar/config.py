@@ -14,6 +14,12 @@ from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
+
+def positive(doc: str, unit: str = "", hi: float = INF) -> dict:
+    """Metadata of a float in (0, hi]."""
+    return rule(float, 0.0, hi, lo_open=True, doc=doc, unit=unit)
+
+
 SCENE = 1e5  # |x|, |y| bound of every position [m] (float32 keeps ~1 cm there)
 TARGET_COLUMNS = (  # plausibility bounds of an initial target state (docs/scenarios.md)
     ("x", col(-SCENE, SCENE, "m")),
@@ -31,30 +37,16 @@ RADAR_COLUMNS = (("x", col(-SCENE, SCENE, "m")), ("y", col(-SCENE, SCENE, "m")),
 class RadarEquation:
     """Radar-equation parameters (SPEC §1, paper Table "Radar Equation")."""
 
-    fc: float = field(
-        default=1e8,
-        metadata=rule(float, 0.0, 1e12, lo_open=True, doc="carrier frequency", unit="Hz"),
-    )
-    loss: float = field(
-        default=1.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="general loss factor L")
-    )
-    gain_tx: float = field(
-        default=200.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="transmit gain")
-    )
-    gain_rx: float = field(
-        default=200.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="receive gain")
-    )
+    fc: float = field(default=1e8, metadata=positive("carrier frequency", "Hz", hi=1e12))
+    loss: float = field(default=1.0, metadata=positive("general loss factor L"))
+    gain_tx: float = field(default=200.0, metadata=positive("transmit gain"))
+    gain_rx: float = field(default=200.0, metadata=positive("receive gain"))
     r_ref: float = field(
         default=500.0,
         metadata=rule(float, 1.0, 1e5, doc="range at which SNR equals snr_db", unit="m"),
     )
-    rcs: float = field(
-        default=1.0,
-        metadata=rule(float, 0.0, INF, lo_open=True, doc="radar cross section", unit="m^2"),
-    )
-    power_tx: float = field(
-        default=1000.0, metadata=rule(float, 0.0, INF, lo_open=True, doc="transmit power", unit="W")
-    )
+    rcs: float = field(default=1.0, metadata=positive("radar cross section", "m^2"))
+    power_tx: float = field(default=1000.0, metadata=positive("transmit power", "W"))
     snr_db: float = field(
         default=-20.0, metadata=rule(float, -200.0, 200.0, doc="SNR at r_ref", unit="dB")
     )
@@ -64,30 +56,17 @@ class RadarEquation:
 class RadarLimits:
     """Unicycle control and state limits (SPEC §3), symmetric about zero."""
 
-    accel: float = field(
-        default=35.0, metadata=rule(float, 0.0, 1e4, lo_open=True, doc="|a| bound", unit="m/s^2")
-    )
-    alpha: float = field(
-        default=math.pi,
-        metadata=rule(float, 0.0, 1e4, lo_open=True, doc="|alpha| bound", unit="rad/s^2"),
-    )
-    speed: float = field(
-        default=50.0, metadata=rule(float, 0.0, 1e3, lo_open=True, doc="|v| bound", unit="m/s")
-    )
-    omega: float = field(
-        default=2.0 * math.pi,
-        metadata=rule(float, 0.0, 1e3, lo_open=True, doc="|omega| bound", unit="rad/s"),
-    )
+    accel: float = field(default=35.0, metadata=positive("|a| bound", "m/s^2", hi=1e4))
+    alpha: float = field(default=math.pi, metadata=positive("|alpha| bound", "rad/s^2", hi=1e4))
+    speed: float = field(default=50.0, metadata=positive("|v| bound", "m/s", hi=1e3))
+    omega: float = field(default=2.0 * math.pi, metadata=positive("|omega| bound", "rad/s", hi=1e3))
 
 
 @dataclass(frozen=True)
 class Timing:
     """Filter and control clocks (SPEC §4, §9)."""
 
-    dt_filter: float = field(
-        default=0.025,
-        metadata=rule(float, 0.0, 1.0, lo_open=True, doc="CKF / truth step", unit="s"),
-    )
+    dt_filter: float = field(default=0.025, metadata=positive("CKF / truth step", "s", hi=1.0))
     dt_control: float = field(
         default=0.1,
         metadata=rule(
@@ -184,25 +163,16 @@ class MPPIConfig:
         default=5, metadata=rule(int, 1, 1000, doc="adaptive importance-sampling iterations")
     )
     std_accel: float = field(
-        default=25.0,
-        metadata=rule(float, 0.0, 1e4, lo_open=True, doc="initial proposal std of a", unit="m/s^2"),
+        default=25.0, metadata=positive("initial proposal std of a", "m/s^2", hi=1e4)
     )
     std_alpha_deg: float = field(
-        default=45.0,
-        metadata=rule(
-            float, 0.0, 1e5, lo_open=True, doc="initial proposal std of alpha", unit="deg/s^2"
-        ),
+        default=45.0, metadata=positive("initial proposal std of alpha", "deg/s^2", hi=1e5)
     )
     weighting: str = field(default="ce", metadata=choice("ce", "softmax", doc="sample weighting"))
     elite_threshold: float = field(
-        default=0.9,
-        metadata=rule(
-            float, 0.0, 1.0, lo_open=True, doc="ce: elites are costs <= (1 - thr) quantile"
-        ),
+        default=0.9, metadata=positive("ce: elites are costs <= (1 - thr) quantile", hi=1.0)
     )
-    temperature: float = field(
-        default=0.1, metadata=rule(float, 0.0, 1e6, lo_open=True, doc="softmax temperature")
-    )
+    temperature: float = field(default=0.1, metadata=positive("softmax temperature", hi=1e6))
     shrinkage: str = field(
         default="ledoit-wolf",
         metadata=choice("ledoit-wolf", "oas", "none", doc="covariance shrinkage"),
@@ -222,12 +192,9 @@ class MeasurementConfig:
         default="range", metadata=choice("range", "range-azimuth", doc="measurement model")
     )
     beamwidth_deg: float = field(
-        default=3.0,
-        metadata=rule(float, 0.0, 90.0, lo_open=True, doc="3 dB beamwidth theta_3dB", unit="deg"),
+        default=3.0, metadata=positive("3 dB beamwidth theta_3dB", "deg", hi=90.0)
     )
-    monopulse_slope: float = field(
-        default=1.6, metadata=rule(float, 0.0, 10.0, lo_open=True, doc="monopulse slope k_m")
-    )
+    monopulse_slope: float = field(default=1.6, metadata=positive("monopulse slope k_m", hi=10.0))
 
 
 @dataclass(frozen=True)
@@ -263,9 +230,7 @@ class Obstacle:
         default=0.0, metadata=rule(float, -10.0, 10.0, doc="rotation about z", unit="rad")
     )
     path: str = ""
-    scale: float = field(
-        default=1.0, metadata=rule(float, 0.0, 1e3, lo_open=True, doc="uniform mesh scale")
-    )
+    scale: float = field(default=1.0, metadata=positive("uniform mesh scale", hi=1e3))
 
 
 @dataclass(frozen=True)
@@ -289,8 +254,7 @@ class Scenario:
         metadata=rule(float, 1e-6, 1e6, doc="initial CKF covariance P0 = p0 * I", unit="m^2"),
     )
     placement_half_width: float = field(
-        default=400.0,
-        metadata=rule(float, 0.0, 1e5, lo_open=True, doc="radars placed in [-w, w]^2", unit="m"),
+        default=400.0, metadata=positive("radars placed in [-w, w]^2", "m", hi=1e5)
     )
     radar_eq: RadarEquation = field(
         default_factory=RadarEquation,

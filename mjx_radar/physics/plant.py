@@ -12,11 +12,8 @@ acceleration ``w``) and the servo set-points (mean velocity over the step,
 ``v + a dt / 2``) into ``ctrl`` and calls ``mjx.step``. With the deadbeat servo
 gains of :mod:`mjx_radar.physics.scene` this is exactly the Euler map of SPEC §2/§3
 (``qvel`` after a step holds the mean velocity over that step, not the state's
-velocity). Obstacles add real contacts that stop a radar (truth plant only:
-the planner's plant is built without them, its rollouts stay contact-free and fast).
-A radar held back by a contact has its speed state ``v`` reset to the speed it
-actually made good over the step (see :func:`step`); :func:`obstacle_contacts`
-counts radar-obstacle contacts.
+velocity). Obstacles add contacts that stop a radar (truth plant only; planner rollouts
+stay contact-free); a radar held back has ``v`` reset to the speed it made good.
 """
 
 from __future__ import annotations
@@ -287,13 +284,9 @@ def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Ar
 def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Array) -> jax.Array:
     """Public SPEC §11 entry point: MJX rollout at the scenario's control step.
 
-    Args:
-        scenario: the scenario (its N, limits and control step; obstacles are ignored).
-        radar_state: [N, 6] radar states ``[x, y, z, theta, v, omega]``.
-        controls: [H, N, 2] controls ``[a, alpha]``.
-
-    Returns:
-        [H, N, 6] radar states after each control step.
+    ``radar_state [N, 6]`` = ``[x, y, z, theta, v, omega]``, ``controls [H, N, 2]`` =
+    ``[a, alpha]`` -> ``[H, N, 6]`` states after each control step (the scenario's N,
+    limits and control step; obstacles are ignored).
     """
     plant = planner_plant(scenario)
     _check_shape("controls", controls, (jnp.shape(controls)[0], plant.n_radars, 2))
