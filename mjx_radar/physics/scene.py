@@ -80,7 +80,7 @@ def _model_xml(name: str) -> str:
     try:
         return importlib.resources.files("mjx_radar.models").joinpath(name).read_text()
     except ModuleNotFoundError:  # running from a checkout without installing
-        return (Path(__file__).resolve().parent.parent / "models" / name).read_text()
+        return (Path(__file__).resolve().parents[2] / "models" / name).read_text()
 
 
 def _add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:
