@@ -47,16 +47,19 @@ from mjx_radar.simulation import placement, runner
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task import objective
 from mjx_radar.task.planner import make_planner
+from mjx_radar.task.task import build
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from make_swarm import swarm_toml  # noqa: E402
 
 
-def swarm(n: int, rollouts: str, samples: int | None = None):
+def swarm(n: int, rollouts: str, samples: int | None = None, structure: str = "joint"):
     """The N = M swarm scenario of make_swarm (seed 0) with the given rollouts / samples."""
     s = scenario_from_dict(tomllib.loads(swarm_toml(n, n, 0)))
     mppi = s.mppi if samples is None else dataclasses.replace(s.mppi, samples=samples)
-    return dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollouts), mppi=mppi)
+    filt = dataclasses.replace(s.filter, structure=structure)
+    mpc = dataclasses.replace(s.mpc, rollout=rollouts)
+    return dataclasses.replace(s, mpc=mpc, mppi=mppi, filter=filt)
 
 
 def run_loop(scenario, method: str, trials: int, steps: int) -> dict:
@@ -119,19 +122,17 @@ def filter_times(m: int, calls: int) -> dict:
 
 def plan_quality(scenario, method: str, trials: int) -> float:
     """Mean objective of the MPPI plan at the first control step over trials' initial states."""
-    plan = make_planner(scenario, method)
-    cost_fn = objective.make_objective(scenario, method)
-    a = motion.cv_transition(scenario.timing.dt_filter, scenario.n_targets)
-    q = motion.cv_process_noise(scenario.timing.dt_filter, scenario.sigma_w2, scenario.n_targets)
+    task, params = build(scenario, method)
+    plan = make_planner(task)
+    cost_fn = objective.make_objective(task)
     u0 = jnp.zeros((scenario.mpc.horizon, 2 * scenario.n_radars))
 
     def one(t):
-        st = trial_streams(scenario.seed, t)
-        init = placement.initial_conditions(scenario, st)
-        pm, pc = ckf.predict(init.mean, init.cov, lambda x: a @ x, q)
-        res, _ = plan(init.radar_state, pm, pc, u0, st.planner)
-        ctx = objective.plan_context(scenario, init.radar_state, pm, pc)
-        return cost_fn(res.mean, ctx)[0]
+        st = trial_streams(params.seed, t)
+        init = placement.initial_conditions(task.scenario, params, st)
+        res, _ = plan(init.radar_state, init.mean, init.cov, u0, st.planner, params)
+        ctx = objective.plan_context(task, init.radar_state, init.mean, init.cov)
+        return cost_fn(res.mean, ctx, params)[0]
 
     return float(jnp.mean(jax.jit(jax.vmap(one))(jnp.arange(trials))))
 
@@ -147,6 +148,7 @@ def main(argv=None) -> int:
     ap.add_argument("--calls", type=int, default=20, help="filter timing: calls per median")
     ap.add_argument("--method", default="ddr-sfim")
     ap.add_argument("--rollouts", choices=("mjx", "analytic"), default="mjx")
+    ap.add_argument("--structure", choices=("joint", "per-target"), default="joint")
     ap.add_argument("--skip", nargs="*", default=[], choices=("loop", "filter", "quality"))
     ap.add_argument("--out", type=Path, default=Path("runs/scaling"))
     args = ap.parse_args(argv)
@@ -163,7 +165,7 @@ def main(argv=None) -> int:
     print(f"device={dev} method={args.method} rollouts={args.rollouts}")
     if "loop" not in args.skip:
         for n in args.sizes:
-            s = swarm(n, args.rollouts)
+            s = swarm(n, args.rollouts, structure=args.structure)
             dt = loop_step_s(s, args.method, args.trials, args.steps)
             rows.append(("loop", n, f"{args.trials} trials", s.mppi.samples, dt, "s/control step"))
             rt = s.timing.dt_control / dt
@@ -175,7 +177,7 @@ def main(argv=None) -> int:
                 print(f"filter N=M={m:3d} {variant:17s}: {dt * 1e3:9.3f} ms")
     if "quality" not in args.skip:
         for S in args.samples:
-            s = swarm(args.quality_size, args.rollouts, S)
+            s = swarm(args.quality_size, args.rollouts, S, args.structure)
             j = plan_quality(s, args.method, max(args.trials, 4))
             res = run_loop(s, args.method, args.trials, args.steps)["rmse_pos"]
             rmse = float(np.mean(res[:, res.shape[1] // 2 :]))
