@@ -189,6 +189,7 @@ def _fake_trials(scenario, method, seed, trials, steps, full=True, progress=None
     t, k = len(trials), steps
     res = {name: np.ones((t, k)) for name in results.METRIC_COLUMNS}
     res |= {"target": np.zeros((t, k, 2, 6)), "wall_s": 1.0, "control_hz": 10.0}
+    res |= {"compile_s": 0.5, "sim_s": 0.5}
     div = np.zeros((t, k), bool)
     div[1, 4:] = True
     return res | {"diverged": div}

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from mjx_radar.cli.main import main as cli
+import mjx_radar.cli.main as cli
 from mjx_radar.study import metrics as study_metrics
 
 REPO = Path(__file__).resolve().parent.parent

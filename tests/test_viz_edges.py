@@ -142,7 +142,7 @@ def test_damage_raises_input_error_from_load_run(run_dir, tmp_path):
 def test_scenario_falls_back_to_scenario_file(run_dir, tmp_path):
     d = _copy(run_dir, tmp_path / "copy")
     (d / "scenario.toml").unlink()
-    run = load_run(d)  # run.json's scenario_file is the bundled smoke.toml
+    run = load_run(d)  # run.json's source_scenario is the bundled smoke.toml
     assert run.scenario.name == "smoke" and run.trials == 1
     assert load_trial(run).steps == STEPS
 

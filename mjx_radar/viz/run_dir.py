@@ -4,7 +4,8 @@ One entry point, :func:`load_run`, reads ``DIR/run.json``, ``DIR/trajectories.np
 (schema in :mod:`mjx_radar.io.results`) and the scenario. The scenario is
 ``DIR/scenario.toml``, its mesh paths resolved relative to ``DIR``; if that file is
 missing or does not load (e.g. a run made before meshes were copied into
-``DIR/meshes``), the original ``scenario_file`` named in ``run.json`` is used.
+``DIR/meshes``), the original scenario named in ``run.json`` is used
+(``source_scenario``, or ``scenario_file`` of older runs).
 
 A damaged directory (missing, garbage or truncated files, a missing key, arrays
 of the wrong shape) raises :class:`~mjx_radar.errors.InputError` with one line
@@ -143,15 +144,19 @@ def _read_scenario(run_dir: Path, meta: dict):
         return load_scenario(local)
     except ScenarioError as err:
         first = err
-    original = meta.get("scenario_file")
-    if isinstance(original, str) and original and Path(original).is_file():
-        try:
-            return load_scenario(original)
-        except ScenarioError:
-            pass
+    # Older runs name the original file in scenario_file; newer ones in source_scenario.
+    candidates = [meta.get("source_scenario"), meta.get("scenario_file")]
+    for original in candidates:
+        path = Path(original) if isinstance(original, str) and original else None
+        if path is not None and path.is_absolute() and path.is_file():
+            try:
+                return load_scenario(path)
+            except ScenarioError:
+                pass
     if not local.exists():
+        names = " / ".join(repr(c) for c in candidates if c)
         raise InputError(
-            f"{local}: missing, and run.json's scenario_file = {original!r} does not load"
+            f"{local}: missing, and run.json's original scenario ({names}) does not load"
         )
     raise InputError(f"{local}: {first}")
 
