@@ -1,5 +1,1 @@
-"""The ``mjx-radar`` command line (see :mod:`mjx_radar.cli.main`)."""
-
-from mjx_radar.cli.main import main
-
-__all__ = ["main"]
+"""The ``mjx-radar`` command line (:mod:`mjx_radar.cli.main`, one module per sub-command)."""
