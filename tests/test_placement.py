@@ -1,0 +1,162 @@
+"""Initial conditions of a trial: radar placement and the initial estimate (SPEC §3, §4)."""
+
+import dataclasses
+import functools
+import itertools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_radar.io.scenario import scenario_from_dict
+from mjx_radar.simulation import placement
+from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.task.method import METHODS
+from mjx_radar.task.params import shape_key, task_params
+
+RAW = {
+    "name": "place",
+    "n_radars": 4,
+    "seed": 7,
+    "placement_half_width": 300.0,
+    "targets": [[0.0, 0.0, 55.0, 20.0, 10.0, 0.0], [80.0, -40.0, 70.0, 0.0, 5.0, 0.0]],
+    "mpc": {"r2t": 125.0, "r2r": 40.0},
+}
+TRIALS = 1000
+
+
+def _scenario(**over):
+    raw = dict(RAW)
+    for k, v in over.items():
+        raw[k] = raw.get(k, {}) | v if isinstance(v, dict) else v
+    return scenario_from_dict(raw)
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def _place_batch(shape, params, trials):
+    def one(t):
+        return placement.place_radars(shape, params, trial_streams(params.seed, t).placement)
+
+    return jax.vmap(one)(trials)
+
+
+def _place(s, method="stationary", seed=None, trials=TRIALS):
+    """Placements of trials 0..trials-1 (one compiled program per shape and trial count)."""
+    states, ok = _place_batch(shape_key(s), task_params(s, METHODS[method], seed),
+                              jnp.arange(trials))  # fmt: skip
+    return np.asarray(states), np.asarray(ok)
+
+
+def test_random_placement_respects_box_and_keep_outs():
+    s = _scenario()
+    states, ok = _place(s)
+    assert states.shape == (TRIALS, 4, 6) and ok.all()
+    w = s.placement_half_width
+    xy = states[..., :2]
+    assert np.all(np.abs(xy) <= w)
+    assert np.all(states[..., 2] == 0.0)  # on the ground
+    assert np.all(states[..., 4:] == 0.0)  # at rest
+    th = states[..., 3]
+    assert np.all((th > -np.pi) & (th <= np.float32(np.pi)))
+    # float32 positions of <= 300 m: distances good to ~1e-4 m
+    tgt = np.asarray(s.target_init)[:, :3]
+    p3 = states[..., :3].astype(np.float64)
+    d_rt = np.linalg.norm(p3[:, :, None] - tgt[None, None], axis=-1)
+    assert d_rt.min() >= s.mpc.r2t - 1e-3
+    for i, j in itertools.combinations(range(4), 2):
+        assert np.linalg.norm(p3[:, i] - p3[:, j], axis=-1).min() >= s.mpc.r2r - 1e-3
+    # the draws do fill the box (uniform): each quadrant holds ~1/4 of the radars
+    quad = np.mean((xy[..., 0] > 0) & (xy[..., 1] > 0))
+    assert 0.2 < quad < 0.3
+    assert np.unique(th).size > 0.99 * th.size  # headings drawn, not a constant
+
+
+def test_keep_outs_are_runtime_numbers():
+    # a wider radar-radar keep-out changes the placement without a new shape
+    s, wide = _scenario(), _scenario(mpc={"r2r": 150.0})
+    assert shape_key(s) == shape_key(wide)
+    states, ok = _place(wide, trials=200)
+    assert ok.all()
+    p = states[..., :2].astype(np.float64)
+    d = min(np.linalg.norm(p[:, i] - p[:, j], axis=-1).min()
+            for i, j in itertools.combinations(range(4), 2))  # fmt: skip
+    assert d >= 150.0 - 1e-3
+
+
+def test_fixed_starts_are_used_verbatim():
+    fixed = [[200.0, 0.0, 0.5], [-200.0, 10.0, -3.0], [0.0, 250.0, 3.1], [0.0, -250.0, 0.0]]
+    s = _scenario(radars=fixed)
+    states, ok = _place(s, trials=5)
+    assert ok.all()
+    want = np.asarray(fixed, np.float32)
+    for st in states:  # every trial: the same, the file's numbers
+        np.testing.assert_array_equal(st[:, [0, 1, 3]], want)
+        np.testing.assert_array_equal(st[:, [2, 4, 5]], 0.0)
+    # a fixed start inside the radar-target keep-out is reported, not moved
+    # (validation rejects such a file; the flag is the closed loop's second line of defence)
+    bad = dataclasses.replace(s, radar_init=((100.0, 0.0, 0.0),) + s.radar_init[1:])
+    states, ok = _place(bad, trials=2)
+    assert not ok.any()
+    np.testing.assert_array_equal(states[0, 0, :2], [100.0, 0.0])
+
+
+def test_check_placeable_names_the_fields_when_impossible():
+    s = _scenario(placement_half_width=20.0)  # 4 radars 40 m apart do not fit in 40 x 40 m
+    with pytest.raises(ValueError) as e:
+        placement.check_placeable(s, s.seed, 4)
+    msg = str(e.value)
+    assert "\n" not in msg
+    for field in ("placement_half_width = 20.0", "mpc.r2r = 40.0", "mpc.r2t = 125.0"):
+        assert field in msg, msg
+    placement.check_placeable(_scenario(), 7, 16)  # feasible: silent
+
+
+def test_initial_estimate_error_has_covariance_p0():
+    # Monte Carlo over 4000 trials (one target: 6 dims). The sample variance of
+    # N(0, p0) has standard error p0 sqrt(2/n) (1.1 m^2), a covariance p0/sqrt(n)
+    # (0.8 m^2), the mean sqrt(p0/n) (0.11 m): bounds at 4 standard errors.
+    n, p0 = 4000, 50.0
+    s = _scenario(targets=RAW["targets"][:1], p0=p0)
+    shape, params = shape_key(s), task_params(s, METHODS["ddr-sfim"])
+
+    def one(t):
+        return placement.initial_conditions(shape, params, trial_streams(params.seed, t))
+
+    init = jax.jit(jax.vmap(one))(jnp.arange(n))
+    np.testing.assert_array_equal(init.cov[0], p0 * np.eye(6))
+    np.testing.assert_array_equal(init.target_state[0], np.float32(s.target_init))
+    err = np.asarray(init.mean, np.float64) - np.asarray(s.target_init).reshape(-1)
+    assert np.all(np.abs(err.mean(0)) < 4 * np.sqrt(p0 / n))
+    cov = np.cov(err, rowvar=False)
+    assert np.all(np.abs(np.diag(cov) - p0) < 4 * p0 * np.sqrt(2 / n)), np.diag(cov)
+    off = cov[~np.eye(6, dtype=bool)]
+    assert np.all(np.abs(off) < 4 * p0 / np.sqrt(n)), off
+    # ... and the error scales with sqrt(p0) (the same normal draws: common random numbers)
+    params4 = task_params(_scenario(targets=RAW["targets"][:1], p0=4 * p0), METHODS["ddr-sfim"])
+    e4 = placement.initial_conditions(shape, params4, trial_streams(params.seed, 3)).mean
+    e1 = init.mean[3]
+    tgt = params.target_init.ravel()
+    np.testing.assert_allclose(e4 - tgt, 2 * (e1 - tgt), rtol=1e-5, atol=1e-5)
+
+
+def test_common_random_numbers_across_methods():
+    s = _scenario()
+    shape = shape_key(s)
+    states = {m: _place(s, m, trials=8)[0] for m in METHODS}
+    for m in METHODS:
+        np.testing.assert_array_equal(states[m], states["stationary"])
+    means = {
+        m: np.asarray(
+            placement.initial_conditions(
+                shape, task_params(s, METHODS[m]), trial_streams(s.seed, 2)
+            ).mean
+        )
+        for m in METHODS
+    }
+    for m in METHODS:
+        np.testing.assert_array_equal(means[m], means["stationary"])
+    # another seed: another placement; another trial: another placement
+    other, _ = _place(s, seed=8, trials=8)
+    assert not np.array_equal(other, states["stationary"])
+    assert not np.array_equal(states["stationary"][0], states["stationary"][1])

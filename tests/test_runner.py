@@ -1,0 +1,130 @@
+"""Batched trials on the host (simulation.runner, simulation.programs)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mjx_radar.io import results
+from mjx_radar.io.scenario import load_scenario
+from mjx_radar.simulation import compile_cache, programs, runner
+
+STEPS = 8  # two control periods of 4 filter steps
+TRIALS = np.arange(2)
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    s = load_scenario("smoke")
+    return dataclasses.replace(
+        s,
+        name="tiny",
+        mpc=dataclasses.replace(s.mpc, horizon=3, rollout="analytic"),
+        mppi=dataclasses.replace(s.mppi, samples=32, iterations=1),
+    )
+
+
+@pytest.fixture(scope="module")
+def export_dir(tmp_path_factory):
+    """The export cache switched on in a fresh directory (XLA's own cache left as it is)."""
+    path = tmp_path_factory.mktemp("cache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(compile_cache, "_DIR", [path])
+        yield path / "programs"
+
+
+@pytest.fixture(scope="module")
+def first_run(tiny, export_dir):
+    phases, progress = [], []
+    log_before = len(programs.COMPILE_LOG)
+    res = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False,
+                            progress=progress.append, phase=phases.append)  # fmt: skip
+    return res, phases, progress, programs.COMPILE_LOG[log_before:]
+
+
+def test_segment_periods_divide_the_control_periods():
+    s = load_scenario("smoke")
+    every = s.timing.control_every
+    for total in range(1, 301):
+        p = runner.segment_periods(s, total * every)
+        assert p >= 1 and total % p == 0, (total, p)
+        # the largest divisor leaving >= 20 segments (1 when there are fewer periods)
+        best = max([q for q in range(1, total + 1) if total % q == 0 and total // q >= 20],
+                   default=1)  # fmt: skip
+        assert p == best, (total, p, best)
+    assert runner.segment_periods(s, 600 * every) == 30
+    assert runner.segment_periods(s, 600 * every, target_segments=7) == 75  # 600 / 8
+
+
+def test_metrics_only_output(tiny, first_run):
+    res = first_run[0]
+    extra = {"placement_ok", "compile_s", "sim_s", "wall_s", "control_hz"}
+    assert set(res) == set(results.METRIC_COLUMNS) | extra
+    for k in results.METRIC_COLUMNS:
+        assert res[k].shape == (2, STEPS), k
+        assert np.all(np.isfinite(res[k])), k
+    assert res["placement_ok"].shape == (2,) and res["placement_ok"].all()
+    np.testing.assert_array_equal(res["visible_pairs"], tiny.n_radars * tiny.n_targets)
+    assert res["compile_s"] > 0 and res["sim_s"] > 0
+    np.testing.assert_allclose(res["wall_s"], res["compile_s"] + res["sim_s"])
+    np.testing.assert_allclose(res["control_hz"], (STEPS // 4) / res["sim_s"])
+
+
+def test_phases_progress_and_compile_log(first_run):
+    _, phases, progress, log = first_run
+    assert phases == ["compiling", "simulating"]
+    assert sum(progress) == STEPS and len(progress) == 2  # one call per segment (1 period)
+    assert len(log) == 1
+    entry = log[0]
+    assert entry["source"] == "traced"  # a fresh export directory
+    assert (entry["n_radars"], entry["n_targets"], entry["batch"], entry["devices"]) == (2, 2, 2, 1)
+    assert entry["trace_lower_s"] > 0 and entry["xla_compile_s"] > 0
+
+
+def test_second_call_reuses_the_program_and_reproduces(tiny, first_run):
+    res, log_len = first_run[0], len(programs.COMPILE_LOG)
+    phases = []
+    again = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, phase=phases.append)
+    assert again["compile_s"] == 0.0 and phases == ["compiling", "simulating"]
+    assert len(programs.COMPILE_LOG) == log_len  # nothing compiled
+    for k in results.METRIC_COLUMNS:
+        np.testing.assert_array_equal(again[k], res[k], err_msg=k)
+    # a trial's numbers do not depend on its position in the batch
+    rev = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS[::-1], STEPS, full=False)
+    assert rev["compile_s"] == 0.0
+    for k in results.METRIC_COLUMNS:
+        np.testing.assert_array_equal(rev[k], res[k][::-1], err_msg=k)
+    # another method is a runtime argument of the same program, with other numbers
+    other = runner.run_trials(tiny, "stationary", 0, TRIALS, STEPS, full=False)
+    assert other["compile_s"] == 0.0
+    assert not np.array_equal(other["rmse_pos"], res["rmse_pos"])
+
+
+def test_export_cache_round_trip(tiny, first_run, export_dir, monkeypatch):
+    # The traced program was exported beside the cache; a process that has not compiled
+    # it (here: an emptied in-memory cache) loads it without tracing, same numbers.
+    assert len(list(export_dir.glob("loop-*.jaxexport"))) == 1
+    monkeypatch.setattr(programs, "_CACHE", {})
+    n0 = len(programs.COMPILE_LOG)
+    b = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False)
+    assert b["compile_s"] > 0 and programs.COMPILE_LOG[n0]["source"] == "export cache"
+    for k in results.METRIC_COLUMNS:
+        np.testing.assert_array_equal(b[k], first_run[0][k], err_msg=k)
+
+
+def test_steps_not_a_multiple_of_the_control_period(tiny):
+    with pytest.raises(ValueError, match="steps: 6 must be a multiple of 4"):
+        runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, 6)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=TypeError,
+    reason="closed_loop keeps N_KEEP_SAMPLES = 32 MPPI samples per control step: with "
+    "mppi.samples < 32 (valid: validation allows >= 10 with ce) the plan branch records "
+    "[samples] entries and the idle branch [32], and lax.cond fails to trace",
+)
+def test_fewer_mppi_samples_than_kept_samples_runs(tiny):
+    s = dataclasses.replace(tiny, mppi=dataclasses.replace(tiny.mppi, samples=16))
+    res = runner.run_trials(s, "ddr-sfim", 0, TRIALS, STEPS, full=True)
+    assert res["sample_cost"].shape == (2, STEPS // 4, 16)
