@@ -90,7 +90,7 @@ def main(args) -> int:
     )  # fmt: skip
     worker = _worker(args)
     joining = worker.kind != "single"  # workers share the directory
-    manifest = driver.check_out(args.out, config, args.resume or joining)
+    manifest = driver.check_out(args.out, config, args.resume or joining, joining)
     for s, _, _, sd in scenarios:
         check_placement(s, sd, args.trials)
     if worker.index == 0 or worker.kind == "shard":
@@ -125,10 +125,12 @@ def main(args) -> int:
             driver.run_round(
                 group, args.chunk, n_dev, mesh, lambda k, n=done: bar.update(k * n), times
             )
-    if worker.kind == "distributed" and worker.index != 0:
-        return 0
     if worker.kind == "distributed":
+        # Every process waits: JAX's shutdown barrier gives up after 300 s, so a process
+        # that left early would abort the others. Process 0 then consolidates.
         _wait_for(chunks)
+        if worker.index != 0:
+            return 0
     missing = [c for c in chunks if not c.path.exists()]
     if missing:
         print(
@@ -149,7 +151,7 @@ def main(args) -> int:
 
 
 def _wait_for(chunks, timeout_s: float = 7 * 24 * 3600.0) -> None:
-    """Process 0 of a distributed study waits until every chunk file exists."""
+    """A process of a distributed study waits until every chunk file exists."""
     deadline = time.monotonic() + timeout_s
     while not all(c.path.exists() for c in chunks):
         if time.monotonic() > deadline:

@@ -76,9 +76,10 @@ def make_plant(
     margin = contact_envelope(limits, dt) if obstacles else 0.0
     mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin)
     # Plants are cached and may first be built while a jit trace is running: keep the
-    # device model concrete so it never captures a tracer.
+    # device model concrete so it never captures a tracer. On this process's own device:
+    # MJX's default, jax.devices()[0], belongs to process 0 under jax.distributed.
     with jax.ensure_compile_time_eval():
-        model = mjx.put_model(mj_model)
+        model = mjx.put_model(mj_model, device=jax.local_devices()[0])
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and _constant_mass_matrix(mj_model)
     return Plant(mj_model, model, index, float(dt), limits, fast)

@@ -128,12 +128,13 @@ def run_trials(
     p = [jax.device_put(x, progs.replicated) for x in jax.tree.leaves(params)]
     trials = jax.device_put(jnp.asarray(trials), progs.trial_sharding)
     *carry, ok = progs.init(trials, *p)
+    carry = _split(carry, progs.trial_sharding)
     template = record_template(full)
     chunks = []
     for start in range(0, steps // every, periods):
         start_a = jax.device_put(jnp.int32(start), progs.replicated)
         out = progs.step(trials, start_a, *p, *carry)
-        carry, records = list(out[: progs.n_carry]), out[progs.n_carry :]
+        carry, records = _split(out[: progs.n_carry], progs.trial_sharding), out[progs.n_carry :]
         chunks.append(jax.tree.unflatten(jax.tree.structure(template), jax.device_get(records)))
         if progress is not None:
             progress(periods * every)
@@ -149,6 +150,16 @@ def run_trials(
     res |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
     res["control_hz"] = (steps // every) / sim_s
     return res
+
+
+def _split(carry, sharding) -> list:
+    """The carry placed as the step program expects: split over the trial axis.
+
+    XLA returns zero-size outputs (e.g. ``[T, 0]`` leaves of a scenario without
+    obstacles) as replicated whatever the requested sharding; on more than one
+    device the next ``step`` call would refuse them. Other leaves are passed as is.
+    """
+    return [c if c.sharding == sharding else jax.device_put(c, sharding) for c in carry]
 
 
 def _get(rec, k):

@@ -94,8 +94,13 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
     return scenarios, config
 
 
-def check_out(out: Path, config: dict, resume: bool) -> dict | None:
-    """The manifest to resume from (None: fresh study); raises InputError."""
+def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> dict | None:
+    """The manifest to resume from (None: fresh study); raises InputError.
+
+    ``joining``: one of several workers started together; a directory that another
+    worker is creating (only ``scenarios/``, ``chunks/`` or temporaries, no manifest
+    yet) counts as a fresh study.
+    """
     if not out.exists() or (out.is_dir() and not any(out.iterdir())):
         return None
     if not out.is_dir():
@@ -103,6 +108,11 @@ def check_out(out: Path, config: dict, resume: bool) -> dict | None:
     if not resume:
         raise InputError(f"--out = {str(out)!r}: not empty; pass --resume or an empty/new dir")
     path = out / "manifest.json"
+    starting = all(
+        p.name in ("scenarios", "chunks") or p.name.startswith(".") for p in out.iterdir()
+    )
+    if not path.exists() and joining and starting:
+        return None
     if not path.exists():
         raise InputError(f"--out = {str(out)!r}: not a study directory (no manifest.json)")
     try:
