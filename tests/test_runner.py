@@ -117,14 +117,8 @@ def test_steps_not_a_multiple_of_the_control_period(tiny):
         runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, 6)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=TypeError,
-    reason="closed_loop keeps N_KEEP_SAMPLES = 32 MPPI samples per control step: with "
-    "mppi.samples < 32 (valid: validation allows >= 10 with ce) the plan branch records "
-    "[samples] entries and the idle branch [32], and lax.cond fails to trace",
-)
 def test_fewer_mppi_samples_than_kept_samples_runs(tiny):
+    # The plan and idle branches of the closed loop record min(32, samples) samples.
     s = dataclasses.replace(tiny, mppi=dataclasses.replace(tiny.mppi, samples=16))
     res = runner.run_trials(s, "ddr-sfim", 0, TRIALS, STEPS, full=True)
     assert res["sample_cost"].shape == (2, STEPS // 4, 16)

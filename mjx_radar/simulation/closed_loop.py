@@ -39,7 +39,12 @@ from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import RadarTask, process_noise
 from mjx_radar.world import occlusion
 
-N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video
+N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video (at most)
+
+
+def kept_samples(scenario) -> int:
+    """MPPI samples recorded per control step: ``min(32, mppi.samples)``."""
+    return min(N_KEEP_SAMPLES, scenario.mppi.samples)
 
 
 class StepRecord(NamedTuple):
@@ -119,9 +124,9 @@ def _idle_plan(task: RadarTask, u_plan):
     rec = ControlRecord(
         zeros,
         jnp.zeros((h, n, 2)),
-        jnp.zeros((N_KEEP_SAMPLES, h, n, 2)),
-        jnp.zeros(N_KEEP_SAMPLES),
-        jnp.zeros(N_KEEP_SAMPLES),
+        jnp.zeros((kept_samples(sc), h, n, 2)),
+        jnp.zeros(kept_samples(sc)),
+        jnp.zeros(kept_samples(sc)),
     )
     return zeros, u_plan, rec
 
@@ -230,7 +235,7 @@ def advance(
         pm, pc = (mean, cov) if sc.mpc.aligned else predict(mean, cov)
         key = jax.random.fold_in(streams.planner, j)
         res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, params)
-        keep = slice(0, N_KEEP_SAMPLES)
+        keep = slice(0, kept_samples(sc))
         rec = ControlRecord(
             res.mean[0].reshape(n, 2),
             mean_plan.radar_xy,
