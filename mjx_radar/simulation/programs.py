@@ -24,6 +24,7 @@ import dataclasses
 import functools
 import hashlib
 import importlib.metadata
+import os
 import threading
 import time
 from pathlib import Path
@@ -174,7 +175,9 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
             jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh) for x in c_leaves
         ]
         init, step = _traced(task, periods, full, mesh, len(p_leaves), params_tree, carry_tree)
-        exported = _export(init, step, (trials, *p_specs), (trials, start, *p_specs, *c_specs))
+        exported = None
+        if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
+            exported = _export(init, step, (trials, *p_specs), (trials, start, *p_specs, *c_specs))
         if exported is None:  # not exportable: compile the traced programs directly
             init_l = init.lower(trials, *p_specs)
             step_l = step.lower(trials, start, *p_specs, *c_specs)
