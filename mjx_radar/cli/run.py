@@ -111,7 +111,9 @@ def simulate(fn):
         except BaseException as err:  # re-raised in the main thread
             box["error"] = err
 
-    worker = threading.Thread(target=work, name="closed-loop", daemon=True)
+    from mjx_radar.simulation.programs import compile_thread
+
+    worker = compile_thread(work, name="closed-loop")
     worker.start()
     while worker.is_alive():
         worker.join(0.1)

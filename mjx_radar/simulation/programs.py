@@ -57,6 +57,20 @@ class Programs:
     source: str  # "traced" | "export cache"
 
 
+#: stack size of threads that compile (XLA's compiler recurses deeply on large programs;
+#: the default 8 MiB thread stack overflowed compiling a 2-GPU program)
+COMPILE_THREAD_STACK = 512 * 1024 * 1024
+
+
+def compile_thread(target, name: str = "compile"):
+    """A daemon thread with a stack large enough for XLA compilation."""
+    old = threading.stack_size(COMPILE_THREAD_STACK)
+    try:
+        return threading.Thread(target=target, name=name, daemon=True)
+    finally:
+        threading.stack_size(old)
+
+
 def device_mesh(devices=None) -> Mesh:
     """A 1-D mesh (axis ``"trial"``) over ``devices`` (default: every local device)."""
     return Mesh(np.asarray(devices if devices is not None else jax.local_devices()), ("trial",))

@@ -15,7 +15,6 @@ time and timed apart from the simulation.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 
@@ -28,6 +27,7 @@ from mjx_radar.config import Scenario
 from mjx_radar.simulation.programs import (
     COMPILE_LOG,
     compile_programs,
+    compile_thread,
     device_mesh,
     record_template,
 )
@@ -37,9 +37,7 @@ from mjx_radar.task.params import shape_key, task_params
 __all__ = ["COMPILE_LOG", "compile_programs", "device_mesh", "precompile", "run_trials"]
 
 
-def precompile(
-    jobs, batch: int, steps: int, full: bool = False, mesh=None, workers: int | None = None
-) -> float:
+def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> float:
     """Compiles the programs of several scenarios concurrently; returns the wall time [s].
 
     XLA compilation releases the GIL, so a thread pool compiles the programs of a
@@ -47,26 +45,28 @@ def precompile(
     (or tuples whose first item is the scenario); scenarios of the same shape share one
     program.
     """
-    from concurrent.futures import ThreadPoolExecutor
-
     shapes = {}
     for job in jobs:
         s = job[0] if isinstance(job, tuple) else job
         shapes.setdefault(shape_key(s), s)
     todo = list(shapes.values())
-    if not todo:
-        return 0.0
     t0 = time.perf_counter()
-    pool = ThreadPoolExecutor(max_workers=workers or min(len(todo), os.cpu_count() or 1))
-    try:
-        futures = [
-            pool.submit(compile_programs, s, batch, segment_periods(s, steps), full, mesh)
-            for s in todo
-        ]
-        for f in futures:
-            f.result()
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+    errors: list[BaseException] = []
+
+    def one(s):
+        try:
+            compile_programs(s, batch, segment_periods(s, steps), full, mesh)
+        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
+            errors.append(err)
+
+    threads = [compile_thread(lambda s=s: one(s)) for s in todo]  # one per shape, big stacks
+    for th in threads:
+        th.start()
+    for th in threads:
+        while th.is_alive():  # join with a timeout: Ctrl-C is honoured at once
+            th.join(0.2)
+    if errors:
+        raise errors[0]
     return time.perf_counter() - t0
 
 
