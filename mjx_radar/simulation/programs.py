@@ -84,23 +84,37 @@ def record_template(full: bool):
     return {k: 0 for k in results.METRIC_COLUMNS}, None
 
 
-def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tree, carry_tree):
-    """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered)."""
+def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tree, c_shapes):
+    """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
+
+    ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
+    leaves (size 0, e.g. MJX's contact arrays of a contact-free plant) never cross the
+    program boundary: they are rebuilt inside (sharding zero-size arrays over several
+    GPUs crashed XLA's compiler).
+    """
+    carry_tree = jax.tree.structure(c_shapes)
+    shapes = jax.tree.leaves(c_shapes)
+    live = [x.size > 0 for x in shapes]
 
     def init_flat(trial, *p):
         carry, ok = closed_loop.init_carry(task, jax.tree.unflatten(params_tree, p), trial)
-        return (*jax.tree.leaves(carry), ok)
+        leaves = jax.tree.leaves(carry)
+        return (*[x for x, keep in zip(leaves, live, strict=True) if keep], ok)
 
     def step_flat(trial, start, *rest):
         params = jax.tree.unflatten(params_tree, rest[:n_params])
-        carry = jax.tree.unflatten(carry_tree, rest[n_params:])
+        given = iter(rest[n_params:])
+        leaves = [next(given) if keep else jnp.zeros(s.shape, s.dtype)
+                  for s, keep in zip(shapes, live, strict=True)]  # fmt: skip
+        carry = jax.tree.unflatten(carry_tree, leaves)
         carry, steps, controls = closed_loop.advance(task, params, trial, carry, start, periods)
         if not full:
             steps = {k: getattr(steps, k) for k in results.METRIC_COLUMNS}
             controls = None
-        return (*jax.tree.leaves(carry), *jax.tree.leaves((steps, controls)))
+        out = [x for x, keep in zip(jax.tree.leaves(carry), live, strict=True) if keep]
+        return (*out, *jax.tree.leaves((steps, controls)))
 
-    n_carry = carry_tree.num_leaves
+    n_carry = sum(live)
     init = jax.shard_map(
         jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params), mesh=mesh,
         in_specs=(SPLIT,) + (WHOLE,) * n_params, out_specs=SPLIT, check_vma=False,
@@ -184,11 +198,12 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
             lambda t, p: closed_loop.init_carry(task, p, t)[0],
             jax.ShapeDtypeStruct((), jnp.int32), params,
         )  # fmt: skip
-        c_leaves, carry_tree = jax.tree.flatten(carry_shapes)
         c_specs = [
-            jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh) for x in c_leaves
+            jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh)
+            for x in jax.tree.leaves(carry_shapes)
+            if x.size > 0
         ]
-        init, step = _traced(task, periods, full, mesh, len(p_leaves), params_tree, carry_tree)
+        init, step = _traced(task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes)
         exported = None
         if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
             exported = _export(init, step, (trials, *p_specs), (trials, start, *p_specs, *c_specs))
