@@ -53,9 +53,11 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     t0 = time.perf_counter()
     errors: list[BaseException] = []
 
+    devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
+
     def one(s):
         try:
-            compile_programs(s, batch, segment_periods(s, steps), full, mesh)
+            device_programs(s, batch // len(devices), segment_periods(s, steps), full, devices)
         except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
             errors.append(err)
 
@@ -119,23 +121,38 @@ def run_trials(
     periods = periods or segment_periods(scenario, steps)
     params = task_params(scenario, parse_method(method), seed)
     trials = np.asarray(trials, np.int32)
+    devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
+    if trials.shape[0] % len(devices):
+        raise ValueError(f"{trials.shape[0]} trials are not a multiple of {len(devices)} devices")
     if phase:
         phase("compiling")
-    progs, compile_s = compile_programs(scenario, trials.shape[0], periods, full, mesh)
+    t0 = time.perf_counter()
+    progs = device_programs(scenario, trials.shape[0] // len(devices), periods, full, devices)
+    compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0
     if phase:
         phase("simulating")
     t0 = time.perf_counter()
-    p = [jax.device_put(x, progs.replicated) for x in jax.tree.leaves(params)]
-    trials = jax.device_put(jnp.asarray(trials), progs.trial_sharding)
-    *carry, ok = progs.init(trials, *p)
-    carry = _split(carry, progs.trial_sharding)
+    # One worker per device: the same single-device program on each device's slice of
+    # the trials (dispatch is asynchronous, so the devices run concurrently).
+    workers = []
+    for (prog, _), ids in zip(progs, np.split(trials, len(devices)), strict=True):
+        p = [jax.device_put(x, prog.replicated) for x in jax.tree.leaves(params)]
+        ids = jax.device_put(jnp.asarray(ids), prog.trial_sharding)
+        *carry, ok = prog.init(ids, *p)
+        workers.append([prog, p, ids, carry, ok])
     template = record_template(full)
     chunks = []
     for start in range(0, steps // every, periods):
-        start_a = jax.device_put(jnp.int32(start), progs.replicated)
-        out = progs.step(trials, start_a, *p, *carry)
-        carry, records = _split(out[: progs.n_carry], progs.trial_sharding), out[progs.n_carry :]
-        chunks.append(jax.tree.unflatten(jax.tree.structure(template), jax.device_get(records)))
+        pending = []
+        for w in workers:
+            prog, p, ids, carry, _ = w
+            start_a = jax.device_put(jnp.int32(start), prog.replicated)
+            out = prog.step(ids, start_a, *p, *carry)
+            w[3] = list(out[: prog.n_carry])
+            pending.append(out[prog.n_carry :])
+        parts = [jax.device_get(r) for r in pending]
+        records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
+        chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
         if progress is not None:
             progress(periods * every)
     res: dict = {}
@@ -145,21 +162,38 @@ def run_trials(
     if full:
         for k in controls_t._fields:
             res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
-    res["placement_ok"] = np.asarray(ok)
+    res["placement_ok"] = np.concatenate([np.asarray(w[4]) for w in workers])
     sim_s = time.perf_counter() - t0
     res |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
     res["control_hz"] = (steps // every) / sim_s
     return res
 
 
-def _split(carry, sharding) -> list:
-    """The carry placed as the step program expects: split over the trial axis.
+def device_programs(scenario, batch: int, periods: int, full: bool, devices) -> list:
+    """``[(programs, seconds)]``: the single-device program of each device (compiled in
+    parallel threads), each for ``batch`` trials. Every device runs the same per-device
+    program, so a trial's numbers never depend on the number of devices."""
+    out: list = [None] * len(devices)
+    errors: list[BaseException] = []
 
-    XLA returns zero-size outputs (e.g. ``[T, 0]`` leaves of a scenario without
-    obstacles) as replicated whatever the requested sharding; on more than one
-    device the next ``step`` call would refuse them. Other leaves are passed as is.
-    """
-    return [c if c.sharding == sharding else jax.device_put(c, sharding) for c in carry]
+    def one(i, d):
+        try:
+            out[i] = compile_programs(scenario, batch, periods, full, device_mesh([d]))
+        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
+            errors.append(err)
+
+    if len(devices) == 1:
+        one(0, devices[0])
+    else:
+        threads = [compile_thread(lambda i=i, d=d: one(i, d)) for i, d in enumerate(devices)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            while th.is_alive():
+                th.join(0.2)
+    if errors:
+        raise errors[0]
+    return out
 
 
 def _get(rec, k):
