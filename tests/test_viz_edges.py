@@ -76,6 +76,7 @@ def _flip_middle(d: Path) -> None:
     p.write_bytes(bytes(b))
 
 
+NO_SOURCE = {"scenario_file": "/nope.toml", "source_scenario": "/nope.toml"}
 DAMAGE = {  # name -> (damage(d), text the error line must hold)
     "missing_dir": (lambda d: shutil.rmtree(d), "no such directory"),
     "no_run_json": (lambda d: (d / "run.json").unlink(), "run.json"),
@@ -101,13 +102,13 @@ DAMAGE = {  # name -> (damage(d), text the error line must hold)
     "json_missing_key": (lambda d: _json_edit(d, r2t=None), "'r2t'"),
     "json_bad_value": (lambda d: _json_edit(d, dt_filter="fast"), "'dt_filter'"),
     "no_scenario": (
-        lambda d: ((d / "scenario.toml").unlink(), _json_edit(d, scenario_file="/nope.toml")),
+        lambda d: ((d / "scenario.toml").unlink(), _json_edit(d, **NO_SOURCE)),
         "scenario.toml",
     ),
     "bad_scenario": (
         lambda d: (
             (d / "scenario.toml").write_text("n_radars = 'x'\n"),
-            _json_edit(d, scenario_file="/nope.toml"),
+            _json_edit(d, **NO_SOURCE),
         ),
         "scenario.toml",
     ),

@@ -47,6 +47,12 @@ def add_cache_arguments(p: argparse.ArgumentParser) -> None:
         default="float32",
         help="floating-point precision of the simulation (float64: x64 mode, slower)",
     )
+    p.add_argument(
+        "--deterministic",
+        action="store_true",
+        help="deterministic GPU kernels (XLA's --xla_gpu_deterministic_ops): the same "
+        "numbers from run to run and on any number of GPUs, at some cost in speed",
+    )
 
 
 class _Parser(argparse.ArgumentParser):
@@ -108,6 +114,9 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 1
+        if args.command in COMPILING and args.deterministic:  # before JAX starts its backend
+            flags = os.environ.get("XLA_FLAGS", "")
+            os.environ["XLA_FLAGS"] = f"{flags} --xla_gpu_deterministic_ops=true".strip()
         if args.command in COMPILING and args.precision == "float64":
             import jax
 

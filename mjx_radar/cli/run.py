@@ -257,6 +257,7 @@ def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
             "sim_s": res["sim_s"],
             "control_hz": res["control_hz"],
             "precision": getattr(args, "precision", "float32"),
+            "deterministic": bool(getattr(args, "deterministic", False)),
             "lost_trials": int(np.asarray(res["lost"]).any(axis=-1).sum()),
             "lost_steps": int(np.asarray(res["lost"]).sum()),
         }

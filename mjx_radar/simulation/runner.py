@@ -142,15 +142,18 @@ def run_trials(
         workers.append([prog, p, ids, carry, ok])
     template = record_template(full)
     chunks = []
+
+    def advance(w, start):  # one segment on one device; returns its records on the host
+        prog, p, ids, carry, _ = w
+        start_a = jax.device_put(jnp.int32(start), prog.replicated)
+        out = prog.step(ids, start_a, *p, *carry)
+        w[3] = list(out[: prog.n_carry])
+        return jax.device_get(out[prog.n_carry :])
+
     for start in range(0, steps // every, periods):
-        pending = []
-        for w in workers:
-            prog, p, ids, carry, _ = w
-            start_a = jax.device_put(jnp.int32(start), prog.replicated)
-            out = prog.step(ids, start_a, *p, *carry)
-            w[3] = list(out[: prog.n_carry])
-            pending.append(out[prog.n_carry :])
-        parts = [jax.device_get(r) for r in pending]
+        # A GPU program with loops is driven by its host thread: one thread per device
+        # makes the devices run concurrently.
+        parts = _each(lambda w, s=start: advance(w, s), workers)
         records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
         chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
         if progress is not None:
@@ -194,6 +197,16 @@ def device_programs(scenario, batch: int, periods: int, full: bool, devices) -> 
     if errors:
         raise errors[0]
     return out
+
+
+def _each(fn, items) -> list:
+    """``[fn(x) for x in items]``, one thread per item beyond the first (devices)."""
+    if len(items) == 1:
+        return [fn(items[0])]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=len(items)) as pool:
+        return list(pool.map(fn, items))
 
 
 def _get(rec, k):
