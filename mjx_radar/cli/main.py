@@ -30,6 +30,7 @@ COMMANDS = {
 
 
 COMPILING = ("run", "study")  # sub-commands that compile XLA programs
+LIGHT = ("validate", "report")  # sub-commands that never simulate (no MJX import)
 
 
 def add_cache_arguments(p: argparse.ArgumentParser) -> None:
@@ -121,8 +122,9 @@ def main(argv: list[str] | None = None) -> int:
             import jax
 
             jax.config.update("jax_enable_x64", True)  # before any array exists
-        with _quiet():
-            importlib.import_module("mujoco.mjx")
+        if args.command not in LIGHT:  # MJX prints "Failed to import warp" on import
+            with _quiet():
+                importlib.import_module("mujoco.mjx")
         gl.restore()
         if args.command in COMPILING and not args.no_cache:
             from mjx_radar.simulation import compile_cache
