@@ -190,8 +190,8 @@ def check_radar_clearance(s: Scenario) -> None:
             "radars: required when obstacles are declared (random placement does not avoid "
             "obstacles); give n_radars rows [x, y, theta] clear of them"
         )
-    from mjx_radar.physics.plant import contact_envelope
     from mjx_radar.world import obstacles as geometry
+    from mjx_radar.world.obstacles import contact_envelope
 
     need = geometry.HULL_RADIUS + contact_envelope(s.limits, s.timing.dt_filter)
     gap = geometry.union_sdf(s.obstacles, [r[:2] for r in s.radar_init])

@@ -29,6 +29,7 @@ from mujoco import mjx
 
 from mjx_radar.config import RadarLimits, Scenario
 from mjx_radar.physics.scene import SceneIndex, build_scene
+from mjx_radar.world.obstacles import contact_envelope
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -83,11 +84,6 @@ def make_plant(
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and _constant_mass_matrix(mj_model)
     return Plant(mj_model, model, index, float(dt), limits, fast)
-
-
-def contact_envelope(limits: RadarLimits, dt: float) -> float:
-    """Growth of the collision sphere [m]: one step's largest displacement plus 5 cm."""
-    return (limits.speed + 0.5 * limits.accel * dt) * dt + 0.05
 
 
 def _constant_mass_matrix(mj_model: mujoco.MjModel, tries: int = 4) -> bool:

@@ -48,6 +48,11 @@ class SdfGrid(NamedTuple):
     resolution: jnp.ndarray
 
 
+def contact_envelope(limits, dt: float) -> float:
+    """Growth of a radar's collision sphere [m]: one step's largest displacement + 5 cm."""
+    return (limits.speed + 0.5 * limits.accel * dt) * dt + 0.05
+
+
 def rotation_z(yaw: float) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
