@@ -1,14 +1,15 @@
 """The compiled programs of a scenario shape: built, compiled ahead of time, cached.
 
 Two programs advance a batch of trials (:mod:`mjx_radar.simulation.closed_loop`,
-vmapped over trials and ``shard_map``ped over a 1-D device mesh):
+vmapped over trials; the runner compiles them for a one-device mesh per device and
+drives each device from its own thread):
 
 * ``init(trials, *params) -> (*carry, ok)``
 * ``step(trials, start, *params, *carry) -> (*carry, *records)``
 
 in a *flat* signature (arrays only): the host never looks inside the loop state, and
 the programs can be exported (:mod:`jax.export`) without custom pytree serialisation.
-Every device runs the same per-device program on its slice of the trials, so a
+Every device runs the same single-device program on its slice of the trials, so a
 trial's numbers do not depend on the device count.
 
 Two caches make start-up fast: JAX's persistent compilation cache (XLA's work, see
