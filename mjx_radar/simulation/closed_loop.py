@@ -205,10 +205,9 @@ def advance(
         # update; keep the prediction then (or, if that overflowed too, the last
         # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
         finite = lambda a, b: jnp.all(jnp.isfinite(a)) & jnp.all(jnp.isfinite(b))  # noqa: E731
-        ok_pred = finite(mean, cov)
-        blown = ~(ok_pred & finite(*post))
+        ok_pred, ok = finite(mean, cov), finite(*post)
+        blown = ~(ok_pred & ok)
         mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
-        ok = finite(*post)
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
         health, flags_h = track_health.step_health(health, truth, mean, cov, sc.timing.dt_filter)
         diverged = flags_h.diverged | blown

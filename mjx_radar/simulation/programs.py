@@ -72,6 +72,32 @@ def compile_thread(target, name: str = "compile"):
         threading.stack_size(old)
 
 
+def parallel(fns) -> list:
+    """``[f() for f in fns]``, each call in its own big-stack thread.
+
+    The caller joins with a timeout, so Ctrl-C is honoured at once even during an XLA
+    compilation; the first error of a call is raised in the caller's thread.
+    """
+    out: list = [None] * len(fns)
+    errors: list[BaseException] = []
+
+    def run(i, f):
+        try:
+            out[i] = f()
+        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
+            errors.append(err)
+
+    threads = [compile_thread(lambda i=i, f=f: run(i, f)) for i, f in enumerate(fns)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        while th.is_alive():
+            th.join(0.2)
+    if errors:
+        raise errors[0]
+    return out
+
+
 def device_mesh(devices=None) -> Mesh:
     """A 1-D mesh (axis ``"trial"``) over ``devices`` (default: every local device)."""
     return Mesh(np.asarray(devices if devices is not None else jax.local_devices()), ("trial",))

@@ -27,8 +27,8 @@ from mjx_radar.config import Scenario
 from mjx_radar.simulation.programs import (
     COMPILE_LOG,
     compile_programs,
-    compile_thread,
     device_mesh,
+    parallel,
     record_template,
 )
 from mjx_radar.task.method import parse_method
@@ -50,25 +50,13 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
         s = job[0] if isinstance(job, tuple) else job
         shapes.setdefault(shape_key(s), s)
     todo = list(shapes.values())
-    t0 = time.perf_counter()
-    errors: list[BaseException] = []
-
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
-
-    def one(s):
-        try:
-            device_programs(s, batch // len(devices), segment_periods(s, steps), full, devices)
-        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
-            errors.append(err)
-
-    threads = [compile_thread(lambda s=s: one(s)) for s in todo]  # one per shape, big stacks
-    for th in threads:
-        th.start()
-    for th in threads:
-        while th.is_alive():  # join with a timeout: Ctrl-C is honoured at once
-            th.join(0.2)
-    if errors:
-        raise errors[0]
+    t0 = time.perf_counter()
+    parallel([  # one thread per shape (big stacks: XLA's compiler recurses deeply)
+        lambda s=s: device_programs(s, batch // len(devices), segment_periods(s, steps), full,
+                                    devices)
+        for s in todo
+    ])  # fmt: skip
     return time.perf_counter() - t0
 
 
@@ -153,7 +141,7 @@ def run_trials(
     for start in range(0, steps // every, periods):
         # A GPU program with loops is driven by its host thread: one thread per device
         # makes the devices run concurrently.
-        parts = _each(lambda w, s=start: advance(w, s), workers)
+        parts = parallel([lambda w=w, s=start: advance(w, s) for w in workers])
         records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
         chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
         if progress is not None:
@@ -176,37 +164,10 @@ def device_programs(scenario, batch: int, periods: int, full: bool, devices) -> 
     """``[(programs, seconds)]``: the single-device program of each device (compiled in
     parallel threads), each for ``batch`` trials. Every device runs the same per-device
     program, so a trial's numbers never depend on the number of devices."""
-    out: list = [None] * len(devices)
-    errors: list[BaseException] = []
-
-    def one(i, d):
-        try:
-            out[i] = compile_programs(scenario, batch, periods, full, device_mesh([d]))
-        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
-            errors.append(err)
-
-    if len(devices) == 1:
-        one(0, devices[0])
-    else:
-        threads = [compile_thread(lambda i=i, d=d: one(i, d)) for i, d in enumerate(devices)]
-        for th in threads:
-            th.start()
-        for th in threads:
-            while th.is_alive():
-                th.join(0.2)
-    if errors:
-        raise errors[0]
-    return out
-
-
-def _each(fn, items) -> list:
-    """``[fn(x) for x in items]``, one thread per item beyond the first (devices)."""
-    if len(items) == 1:
-        return [fn(items[0])]
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(max_workers=len(items)) as pool:
-        return list(pool.map(fn, items))
+    return parallel(
+        [lambda d=d: compile_programs(scenario, batch, periods, full, device_mesh([d]))
+         for d in devices]
+    )  # fmt: skip
 
 
 def _get(rec, k):

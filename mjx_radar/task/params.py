@@ -51,23 +51,23 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     """The runtime parameters of ``scenario`` for ``method`` (JAX default float dtype)."""
     mpc = scenario.mpc
     dtype = jnp.result_type(float)  # float32, or float64 under x64
-    f32 = lambda x: jnp.asarray(x, dtype)  # noqa: E731
+    arr = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     n = scenario.n_radars
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
     return TaskParams(
         method=method.flags(),
         noise=measurement.noise_params(scenario, dtype=dtype),
         seed=jnp.asarray(scenario.seed if seed is None else seed, jnp.uint32),
-        sigma_w2=f32(scenario.sigma_w2),
-        p0=f32(scenario.p0),
-        placement_half_width=f32(scenario.placement_half_width),
-        target_init=f32(scenario.target_init),
-        radar_init=f32(radar_init),
-        gamma=f32(mpc.gamma),
-        r2t=f32(mpc.r2t),
-        r2r=f32(mpc.r2r),
-        alpha_r2r=f32(mpc.alpha_r2r),
-        alpha_r2t=f32(mpc.alpha_r2t),
+        sigma_w2=arr(scenario.sigma_w2),
+        p0=arr(scenario.p0),
+        placement_half_width=arr(scenario.placement_half_width),
+        target_init=arr(scenario.target_init),
+        radar_init=arr(radar_init),
+        gamma=arr(mpc.gamma),
+        r2t=arr(mpc.r2t),
+        r2r=arr(mpc.r2r),
+        alpha_r2r=arr(mpc.alpha_r2r),
+        alpha_r2t=arr(mpc.alpha_r2t),
     )
 
 
