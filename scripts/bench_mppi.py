@@ -1,10 +1,15 @@
-"""Time one MPPI control call at paper settings (issue 4).
+"""Time one MPPI control call at paper settings (issue 15).
 
-3 radars / 4 targets, 200 samples, 5 iterations, horizon 15, DDR-SFIM, MJX
-rollouts (``--rollouts analytic`` for the closed-form kinematics). Prints the
-compile time, the per-call times after warm-up and, last, ``mppi_call_s=<median>``.
+3 radars / 4 targets, 200 samples, 5 iterations, horizon 15, MJX rollouts
+(``--rollouts analytic`` for the closed-form kinematics). For every method and
+rollout unroll asked for, prints the compile time and the per-call times after
+warm-up; the last line per combination is ``mppi_call_s=<median>``.
 
-    python scripts/bench_mppi.py [--scenario paper_3r4t] [--method ddr-sfim] [--calls 20]
+    python scripts/bench_mppi.py [--scenario paper_3r4t] [--methods ddr-sfim,ddr-pfim]
+        [--unroll 1,15] [--calls 20]
+
+``--unroll`` sets how many horizon steps one loop iteration of the MJX rollout holds
+(``plant.ROLLOUT_UNROLL``, default 1).
 """
 
 from __future__ import annotations
@@ -19,23 +24,16 @@ import numpy as np
 
 from mjx_radar.control import mppi
 from mjx_radar.io.scenario import load_scenario
+from mjx_radar.physics import plant as physics
 from mjx_radar.simulation.placement import initial_conditions
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenario", default="paper_3r4t")
-    ap.add_argument("--method", default="ddr-sfim")
-    ap.add_argument("--rollouts", choices=("mjx", "analytic"), default="mjx")
-    ap.add_argument("--calls", type=int, default=20)
-    args = ap.parse_args()
-    s = load_scenario(args.scenario)
-    s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
+def bench(s, method: str, calls: int) -> float:
     n = s.n_radars
-    task, params = build(s, args.method)
+    task, params = build(s, method)
     init = initial_conditions(task.scenario, params, trial_streams(params.seed, 0))
     plan = make_planner(task)
 
@@ -48,21 +46,39 @@ def main() -> None:
     args_ = (init.radar_state, init.mean, init.cov)
     t0 = time.perf_counter()
     jax.block_until_ready(control(*args_, u, jax.random.PRNGKey(0)))
-    print(
-        f"device={jax.devices()[0].device_kind} compile+first_call_s={time.perf_counter() - t0:.2f}"
-    )
+    compile_s = time.perf_counter() - t0
     times = []
-    for i in range(args.calls):
+    for i in range(calls):
         t0 = time.perf_counter()
         _, u = jax.block_until_ready(control(*args_, u, jax.random.PRNGKey(i + 1)))
         times.append(time.perf_counter() - t0)
     t = np.array(times)
+    unroll = physics.ROLLOUT_UNROLL
     print(
-        f"{s.name} {args.method} rollouts={args.rollouts} samples={s.mppi.samples} "
-        f"iterations={s.mppi.iterations} horizon={s.mpc.horizon}: "
-        f"min {t.min():.4f} s, median {np.median(t):.4f} s, max {t.max():.4f} s over {len(t)} calls"
+        f"{s.name} {method} rollouts={s.mpc.rollout} unroll={unroll} samples={s.mppi.samples} "
+        f"iterations={s.mppi.iterations} horizon={s.mpc.horizon} "
+        f"on {jax.devices()[0].device_kind}: "
+        f"compile+first {compile_s:.1f} s; min {t.min() * 1e3:.2f} ms, median "
+        f"{np.median(t) * 1e3:.2f} ms, max {t.max() * 1e3:.2f} ms over {len(t)} calls"
     )
-    print(f"mppi_call_s={np.median(t):.4f}")
+    print(f"mppi_call_s={np.median(t):.4f}", flush=True)
+    return float(np.median(t))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", default="paper_3r4t")
+    ap.add_argument("--methods", "--method", default="ddr-sfim")
+    ap.add_argument("--rollouts", choices=("mjx", "analytic"), default="mjx")
+    ap.add_argument("--unroll", default="1", help="comma list of rollout unrolls")
+    ap.add_argument("--calls", type=int, default=20)
+    args = ap.parse_args()
+    s = load_scenario(args.scenario)
+    s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
+    for unroll in args.unroll.split(","):
+        physics.ROLLOUT_UNROLL = int(unroll)
+        for method in args.methods.split(","):
+            bench(s, method, args.calls)
 
 
 if __name__ == "__main__":

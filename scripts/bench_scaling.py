@@ -8,6 +8,8 @@ Three measurements, each printed as a table and written to ``OUT/scaling.csv``
   steps, measured by the public runner after its first (compiling) segment; the
   scenarios are ``scripts/make_swarm.py`` layouts (identical to the bundled
   ``scenarios/swarm_*`` files for 8, 16, 32). Real-time factor = dt_control / time.
+  On a GPU the peak device memory after each size is reported too (``memory`` rows;
+  cumulative over the sizes run so far in the process, so run one size for a clean figure).
 * ``filter``: one CKF predict + DDR range update of M targets by N = M radars,
   joint (``ckf`` on the stacked 6M state) vs the per-target bank
   (``filter_bank``, state kept as ``[M, 6]``, ``[M, 6, 6]``); jit, warm, median of
@@ -169,7 +171,12 @@ def main(argv=None) -> int:
             dt = loop_step_s(s, args.method, args.trials, args.steps)
             rows.append(("loop", n, f"{args.trials} trials", s.mppi.samples, dt, "s/control step"))
             rt = s.timing.dt_control / dt
-            print(f"loop N=M={n:3d} N*M={n * n:5d}: {dt * 1e3:9.1f} ms/control step, {rt:.3f}x RT")
+            peak = _peak_bytes()
+            mem = "" if peak is None else f", peak device memory {peak / 2**30:.2f} GiB"
+            if peak is not None:
+                rows.append(("memory", n, f"{args.trials} trials", s.mppi.samples, peak, "bytes"))
+            print(f"loop N=M={n:3d} N*M={n * n:5d}: {dt * 1e3:9.1f} ms/control step, "
+                  f"{rt:.3f}x RT{mem}")  # fmt: skip
     if "filter" not in args.skip:
         for m in args.filter_sizes:
             for variant, dt in filter_times(m, args.calls).items():
@@ -191,6 +198,12 @@ def main(argv=None) -> int:
     _plot(rows, args.out / "scaling.png", dev)
     print(f"wrote {args.out / 'scaling.csv'} and {args.out / 'scaling.png'}")
     return 0
+
+
+def _peak_bytes() -> int | None:
+    """Peak memory in use on the first device so far (None where unreported, e.g. CPU)."""
+    stats = jax.local_devices()[0].memory_stats() or {}
+    return stats.get("peak_bytes_in_use")
 
 
 def _plot(rows, path: Path, dev: str) -> None:

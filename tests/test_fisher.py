@@ -170,3 +170,29 @@ def test_bad_inputs_raise():
         fisher.sfim(np.zeros((1, 3)), np.zeros((1, 3)), C4)
     with pytest.raises(ValueError, match="J3"):
         fisher.data_information(np.zeros((2, 2)))
+
+
+def test_entry_form_pfim_recursion_matches_pfim_step():
+    """fisher.pfim_logdets (the planner's entry-wise recursion) against pfim_step + logdet
+    on [..., 6, 6] arrays, a second implementation: float64 to 1e-11, float32 to 1e-4
+    (relative to log det values of O(10))."""
+    from mjx_radar.physics import motion
+
+    rng = np.random.default_rng(3)
+    m, t = 5, 12
+    B = rng.normal(size=(m, 6, 6))
+    J0 = B @ B.transpose(0, 2, 1) * 0.1 + 0.01 * np.eye(6)
+    C = rng.normal(size=(t, m, 3, 3)) * 0.3
+    J3 = C @ np.swapaxes(C, -1, -2)
+    for x64, tol in ((True, 1e-11), (False, 1e-4)):
+        with jax.enable_x64(x64):
+            a, w = motion.cv_transition(0.1, 1), motion.cv_process_noise(0.1, 1.0, 1)
+            jd = tuple(jnp.asarray(J3[..., i, j]) for i, j in
+                       ((0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2)))  # fmt: skip
+            got = fisher.pfim_logdets(jnp.asarray(J0), a, w, 4.0, jd)
+            j, want = jnp.asarray(J0), []
+            for k in range(t):
+                jdk = fisher.data_information(jnp.asarray(J3[k]))
+                j = jax.vmap(fisher.pfim_step, (0, None, None, 0))(j, a, 4.0 * w, jdk)
+                want.append(fisher.logdet(j))
+            np.testing.assert_allclose(np.asarray(got), np.asarray(jnp.stack(want)), atol=tol * 10)

@@ -105,3 +105,43 @@ def test_logdet_gradient_is_inverse():
         g = np.asarray(jax.grad(linalg.logdet_psd)(jnp.asarray(A)))
     # d logdet / dA = A^{-1} (symmetrised input): exact up to float64 rounding.
     np.testing.assert_allclose(0.5 * (g + g.T), np.linalg.inv(A), rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 6])
+@pytest.mark.parametrize("kind", ["pd", "singular", "indefinite"])
+def test_entry_form_matches_array_form(n, kind):
+    """linalg_small (one array per entry) is the same algorithm as linalg's arrays: the
+    Cholesky factor agrees to round-off for PD, singular and indefinite input (float64);
+    inverse and log det agree where they are well conditioned."""
+    from mjx_radar.estimation import linalg_small as ls
+
+    rng = np.random.default_rng(n)
+    B = rng.standard_normal((40, n, n))
+    A = {"pd": B @ np.swapaxes(B, -1, -2) + 0.1 * np.eye(n),
+         "singular": B[..., :1] @ np.swapaxes(B[..., :1], -1, -2),
+         "indefinite": B + np.swapaxes(B, -1, -2)}[kind]  # fmt: skip
+    with jax.enable_x64(True):
+        L_ref = np.asarray(linalg.psd_cholesky(A))
+        L = ls.psd_cholesky_entries(ls.entries(jnp.asarray(A)))
+        zero = jnp.zeros(A.shape[0])
+        L = np.asarray(ls.from_entries([[L[i][j] if j <= i else zero for j in range(n)]
+                                        for i in range(n)]))  # fmt: skip
+        scale = np.abs(L_ref).max()
+        np.testing.assert_allclose(L, L_ref, atol=1e-12 * scale if kind != "singular" else 1e-7)
+        assert np.all(np.isfinite(L))
+        # (a singular input's log det is set by round-off-sized pivots: not compared)
+        logdet = np.asarray(ls.logdet_from_cholesky_entries(ls.psd_cholesky_entries(ls.entries(A))))
+        if kind != "singular":
+            want = 2 * np.log(np.diagonal(L_ref, 0, -2, -1)).sum(-1)
+            np.testing.assert_allclose(logdet, want, atol=1e-9)
+        if kind == "pd":
+            inv = np.asarray(ls.from_entries(ls.inv_from_cholesky_entries(L_entries(ls, A))))
+            np.testing.assert_allclose(inv, np.linalg.inv(A), rtol=1e-9, atol=1e-12)
+            if n == 3:
+                packed = ((0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2))
+                got = ls.logdet_sym3(*(A[..., i, j] for i, j in packed))
+                np.testing.assert_allclose(got, np.linalg.slogdet(A)[1], atol=1e-12)  # jitter δ
+
+
+def L_entries(ls, A):
+    return ls.psd_cholesky_entries(ls.entries(jnp.asarray(A)))

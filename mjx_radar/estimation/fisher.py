@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import linalg
+from mjx_radar.estimation import linalg, linalg_small
 
 __all__ = ["INFO_FLOOR", "sfim", "sfim_ccr", "pfim_step", "data_information", "logdet"]
 
@@ -133,6 +133,67 @@ def pfim_step(J, A, W, J_data):
     return linalg.symmetrize(linalg.psd_inv(prior_cov) + J_data)
 
 
+def _const_congruence(A, X):
+    """``A X Aᵀ`` for a constant ``A[n, n]`` (numpy) and symmetric entries ``X[i][j]``.
+
+    Zeros of ``A`` are skipped at trace time (the CV transition is half zeros).
+    """
+    n = A.shape[0]
+    ax = [[sum(A[i, k] * X[k][j] for k in range(n) if A[i, k] != 0.0) for j in range(n)]
+          for i in range(n)]  # fmt: skip
+    out = [[None] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i + 1):
+            out[i][j] = out[j][i] = sum(ax[i][k] * A[j, k] for k in range(n) if A[j, k] != 0.0)
+    return out
+
+
+def pfim_logdets(J0, A, W_unit, sigma_w2, jd, floor: float = INFO_FLOOR, unroll: int = 1):
+    """``log det(J_t + floor·I)`` along the PFIM recursion, on one array per matrix entry.
+
+    The planner's hot path: the same recursion as :func:`pfim_step` (``J_{t+1} =
+    (W + A J_t⁻¹ Aᵀ)⁻¹ + [[J_D,t+1, 0], [0, 0]]``), with every 6×6 matrix held as 21
+    arrays over the batch so that the work is elementwise (vectorised over the batch
+    on the CPU, few kernels on the GPU) instead of millions of tiny matrix products.
+    The Cholesky factor of ``J_t`` serves both its log det and the next step's inverse.
+
+    Args:
+        J0: ``[..., 6, 6]`` information at the start.
+        A: ``[6, 6]`` transition (a concrete, non-traced constant).
+        W_unit: ``[6, 6]`` process noise per unit ``sigma_w2`` (concrete constant).
+        sigma_w2: process-noise scale (scalar, may be traced).
+        jd: position data information ``(xx, xy, xz, yy, yz, zz)``, each ``[T, ...]``
+            (step t's information, added at step t).
+        floor: absolute information floor added before the log det.
+        unroll: steps per loop iteration (``lax.scan``'s ``unroll``).
+
+    Returns:
+        ``[T, ...]`` log-determinants of ``J_1 .. J_T``.
+    """
+    a, w = np.asarray(A, float), np.asarray(W_unit, float)
+    n = a.shape[0]
+    pos = {(0, 0): 0, (1, 0): 1, (2, 0): 2, (1, 1): 3, (2, 1): 4, (2, 2): 5}
+    J0 = jnp.asarray(J0)
+    chol0 = linalg_small.psd_cholesky_entries(linalg_small.entries(J0))
+
+    def step(chol, jdt):
+        prior = _const_congruence(a, linalg_small.inv_from_cholesky_entries(chol))
+        prior = [[prior[i][j] + sigma_w2 * w[i, j] if w[i, j] != 0.0 else prior[i][j]
+                  for j in range(n)] for i in range(n)]  # fmt: skip
+        new = linalg_small.inv_from_cholesky_entries(linalg_small.psd_cholesky_entries(prior))
+        new = [[new[i][j] + jdt[pos[(max(i, j), min(i, j))]] if max(i, j) < 3 else new[i][j]
+                for j in range(n)] for i in range(n)]  # fmt: skip
+        floored = [[new[i][j] + floor if i == j else new[i][j] for j in range(n)]
+                   for i in range(n)]  # fmt: skip
+        chol_new = linalg_small.psd_cholesky_entries(new)
+        return chol_new, linalg_small.logdet_from_cholesky_entries(
+            linalg_small.psd_cholesky_entries(floored)
+        )
+
+    _, out = jax.lax.scan(step, chol0, tuple(jd), unroll=unroll)
+    return out
+
+
 def logdet(J, floor: float = INFO_FLOOR):
     """``log det(J + floor·I)`` of information matrices ``[..., n, n]`` -> ``[...]``."""
     return linalg.logdet_psd(J, floor=floor)
@@ -192,6 +253,17 @@ def unpack_sym3(p):
     )
 
 
+def logdet_components(entries, floor: float = INFO_FLOOR):
+    """``log det(J + floor·I)`` of 3×3 information given as its 6 entries -> ``[...]``.
+
+    Args:
+        entries: ``(xx, xy, xz, yy, yz, zz)``, each ``[...]`` (as returned by
+            :func:`mjx_radar.estimation.measurement.information_components`).
+        floor: absolute information floor [1/m²].
+    """
+    return linalg_small.logdet_sym3(*entries, floor=floor)
+
+
 def logdet_packed(p, floor: float = INFO_FLOOR):
     """``log det(J + floor·I)`` of packed 3×3 information ``[..., 6]`` -> ``[...]``."""
-    return linalg.logdet_psd(unpack_sym3(p), floor=floor)
+    return linalg_small.logdet_sym3(*(p[..., i] for i in range(6)), floor=floor)

@@ -41,6 +41,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jax import lax
 
+from mjx_radar.estimation import linalg_small
+
 __all__ = ["symmetrize", "psd_cholesky", "psd_solve", "psd_inv", "logdet_psd"]
 
 
@@ -241,23 +243,7 @@ def logdet_psd(A, floor=0.0):
 
 
 def _logdet3(A):
-    """Unrolled LDLᵀ (square-root-free Cholesky) log-determinant of 3×3 PSD matrices.
-
-    ``log det A = Σ log D_ii`` with ``D_11 = a11``, ``D_22 = a22 − a21²/D_11``,
-    ``D_33 = a33 − a31²/D_11 − (a32 − a31 a21/D_11)²/D_22``. Elementwise, so it
-    vectorises over millions of matrices (the MPPI objective), where a batched
-    LAPACK call per matrix would dominate. Each pivot is floored at the same
-    relative jitter δ as :func:`psd_cholesky`, so the result is finite for every
-    finite input.
-    """
+    """:func:`linalg_small.logdet_sym3` of the entries of ``sym(A)``, ``A[..., 3, 3]``."""
     A = symmetrize(A)
-    finfo = jnp.finfo(A.dtype)
     a = [[A[..., i, j] for j in range(3)] for i in range(3)]
-    scale = (jnp.abs(a[0][0]) + jnp.abs(a[1][1]) + jnp.abs(a[2][2])) / 3.0
-    delta = 10.0 * finfo.eps * scale + jnp.sqrt(jnp.asarray(finfo.tiny, A.dtype))
-    d1 = jnp.maximum(a[0][0] + delta, delta)
-    l21, l31 = a[1][0] / d1, a[2][0] / d1
-    d2 = jnp.maximum(a[1][1] + delta - l21 * a[1][0], delta)
-    l32 = (a[2][1] - l31 * a[1][0]) / d2
-    d3 = jnp.maximum(a[2][2] + delta - l31 * a[2][0] - l32 * l32 * d2, delta)
-    return jnp.log(d1) + jnp.log(d2) + jnp.log(d3)
+    return linalg_small.logdet_sym3(a[0][0], a[1][0], a[2][0], a[1][1], a[2][1], a[2][2])

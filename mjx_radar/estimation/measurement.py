@@ -34,33 +34,23 @@ and ``dim``), implement ``predict``, ``variance``, ``sample``, ``residual``,
 from __future__ import annotations
 
 import dataclasses
-import math
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import MeasurementConfig, RadarEquation, Scenario
 from mjx_radar.estimation import fisher, sensing
+from mjx_radar.estimation.noise import NoiseParams, noise_params
 
 __all__ = [  # noqa: RUF022
     "RHO2_EPS", "NoiseParams", "MeasurementModel", "RangeModel", "RangeAzimuthModel", "MODELS",
-    "make_model", "noise_params", "wrap_angle", "information", "information_dense",
+    "make_model", "noise_params", "wrap_angle", "information", "information_components",
+    "information_dense",
     "measurement_function", "noise_cov_fn", "flat_residual",
 ]  # fmt: skip
 
 RHO2_EPS = 1e-10
 """Floor [m²] on ρ² in ∇φ: bias < 1e-9 for ρ > 1 cm; float32-safe (ρ = 0: 1/ρ⁴ = 1e20)."""
-
-
-class NoiseParams(NamedTuple):
-    """Runtime noise constants (scalars, may be traced)."""
-
-    c: jax.Array  # DDR range constant C: var(2d) = C d⁴ [1/m²]
-    sigma_r2: jax.Array  # CCR range variance C·R2T⁴ [m²]
-    c_az: jax.Array  # DDR azimuth constant: var(φ) = c_az d⁴ [rad²/m⁴]
-    sigma_az2: jax.Array  # CCR azimuth variance c_az·R2T⁴ [rad²]
 
 
 def wrap_angle(a):
@@ -91,7 +81,7 @@ def _range_terms(x, y, z, params, ccr):
 
 
 def _pack(g, x, y, z):
-    return [g * x * x, g * x * y, g * x * z, g * y * y, g * y * z, g * z * z]
+    return (g * x * x, g * x * y, g * x * z, g * y * y, g * y * z, g * z * z)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,8 +107,19 @@ class MeasurementModel:
         """``a − b`` of measurements ``[..., dim]`` (angles wrapped to (−π, π])."""
         raise NotImplementedError
 
-    def pair_information(self, d, params: NoiseParams, ccr):
-        """Position FIM of one pair, ``d[..., 3] = target − radar`` -> packed ``[..., 6]``."""
+    def pair_information(self, dx, dy, dz, params: NoiseParams, ccr):
+        """Position FIM of one pair from the components of ``d = target − radar``.
+
+        Args:
+            dx, dy, dz: ``[...]`` each (one array per coordinate, so a batch of
+                pairs is elementwise arithmetic on contiguous arrays: XLA's CPU
+                backend vectorises it, an interleaved ``[..., 3]`` layout it does not).
+            params: :class:`NoiseParams`.
+            ccr: bool (Python or traced).
+
+        Returns:
+            The 6 unique entries ``(xx, xy, xz, yy, yz, zz)`` [1/m²], each ``[...]``.
+        """
         raise NotImplementedError
 
 
@@ -144,10 +145,9 @@ class RangeModel(MeasurementModel):
     def residual(self, a, b):
         return a - b
 
-    def pair_information(self, d, params, ccr):
-        x, y, z = d[..., 0], d[..., 1], d[..., 2]
-        _, g = _range_terms(x, y, z, params, ccr)
-        return jnp.stack(_pack(g, x, y, z), axis=-1)
+    def pair_information(self, dx, dy, dz, params, ccr):
+        _, g = _range_terms(dx, dy, dz, params, ccr)
+        return _pack(g, dx, dy, dz)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -181,8 +181,8 @@ class RangeAzimuthModel(MeasurementModel):
         r = a - b
         return jnp.stack([r[..., 0], wrap_angle(r[..., 1])], axis=-1)
 
-    def pair_information(self, d, params, ccr):
-        x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    def pair_information(self, dx, dy, dz, params, ccr):
+        x, y, z = dx, dy, dz
         r2, g = _range_terms(x, y, z, params, ccr)
         # ∇φ∇φᵀ = (y², −xy, 0, x², 0, 0) / ρ⁴, scaled by 1/var(φ); plus 8 u uᵀ / r² (DDR).
         # Products of inverses keep float32 in range for ranges from ~1 m to ~100 km.
@@ -191,7 +191,7 @@ class RangeAzimuthModel(MeasurementModel):
         a = _select(ccr, a_ddr, (1.0 / params.sigma_az2) * (irho * irho))
         g = g + _select(ccr, 8.0 * ir * ir, jnp.zeros_like(r2))
         xx, xy, xz, yy, yz, zz = _pack(g, x, y, z)
-        return jnp.stack([xx + a * y * y, xy - a * x * y, xz, yy + a * x * x, yz, zz], axis=-1)
+        return (xx + a * y * y, xy - a * x * y, xz, yy + a * x * x, yz, zz)
 
 
 MODELS = {"range": RangeModel, "range-azimuth": RangeAzimuthModel}
@@ -204,46 +204,42 @@ def make_model(name: str) -> MeasurementModel:
     return MODELS[name]()
 
 
-def noise_params(source, n_targets=None, r2t=None, measurement=None, dtype=None) -> NoiseParams:
-    """Noise constants from the radar equation (host float64, returned as ``dtype``).
+def information_components(model: MeasurementModel, radar_pos, target_xyz, params, ccr, mask=None):
+    """Position FIM of every target summed over radars, one array per packed entry.
+
+    The fast layout of the planner's objective: targets as three coordinate arrays
+    whose last axis runs over many points, accumulated radar by radar in elementwise
+    arithmetic (one fused, vectorised loop; no 3×3 or ``[..., 3]`` temporaries).
 
     Args:
-        source: a :class:`Scenario` (then the other arguments default to its
-            ``n_targets``, ``mpc.r2t`` and ``measurement``) or a :class:`RadarEquation`.
-        n_targets: int M (noise power carries the factor M, SPEC §1).
-        r2t: float, CCR reference range R2T [m].
-        measurement: MeasurementConfig (beamwidth, monopulse slope); default its defaults.
-        dtype: array dtype (default: JAX's default float).
+        model: measurement model.
+        radar_pos: ``[..., N, 3]`` radar positions.
+        target_xyz: ``(x, y, z)`` target coordinates, each ``[..., K]`` (K targets or
+            points; the leading dims broadcast against ``radar_pos``'s).
+        params: :class:`NoiseParams`.
+        ccr: bool (Python or traced): use the CCR constants instead of DDR.
+        mask: optional ``[..., N, K]`` bool/0-1; False pairs contribute nothing.
 
     Returns:
-        ``NoiseParams(C, C·R2T⁴, c_az, c_az·R2T⁴)`` with
-        ``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, ``SNR_ref = 10^(snr_db/10) / M``.
+        ``(xx, xy, xz, yy, yz, zz)`` of ``Σ_n J_nk``, each ``[..., K]`` [1/m²].
     """
-    if isinstance(source, Scenario):
-        n_targets = source.n_targets if n_targets is None else n_targets
-        r2t = source.mpc.r2t if r2t is None else r2t
-        measurement = source.measurement if measurement is None else measurement
-        source = source.radar_eq
-    if not isinstance(source, RadarEquation) or n_targets is None or r2t is None:
-        raise ValueError("noise_params needs a Scenario, or a RadarEquation with n_targets and r2t")
-    meas = measurement or MeasurementConfig()
-    if not (meas.beamwidth_deg > 0 and meas.monopulse_slope > 0):
-        raise ValueError("beamwidth_deg and monopulse_slope must be > 0")
-    if not (math.isfinite(float(r2t)) and float(r2t) > 0):
-        raise ValueError(f"r2t must be finite and > 0 m, got {r2t!r}")
-    c = sensing.noise_constant(source, n_targets)
-    snr_ref = 10.0 ** (float(source.snr_db) / 10.0) / int(n_targets)
-    theta, k_m = math.radians(float(meas.beamwidth_deg)), float(meas.monopulse_slope)
-    c_az = theta**2 / (2.0 * k_m**2 * snr_ref * float(source.r_ref) ** 4)
-    r4 = float(r2t) ** 4
-    dt = dtype or jnp.result_type(float)
-    return NoiseParams(*(jnp.asarray(v, dt) for v in (c, c * r4, c_az, c_az * r4)))
+    radar_pos = jnp.asarray(radar_pos)
+    tx, ty, tz = (jnp.asarray(c) for c in target_xyz)
+    acc = None
+    for n in range(radar_pos.shape[-2]):
+        r = radar_pos[..., n, :]
+        term = model.pair_information(
+            tx - r[..., 0:1], ty - r[..., 1:2], tz - r[..., 2:3], params, ccr
+        )
+        if mask is not None:
+            keep = jnp.asarray(mask)[..., n, :]
+            term = tuple(t * keep.astype(t.dtype) for t in term)
+        acc = term if acc is None else tuple(a + t for a, t in zip(acc, term, strict=True))
+    return acc
 
 
 def information(model: MeasurementModel, radar_pos, target_pos, params, ccr, mask=None):
     """Position FIM of every target summed over radars, packed.
-
-    Accumulated radar by radar elementwise (like :func:`fisher.sfim_packed`): no 3×3 temporaries.
 
     Args:
         model: measurement model.
@@ -257,13 +253,10 @@ def information(model: MeasurementModel, radar_pos, target_pos, params, ccr, mas
         ``[..., M, 6]``: ``Σ_n J_nm`` as ``(xx, xy, xz, yy, yz, zz)`` [1/m²].
     """
     radar_pos, target_pos = jnp.asarray(radar_pos), jnp.asarray(target_pos)
-    acc = None
-    for n in range(radar_pos.shape[-2]):
-        term = model.pair_information(target_pos - radar_pos[..., n : n + 1, :], params, ccr)
-        if mask is not None:
-            term = term * jnp.asarray(mask, term.dtype)[..., n, :, None]
-        acc = term if acc is None else acc + term
-    return acc
+    dtype = jnp.result_type(radar_pos, target_pos, float)
+    xyz = tuple(target_pos[..., c].astype(dtype) for c in range(3))
+    comps = information_components(model, radar_pos.astype(dtype), xyz, params, ccr, mask)
+    return jnp.stack(comps, axis=-1)
 
 
 def information_dense(model: MeasurementModel, radar_pos, target_pos, params, ccr, mask=None):

@@ -28,6 +28,7 @@ import numpy as np
 from mujoco import mjx
 
 from mjx_radar.config import RadarLimits, Scenario
+from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
 from mjx_radar.world.obstacles import contact_envelope
 
@@ -42,9 +43,10 @@ class Plant:
         index: addresses of radar / drone quantities.
         dt: physics step [s].
         limits: radar control limits (controls are clipped before the step).
-        fast: use the contact-free step (no collision, constraint or sensor stages and
-            the constant mass-matrix factor); set when the scene has no contacts and
-            its mass matrix does not depend on the configuration.
+        fast: use the contact-free step (no collision, constraint, sensor, passive or
+            bias-force stages, and the constant mass-matrix factor); set when the scene
+            has no contacts, its mass matrix does not depend on the configuration and
+            its bias forces (Coriolis, centrifugal; gravity is off) vanish.
     """
 
     mj_model: mujoco.MjModel
@@ -82,35 +84,24 @@ def make_plant(
     with jax.ensure_compile_time_eval():
         model = mjx.put_model(mj_model, device=jax.local_devices()[0])
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    fast = contact_free and _constant_mass_matrix(mj_model)
+    fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
     return Plant(mj_model, model, index, float(dt), limits, fast)
 
 
-def _constant_mass_matrix(mj_model: mujoco.MjModel, tries: int = 4) -> bool:
-    """True if the joint-space inertia is the same at random configurations."""
-    data = mujoco.MjData(mj_model)
-    rng = np.random.default_rng(0)
-    mats = []
-    for _ in range(tries):
-        data.qpos[:] = rng.uniform(-100, 100, mj_model.nq)
-        mujoco.mj_forward(mj_model, data)
-        full = np.zeros((mj_model.nv, mj_model.nv))
-        mujoco.mj_fullM(mj_model, data, full)
-        mats.append(full)
-    return all(np.allclose(m, mats[0], rtol=1e-12, atol=1e-9) for m in mats)
-
-
 def _contact_free_step(model: mjx.Model, data):
-    """``mjx.step`` for a contact-free scene with a constant mass matrix.
+    """``mjx.step`` for a contact-free scene with a constant mass matrix and no bias force.
 
-    Runs kinematics, transmission, velocity and actuation stages and the Euler
-    update; skips collision, constraints and sensors, and reuses the mass-matrix
-    factor computed once by :func:`init_data` (tests compare it with ``mjx.step``).
+    Runs the kinematics, transmission, actuator-velocity and actuation stages and the
+    Euler update; skips collision, constraints, sensors and the velocity stage's
+    com_vel / passive / RNE passes (their forces are zero, checked by
+    `model_checks.zero_bias` when the plant is built), and reuses the mass-matrix factor
+    computed once by :func:`init_data` (tests compare it with ``mjx.step``).
     """
     data = mjx.kinematics(model, data)
     data = mjx.com_pos(model, data)
     data = mjx.transmission(model, data)
-    data = mjx.fwd_velocity(model, data)
+    impl = data._impl  # actuator velocities: fwd_velocity's first line, without the rest
+    data = data.tree_replace({"_impl.actuator_velocity": impl.actuator_moment @ data.qvel})
     data = mjx.fwd_actuation(model, data)
     data = mjx.fwd_acceleration(model, data)
     return mjx.euler(model, data.replace(qacc=data.qacc_smooth))
@@ -258,6 +249,15 @@ def obstacle_contacts(plant: Plant, data) -> jax.Array:
     return jnp.sum(_radar_touching(plant, data)).astype(jnp.int32)
 
 
+ROLLOUT_UNROLL: int = 1
+"""Rollout steps per loop iteration of :func:`radar_rollout` (``lax.scan``'s ``unroll``).
+
+H100, ``scripts/bench_mppi.py --unroll 1,15``: the unrolled 15-step horizon took an
+SFIM MPPI call from 6.06 to 5.58 ms but its compilation from 12 to 30 s, so the
+default keeps the loop; benchmarks may change it.
+"""
+
+
 def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Array:
     """Rolls the radars of a radar-only plant out through MJX.
 
@@ -275,7 +275,8 @@ def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Ar
         d = step(plant, d, u)
         return d, radar_state(plant, d)
 
-    return jax.lax.scan(body, data, controls)[1]
+    unroll = max(1, min(int(ROLLOUT_UNROLL), controls.shape[0]))
+    return jax.lax.scan(body, data, controls, unroll=unroll)[1]
 
 
 def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Array) -> jax.Array:

@@ -64,6 +64,13 @@ def program_dir() -> Path | None:
     return path
 
 
+def enabled() -> bool:
+    """True if XLA's persistent compilation cache is on in this process (ours or the user's)."""
+    import jax
+
+    return jax.config.jax_compilation_cache_dir is not None
+
+
 def disable() -> None:
     """Turns the persistent cache off for this process."""
     import jax
