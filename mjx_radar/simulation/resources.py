@@ -204,10 +204,10 @@ def host_available() -> int | None:
 
 
 def _device_available() -> tuple[bool, int | None]:
-    """``(shared with the host, free bytes on the default device or None)``."""
+    """``(shared with the host, free bytes on this process's first device or None)``."""
     import jax
 
-    dev = jax.devices()[0]
+    dev = jax.local_devices()[0]  # under jax.distributed, devices()[0] is process 0's
     if dev.platform == "cpu":
         return True, None
     try:

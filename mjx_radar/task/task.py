@@ -67,9 +67,8 @@ def _rollout_backend(scenario: Scenario) -> Callable:
     k, limits = scenario.mpc.substeps, scenario.limits
     dt = scenario.timing.dt_control / k
     if scenario.mpc.rollout == "mjx":
-        plant = physics.planner_plant(scenario) if k == 1 else physics.make_plant(
-            scenario.n_radars, 0, dt, limits
-        )  # fmt: skip
+        # one radar, vmapped over the N radars by radar_rollout (see planner_plant)
+        plant = physics.planner_plant(scenario) if k == 1 else physics.make_plant(1, 0, dt, limits)
 
         def integrate(state, u):
             return physics.radar_rollout(plant, state, u)
