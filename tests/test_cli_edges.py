@@ -15,6 +15,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -128,11 +129,19 @@ def test_500_radars_warned_and_interruptible(tmp_path):
 
 
 def _interrupt_after_compile_line(argv, needle="compiling (", sig=signal.SIGINT):
-    cmd = [sys.executable, "-m", "mjx_radar", *argv]
+    # Ctrl-C's default handler even when the test runner was started as a background
+    # job (which ignores SIGINT, and Python then keeps ignoring it); a cold compilation
+    # cache of its own (a warm one can finish the run before the signal arrives).
+    boot = (
+        "import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+        "sys.argv[0] = 'mjx_radar'; runpy.run_module('mjx_radar', run_name='__main__')"
+    )
+    cmd = [sys.executable, "-c", boot, *argv]
     t0 = time.perf_counter()
+    env = {**ENV, "MJX_RADAR_CACHE_DIR": tempfile.mkdtemp(prefix="mjx_radar_cache_")}
     proc = subprocess.Popen(
         cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        env=ENV, cwd=REPO, text=True,
+        env=env, cwd=REPO, text=True,
     )  # fmt: skip
     seen = []
     for line in proc.stderr:
