@@ -11,25 +11,14 @@ from __future__ import annotations
 
 import argparse
 import functools
-import time
 
 import jax
 import jax.numpy as jnp
-import numpy as np
+from bench_timing import median_seconds  # scripts/, on the path when run
 
 from mjx_radar.config import RadarLimits
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics.kinematics import unicycle_rollout
-
-
-def _time(fn, *args, repeats: int) -> float:
-    jax.block_until_ready(fn(*args))
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn(*args))
-        ts.append(time.perf_counter() - t0)
-    return float(np.median(ts))
 
 
 def main() -> None:
@@ -53,8 +42,8 @@ def main() -> None:
             k1, k2 = jax.random.split(jax.random.PRNGKey(b + n))
             s0 = jnp.zeros((b, n, 6)).at[..., :2].set(jax.random.normal(k1, (b, n, 2)) * 300)
             u = jax.random.normal(k2, (b, h, n, 2)) * jnp.array([25.0, 0.8])
-            t_mjx = _time(mjx_fn, s0, u, repeats=args.repeats)
-            t_jax = _time(jax_fn, s0, u, repeats=args.repeats)
+            t_mjx = median_seconds(mjx_fn, s0, u, calls=args.repeats)
+            t_jax = median_seconds(jax_fn, s0, u, calls=args.repeats)
             print(
                 f"{b:6d} {n:3d} {t_mjx * 1e3:9.2f} {b * h / t_mjx:16.3e} {t_jax * 1e3:8.2f} "
                 f"{b * h / t_jax:16.3e} {t_mjx / t_jax:6.1f}"

@@ -33,7 +33,6 @@ import argparse
 import csv
 import dataclasses
 import sys
-import time
 import tomllib
 from pathlib import Path
 
@@ -52,6 +51,7 @@ from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_timing import median_seconds  # noqa: E402
 from make_swarm import swarm_toml  # noqa: E402
 
 
@@ -72,16 +72,6 @@ def run_loop(scenario, method: str, trials: int, steps: int) -> dict:
 def loop_step_s(scenario, method: str, trials: int, steps: int) -> float:
     """Wall seconds per control step of the batch, excluding the compiling segment."""
     return 1.0 / run_loop(scenario, method, trials, steps)["control_hz"]
-
-
-def _median_time(fn, args, calls: int) -> float:
-    jax.block_until_ready(fn(*args))  # compile + warm
-    times = []
-    for _ in range(calls):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn(*args))
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def filter_times(m: int, calls: int) -> dict:
@@ -116,9 +106,9 @@ def filter_times(m: int, calls: int) -> dict:
 
     means, covs = filter_bank.joint_to_bank(mean, cov)
     return {
-        "joint": _median_time(joint, (mean, cov, z, radars), calls),
-        "bank": _median_time(bank, (means, covs, z, radars), calls),
-        "bank+conversions": _median_time(bank_joint_io, (mean, cov, z, radars), calls),
+        "joint": median_seconds(joint, mean, cov, z, radars, calls=calls),
+        "bank": median_seconds(bank, means, covs, z, radars, calls=calls),
+        "bank+conversions": median_seconds(bank_joint_io, mean, cov, z, radars, calls=calls),
     }
 
 

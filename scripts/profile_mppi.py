@@ -7,10 +7,9 @@ Usage: ``python scripts/profile_mppi.py [--scenario paper_3r4t] [--method ddr-sf
 from __future__ import annotations
 
 import argparse
-import time
 
 import jax
-import numpy as np
+from bench_timing import median_seconds  # scripts/, on the path when run
 
 from mjx_radar.io.scenario import load_scenario
 from mjx_radar.simulation.placement import initial_conditions
@@ -18,16 +17,6 @@ from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task import objective
 from mjx_radar.task.costs import Horizon, information, radar_radar, radar_target
 from mjx_radar.task.task import build
-
-
-def _median_s(f, *args, calls: int = 10) -> float:
-    jax.block_until_ready(f(*args))
-    times = []
-    for _ in range(calls):
-        t0 = time.perf_counter()
-        jax.block_until_ready(f(*args))
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def main() -> None:
@@ -56,10 +45,10 @@ def main() -> None:
     full = jax.jit(jax.vmap(lambda uu: cost(uu, ctx, params)[0]))
     print(
         f"{s.name} {args.method}, one MPPI iteration of {samples} samples on "
-        f"{jax.devices()[0].device_kind}: rollout {1e3 * _median_s(roll, u):.1f} ms, "
-        f"cost terms {1e3 * _median_s(jax.jit(jax.vmap(terms)), traj):.1f} ms "
-        f"(information {1e3 * _median_s(info, traj):.1f} ms), "
-        f"rollout + cost {1e3 * _median_s(full, u):.1f} ms"
+        f"{jax.devices()[0].device_kind}: rollout {1e3 * median_seconds(roll, u):.1f} ms, "
+        f"cost terms {1e3 * median_seconds(jax.jit(jax.vmap(terms)), traj):.1f} ms "
+        f"(information {1e3 * median_seconds(info, traj):.1f} ms), "
+        f"rollout + cost {1e3 * median_seconds(full, u):.1f} ms"
     )
 
 

@@ -8,10 +8,8 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -75,20 +73,10 @@ def test_trial_independent_of_batch_mates(study_dir):
         )
 
 
-def test_kill9_then_resume_is_identical(study_dir, tmp_path):
+def test_kill9_then_resume_is_identical(study_dir, tmp_path, sigkill_once_written):
     out = tmp_path / "killed"
     proc = _subprocess(["study", *ARGS, "--out", str(out)], stderr=subprocess.DEVNULL)
-    first = out / "chunks" / "smoke__stationary__0-1.parquet"
-    deadline = time.monotonic() + 300
-    try:
-        while not first.exists():
-            assert proc.poll() is None, "study ended before its first chunk"
-            assert time.monotonic() < deadline, "no chunk after 300 s"
-            time.sleep(0.05)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        proc.kill()
-        proc.wait()
+    sigkill_once_written(proc, out / "chunks" / "smoke__stationary__0-1.parquet", 300)
     assert not (out / "study.json").exists()
     assert 1 <= len(list((out / "chunks").glob("*.parquet"))) < 4  # killed mid-way
     assert cli.main(["study", *ARGS, "--out", str(out), "--resume"]) == 0

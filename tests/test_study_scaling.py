@@ -15,11 +15,9 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pandas as pd
@@ -119,22 +117,15 @@ def test_distributed_two_processes(reference, tmp_path):
     _same(out, reference)
 
 
-def test_killed_shard_reruns_losing_at_most_one_chunk(reference, tmp_path, capsys):
+def test_killed_shard_reruns_losing_at_most_one_chunk(
+    reference, tmp_path, capsys, sigkill_once_written
+):
     """SIGKILL a ``--shard 1/2`` job after its first chunk file: the rerun keeps that
     file, writes the rest, and with shard 0 the study equals the reference."""
     out = tmp_path / "killed"
     proc = _study(["--out", str(out), "--shard", "1/2"], env=_env(), stderr=subprocess.DEVNULL)
     first = out / "chunks" / "smoke__stationary__2-3.parquet"  # shard 1 owns chunks 1, 3
-    deadline = time.monotonic() + TIMEOUT_S
-    try:
-        while not first.exists():
-            assert proc.poll() is None, "the shard ended before its first chunk"
-            assert time.monotonic() < deadline, "no chunk before the timeout"
-            time.sleep(0.02)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        proc.kill()
-        proc.wait()
+    sigkill_once_written(proc, first, TIMEOUT_S)
     kept = first.stat().st_mtime_ns
     assert not (out / "study.json").exists()
     assert cli_main(["study", *ARGS, "--out", str(out), "--shard", "1/2"]) == 0
