@@ -9,11 +9,29 @@ from mjx_radar.config import (
     Scenario,
     Timing,
 )
-from mjx_radar.io.scenario import ScenarioError, load_scenario
+from mjx_radar.io.scenario import ScenarioError, bundled_scenarios, load_scenario
+from mjx_radar.io.scenario_edit import validate
 from mjx_radar.task.method import METHODS as _METHODS
 from mjx_radar.task.method import Method, parse_method
 
 METHODS = tuple(_METHODS)  # method names (SPEC §9)
+
+# The scripting API (docs/api.md), imported on first use: ``import mjx_radar`` stays light.
+_LAZY = {
+    "simulate": "mjx_radar.api.run",
+    "Run": "mjx_radar.api.run",
+    "run_study": "mjx_radar.api.study",
+    "Study": "mjx_radar.api.study",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'mjx_radar' has no attribute {name!r}")
+
 
 __all__ = [
     "METHODS",
@@ -22,11 +40,17 @@ __all__ = [
     "MPPIConfig",
     "Obstacle",
     "RadarEquation",
+    "Run",
+    "Study",
     "RadarLimits",
     "Scenario",
     "ScenarioError",
     "Timing",
+    "bundled_scenarios",
     "load_scenario",
     "parse_method",
+    "run_study",
+    "simulate",
+    "validate",
 ]
 __version__ = "0.1.0"

@@ -85,14 +85,20 @@ def noise_std_at_r_ref(s: Scenario) -> float:
     """``σ_R = sqrt(C) r_ref²`` [m] in float64 (``inf``/``nan`` if not representable)."""
     p = s.radar_eq
     c2 = SPEED_OF_LIGHT**2
-    return math.sqrt(c2 * s.n_targets / (8.0 * math.pi**2 * p.fc**2 * 10.0 ** (p.snr_db / 10.0)))
+    try:
+        return math.sqrt(c2 * s.n_targets / (8.0 * math.pi**2 * p.fc**2 * 10.0 ** (p.snr_db / 10.0)))
+    except (OverflowError, ZeroDivisionError):
+        return math.inf
 
 
 def radar_constant(s: Scenario) -> float:
-    """``K = Pt Gt Gr λ² σ / ((4π)³ L)`` [W m⁴] in float64."""
+    """``K = Pt Gt Gr λ² σ / ((4π)³ L)`` [W m⁴] in float64 (``inf`` if it overflows)."""
     p = s.radar_eq
-    lam = SPEED_OF_LIGHT / p.fc
-    return p.power_tx * p.gain_tx * p.gain_rx * lam**2 * p.rcs / ((4.0 * math.pi) ** 3 * p.loss)
+    try:
+        lam = SPEED_OF_LIGHT / p.fc
+        return p.power_tx * p.gain_tx * p.gain_rx * lam**2 * p.rcs / ((4.0 * math.pi) ** 3 * p.loss)
+    except OverflowError:  # e.g. fc = 1e-253: lambda^2 beyond float64
+        return math.inf
 
 
 def _check_noise(s: Scenario) -> None:

@@ -202,12 +202,24 @@ def load_scenario(path: str | Path) -> Scenario:
     return scenario_from_dict(raw, p.parent)
 
 
+def bundled_dir() -> Path:
+    """The folder of the bundled scenarios (package ``mjx_radar.scenarios``)."""
+    from importlib.resources import files
+
+    return Path(str(files("mjx_radar.scenarios")))
+
+
+def bundled_scenarios() -> list[str]:
+    """Names of the bundled scenarios (``load_scenario(name)`` loads one)."""
+    return sorted(p.stem for p in bundled_dir().glob("*.toml"))
+
+
 def resolve_path(path: str | Path) -> Path:
-    """A file path as given, else ``scenarios/<name>.toml`` of the repository."""
+    """A file path as given, else the bundled ``<name>.toml`` (works from a wheel)."""
     p = Path(path)
     if p.exists() or p.suffix:
         return p
-    bundled = Path(__file__).resolve().parent.parent.parent / "scenarios" / f"{p.name}.toml"
+    bundled = bundled_dir() / f"{p.name}.toml"
     return bundled if bundled.exists() else p
 
 

@@ -1,0 +1,287 @@
+"""``mjx_radar.simulate`` and :class:`Run`: the closed loop from a Python script.
+
+``simulate`` validates the scenario by the rules of a TOML file, checks that the
+radars can be placed and that the run fits in memory, and runs the same compiled
+program as ``mjx-radar run`` (:func:`mjx_radar.simulation.runner.run_trials`), so a
+fixed seed gives the same numbers from either. A :class:`Run` holds the result:
+
+- ``metrics``: a pandas DataFrame with the columns of ``metrics.parquet``
+  (one row per trial and step);
+- ``trajectories``: an ``xarray.Dataset`` with named dimensions and units;
+- ``summary()``: the figures ``mjx-radar run`` prints;
+- ``save(dir)`` writes a run directory (exactly what ``mjx-radar run --out dir``
+  writes), ``Run.load(dir)`` reads any run directory back, ``render`` and
+  ``snapshot`` draw it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mjx_radar.api.trajectories import to_dataset
+from mjx_radar.errors import InputError
+from mjx_radar.io.checks import ScenarioError
+
+
+@dataclasses.dataclass
+class Run:
+    """A closed-loop run: its scenario, metrics and trajectories.
+
+    Attributes:
+        scenario: the (validated) scenario.
+        method: method name (``mjx_radar.METHODS``).
+        seed: base seed.
+        trials: ``[T]`` trial indices.
+        steps: filter steps K per trial.
+        metrics: long-format table, one row per (trial, step): scenario, method, trial,
+            step, time_s and :data:`mjx_radar.io.results.METRIC_COLUMNS`.
+        arrays: the arrays of ``trajectories.npz`` (schema in :mod:`mjx_radar.io.results`).
+        meta: the contents of ``run.json``.
+        path: the run directory it was saved to or loaded from (``None``: not saved).
+    """
+
+    scenario: object
+    method: str
+    seed: int
+    trials: np.ndarray
+    steps: int
+    metrics: pd.DataFrame
+    arrays: dict
+    meta: dict
+    path: Path | None = None
+    _res: dict | None = dataclasses.field(default=None, repr=False)
+
+    @property
+    def trajectories(self):
+        """``xarray.Dataset`` of the trajectories (dims trial, step, target, radar, ...)."""
+        return to_dataset(self.arrays, self.trials, self.scenario)
+
+    def summary(self) -> dict:
+        """The figures ``mjx-radar run`` prints (RMSE and PCRLB in m, times in s).
+
+        Example:
+            >>> run = mjx_radar.simulate("smoke", trials=2)  # doctest: +SKIP
+            >>> run.summary()["rmse_pos"]  # doctest: +SKIP
+        """
+        m = self.metrics
+        last = m[m["step"] == m["step"].max()]
+        lost = m.groupby("trial")["lost"].max()
+        return {
+            "scenario": self.scenario.name,
+            "method": self.method,
+            "trials": len(self.trials),
+            "steps": self.steps,
+            "rmse_pos": float(m["rmse_pos"].mean()),
+            "rmse_pos_final": float(last["rmse_pos"].mean()),
+            "crlb_pos": float(m["crlb_pos"].mean()),
+            "lost_trials": int((lost > 0).sum()),
+            "diverged_trials": int((m.groupby("trial")["diverged"].max() > 0).sum()),
+            "control_hz": self.meta.get("control_hz"),
+            "compile_s": self.meta.get("compile_s"),
+            "sim_s": self.meta.get("sim_s"),
+        }
+
+    def save(self, path: str | Path, force: bool = False) -> Path:
+        """Writes the run directory ``path`` (what ``mjx-radar run --out path`` writes).
+
+        Raises:
+            InputError: ``path`` holds a complete run (without ``force``), is a file,
+                cannot be written, or another process is writing there.
+        """
+        from mjx_radar.io.run_writer import write_run
+
+        if self._res is None:
+            raise InputError("Run.save: this run was loaded from a directory; copy that instead")
+        path = Path(path)
+        if path.exists() and not path.is_dir():
+            raise InputError(f"path = {str(path)!r}: exists and is not a directory")
+        if (path / "run.json").exists() and not force:
+            raise InputError(f"path = {str(path)!r}: holds a complete run; pass force=True")
+        with _out_lock(path):
+            write_run(path, self.scenario, self.method, self.seed, self.trials, self.steps,
+                      self._res, precision=self.meta.get("precision", "float32"))  # fmt: skip
+        self.path = path
+        self.meta = json.loads((path / "run.json").read_text())
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Run:
+        """Reads a run directory (``mjx-radar run --out`` or :meth:`save`).
+
+        Raises:
+            InputError: not a complete run directory, or a damaged file (one line naming it).
+        """
+        from mjx_radar.viz.run_dir import load_run
+
+        rd = load_run(path)
+        try:
+            metrics = pd.read_parquet(rd.path / "metrics.parquet")
+        except Exception as err:  # pyarrow raises many types for a damaged file
+            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            raise InputError(f"{rd.path / 'metrics.parquet'}: damaged metrics file ({first})") from None
+        trials = np.asarray(rd.meta.get("trial_ids", sorted(metrics["trial"].unique())))
+        steps = int(rd.meta.get("steps", rd.arrays["radar"].shape[1]))
+        return cls(rd.scenario, rd.meta.get("method", ""), int(rd.meta.get("seed", 0)),
+                   trials, steps, metrics, rd.arrays, rd.meta, rd.path)  # fmt: skip
+
+    def _saved(self) -> Path:
+        if self.path is None:  # render and snapshot read a run directory
+            self.save(Path(tempfile.mkdtemp(prefix=f"mjx_radar_{self.scenario.name}_")))
+        return self.path
+
+    def render(self, path: str | Path, camera: str = "top", trial: int = 0, **options) -> Path:
+        """Renders one trial to an MP4 or GIF (``mjx-radar render``).
+
+        Args:
+            path: ``.mp4`` or ``.gif`` file.
+            camera: ``"top"``, ``"follow"`` or ``"free"`` (:data:`mjx_radar.viz.render.CAMERAS`).
+            trial: trial index into ``trials`` (0-based position).
+            **options: fields of :class:`mjx_radar.viz.render.RenderOptions` (fps, width,
+                height, frames, backend).
+        """
+        from mjx_radar.viz.render import RenderOptions, render_run
+
+        render_run(self._saved(), trial, Path(path), RenderOptions(camera=camera, **options))
+        return Path(path)
+
+    def snapshot(self, step: int, path: str | Path | None = None, trial: int = 0,
+                 grid: int = 120) -> Path:  # fmt: skip
+        """Two-panel figure at filter step ``step`` (``mjx-radar snapshot``); returns its path."""
+        from mjx_radar.viz.snapshot import snapshot
+
+        return Path(snapshot(self._saved(), step, trial, path, grid))
+
+
+def _out_lock(path: Path):
+    """The run-directory lock of the command line if present (io.lock), else a no-op."""
+    try:
+        from mjx_radar.io import lock
+    except ImportError:
+        import contextlib
+
+        return contextlib.nullcontext()
+    return lock.out_lock(path) if hasattr(lock, "out_lock") else _null()
+
+
+def _null():
+    import contextlib
+
+    return contextlib.nullcontext()
+
+
+def _import_mjx_quietly() -> None:
+    """Imports ``mujoco.mjx`` with its import-time chatter ("Failed to import warp") muted."""
+    import contextlib
+    import io
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        import mujoco.mjx  # noqa: F401
+
+
+def _trial_ids(trials) -> np.ndarray:
+    if isinstance(trials, bool):
+        raise ScenarioError(f"trials = {trials!r}: must be a count >= 1 or a list of indices")
+    if isinstance(trials, int | np.integer):
+        if not 1 <= int(trials) <= 100_000:
+            raise ScenarioError(f"trials = {int(trials)}: must be a count in [1, 100000]")
+        return np.arange(int(trials))
+    ids = np.asarray(trials)
+    if ids.ndim != 1 or ids.size == 0 or ids.dtype.kind not in "iu" or (ids < 0).any():
+        raise ScenarioError(
+            f"trials = {trials!r}: must be a count >= 1 or a non-empty list of indices >= 0"
+        )
+    return ids.astype(np.int64)
+
+
+def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = None,
+             seed: int | None = None, progress: bool = True, cache: bool = True) -> Run:  # fmt: skip
+    """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
+
+    Args:
+        scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
+        method: ``"stationary"``, ``"ccr-sfim"``, ``"ccr-pfim"``, ``"ddr-sfim"`` or
+            ``"ddr-pfim"`` (case-insensitive).
+        trials: a count T (trials ``0..T-1``) or explicit trial indices (common random
+            numbers: trial i is the same world for every method).
+        steps: filter steps (default the scenario's ``timing.steps``); a multiple of
+            ``dt_control / dt_filter``.
+        seed: base seed (default the scenario's).
+        progress: show a progress bar on stderr.
+        cache: use the persistent compilation cache (as the command line does).
+
+    Returns:
+        The run (not saved; :meth:`Run.save` writes it).
+
+    Raises:
+        ScenarioError: an invalid scenario, method, trial list, step count or seed (one
+            line, the same message a TOML file or the command line gives); nothing is
+            compiled.
+        InputError: the radars cannot be placed, or the run does not fit in memory.
+
+    Example:
+        >>> import mjx_radar
+        >>> run = mjx_radar.simulate("smoke", trials=2, steps=40)  # doctest: +SKIP
+        >>> run.metrics.groupby("step")["rmse_pos"].mean().tail(1)  # doctest: +SKIP
+    """
+    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.io.scenario_edit import validate
+    from mjx_radar.task.method import METHODS
+
+    s = validate(load_scenario(scenario) if isinstance(scenario, str | Path) else scenario)
+    name = method.strip().lower() if isinstance(method, str) else method
+    if name not in METHODS:
+        raise ScenarioError(f"method = {method!r}: must be one of {', '.join(METHODS)}")
+    ids = _trial_ids(trials)
+    steps = s.timing.steps if steps is None else steps
+    if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps < 1:
+        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
+    if steps % s.timing.control_every:
+        raise ScenarioError(
+            f"steps = {steps}: must be a multiple of dt_control/dt_filter = "
+            f"{s.timing.control_every} (scenario {s.name})"
+        )
+    seed = s.seed if seed is None else seed
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
+        raise ScenarioError(f"seed = {seed!r}: must be an integer in [0, 2^31 - 1]")
+    return _simulate(s, name, ids, int(steps), int(seed), progress, cache)
+
+
+def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: bool,
+              cache: bool) -> Run:  # fmt: skip
+    _import_mjx_quietly()
+    import jax
+
+    from mjx_radar.io import results
+    from mjx_radar.io.run_writer import run_meta
+    from mjx_radar.simulation import compile_cache, resources, runner
+    from mjx_radar.simulation.placement import check_placeable
+
+    if cache and not compile_cache.enabled():
+        compile_cache.enable()
+    resources.check(s, len(ids), steps)
+    try:
+        check_placeable(s, seed, int(ids.max()) + 1)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    from tqdm import tqdm
+
+    with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr,
+              disable=not progress) as bar:  # fmt: skip
+        res = runner.run_trials(s, method, seed, ids, steps, progress=bar.update,
+                                phase=bar.set_description_str)  # fmt: skip
+    time_s = s.timing.dt_filter * np.arange(1, steps + 1)
+    frame = results.metrics_frame(s.name, method, ids, time_s, res)
+    from mjx_radar.io.run_writer import TRAJECTORY_KEYS
+
+    arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}
+    arrays["time_s"] = time_s
+    precision = "float64" if jax.config.jax_enable_x64 else "float32"
+    meta = run_meta(s, method, seed, ids, steps, res, precision=precision)
+    return Run(s, method, seed, ids, steps, frame, arrays, meta, None, res)
