@@ -22,6 +22,8 @@ _LAZY = {
     "Run": "mjx_radar.api.run",
     "run_study": "mjx_radar.api.study",
     "Study": "mjx_radar.api.study",
+    "register_cost_term": "mjx_radar.task.costs",
+    "unregister_cost_term": "mjx_radar.task.costs",
 }
 
 
@@ -49,8 +51,10 @@ __all__ = [
     "bundled_scenarios",
     "load_scenario",
     "parse_method",
+    "register_cost_term",
     "run_study",
     "simulate",
+    "unregister_cost_term",
     "validate",
 ]
 __version__ = "0.1.0"

@@ -207,12 +207,15 @@ class FilterConfig:
     ``ground_prior``: reflect a target's estimate to z >= 0 after each update
     (:mod:`mjx_radar.estimation.ground_prior`; drones fly above the radars' ground
     plane). Off for the paper's reproduction.
+    ``form``: "covariance" (the paper's CKF) or "sqrt" (:mod:`mjx_radar.estimation.ckf_sqrt`).
     """
 
     structure: str = field(
         default="joint", metadata=choice("joint", "per-target", doc="filter structure")
     )
     ground_prior: bool = field(default=False, metadata=flag("reflect estimates to z >= 0"))
+    form: str = field(default="covariance", metadata=choice("covariance", "sqrt", doc="CKF form:"
+                      " covariance P, or square-root S (P = S S^T; docs/filters.md)"))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -283,3 +286,15 @@ class Scenario:
     @property
     def n_targets(self) -> int:
         return len(self.target_init)
+
+    def replace(self, **changes) -> Scenario:
+        """A validated copy; tables as dicts (``mpc={"r2t": 150.0}``): io.scenario_edit."""
+        from mjx_radar.io import scenario_edit
+
+        return scenario_edit.replace(self, **changes)
+
+    def to_toml(self, path=None) -> str:
+        """The scenario as TOML (written to ``path`` if given); loads back equal."""
+        from mjx_radar.io import scenario_edit
+
+        return scenario_edit.to_toml(self, path)

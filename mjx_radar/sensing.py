@@ -2,3 +2,6 @@
 
 from mjx_radar.estimation.sensing import *  # noqa: F403
 from mjx_radar.estimation.sensing import __all__  # noqa: F401
+from mjx_radar.precision import pin_module
+
+pin_module(globals(), __all__)  # full float32 dots when called directly (mjx_radar.precision)

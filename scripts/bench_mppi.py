@@ -6,10 +6,14 @@ rollout unroll asked for, prints the compile time and the per-call times after
 warm-up; the last line per combination is ``mppi_call_s=<median>``.
 
     python scripts/bench_mppi.py [--scenario paper_3r4t] [--methods ddr-sfim,ddr-pfim]
-        [--unroll 1,15] [--calls 20]
+        [--unroll 1,15] [--calls 20] [--matmul-precision pinned|default]
+        [--planner-precision LEVEL]
 
 ``--unroll`` sets how many horizon steps one loop iteration of the MJX rollout holds
-(``plant.ROLLOUT_UNROLL``, default 1).
+(``plant.ROLLOUT_UNROLL``, default 1). ``--matmul-precision default`` un-pins every dot
+(JAX's default: TF32 on Ampere+ GPUs, as before issue 26), ``--planner-precision``
+relaxes only the MPPI sampling and rollouts (:data:`mjx_radar.precision.PLANNER`):
+the cost of the pin (docs/scaling.md, "Precision on GPUs").
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from mjx_radar import precision
 from mjx_radar.control import mppi
 from mjx_radar.io.scenario import load_scenario
 from mjx_radar.physics import plant as physics
@@ -56,7 +61,7 @@ def bench(s, method: str, calls: int) -> float:
     unroll = physics.ROLLOUT_UNROLL
     print(
         f"{s.name} {method} rollouts={s.mpc.rollout} unroll={unroll} samples={s.mppi.samples} "
-        f"iterations={s.mppi.iterations} horizon={s.mpc.horizon} "
+        f"iterations={s.mppi.iterations} horizon={s.mpc.horizon} {precision.describe()} "
         f"on {jax.devices()[0].device_kind}: "
         f"compile+first {compile_s:.1f} s; min {t.min() * 1e3:.2f} ms, median "
         f"{np.median(t) * 1e3:.2f} ms, max {t.max() * 1e3:.2f} ms over {len(t)} calls"
@@ -72,7 +77,13 @@ def main() -> None:
     ap.add_argument("--rollouts", choices=("mjx", "analytic"), default="mjx")
     ap.add_argument("--unroll", default="1", help="comma list of rollout unrolls")
     ap.add_argument("--calls", type=int, default=20)
+    ap.add_argument("--matmul-precision", choices=("pinned", "default"), default="pinned")
+    ap.add_argument("--planner-precision", default=None, help="e.g. high, default")
     args = ap.parse_args()
+    if args.matmul_precision == "default":
+        precision.ESTIMATION = precision.PLANNER = "default"
+    if args.planner_precision:
+        precision.PLANNER = args.planner_precision
     s = load_scenario(args.scenario)
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=args.rollouts))
     for unroll in args.unroll.split(","):

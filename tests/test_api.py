@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 import mjx_radar
 from mjx_radar.config import Scenario
+from mjx_radar.errors import InputError
 from mjx_radar.io import bundle
 from mjx_radar.io.checks import Rows, Rule
 from mjx_radar.io.scenario import config_fields, load_scenario, toml_name
@@ -106,7 +107,8 @@ def test_replace_nested_and_toml_names():
     t = s.replace(p0=20.0, mpc={"r2t": 150.0}, radar_equation={"snr_db": -10.0})
     assert (t.p0, t.mpc.r2t, t.radar_eq.snr_db) == (20.0, 150.0, -10.0)
     assert t.mpc.horizon == s.mpc.horizon  # untouched keys kept
-    assert s.replace(targets=[[0, 0, 50, 1, 2, 3]]).target_init == ((0.0, 0.0, 50.0, 1.0, 2.0, 3.0),)
+    rows = s.replace(targets=[[0, 0, 50, 1, 2, 3]]).target_init
+    assert rows == ((0.0, 0.0, 50.0, 1.0, 2.0, 3.0),)
     with pytest.raises(mjx_radar.ScenarioError, match=r"^mpc\.bogus: unknown field"):
         s.replace(mpc={"bogus": 1.0})
     with pytest.raises(mjx_radar.ScenarioError, match=r"^p0 = -5\.0: must be a number in"):
@@ -189,12 +191,19 @@ def test_bundled_scenarios_ship_in_the_package():
 
 def test_simulate_equals_cli(tmp_path):
     """The same scenario, method, seed and trials: identical metrics from both entry points."""
-    out = tmp_path / "cli"
+    out, cache = tmp_path / "cli", tmp_path / "cache"
     cmd = [sys.executable, "-m", "mjx_radar", "run", "smoke", "--trials", "2", "--steps", "16",
-           "--seed", "3", "--method", "ccr-sfim", "--out", str(out), "--no-cache"]  # fmt: skip
+           "--seed", "3", "--method", "ccr-sfim", "--out", str(out),
+           "--cache-dir", str(cache)]  # fmt: skip
     subprocess.run(cmd, check=True, capture_output=True, cwd=tmp_path)
-    run = mjx_radar.simulate("smoke", method="CCR-SFIM", trials=2, steps=16, seed=3,
-                             progress=False, cache=False)  # fmt: skip
+    from mjx_radar.simulation import compile_cache
+
+    compile_cache.enable(cache)  # the same XLA programs, from the CLI's cache
+    try:
+        run = mjx_radar.simulate("smoke", method="CCR-SFIM", trials=2, steps=16, seed=3,
+                                 progress=False)  # fmt: skip
+    finally:
+        compile_cache.disable()
     cli = pd.read_parquet(out / "metrics.parquet")
     pd.testing.assert_frame_equal(run.metrics, cli, check_exact=True)
     saved = run.save(tmp_path / "api")
@@ -212,5 +221,5 @@ def test_simulate_equals_cli(tmp_path):
     err = ds["estimate"] - ds["truth"]
     rmse = np.sqrt((err.sel(state=["x", "y", "z"]) ** 2).sum("state").mean("target"))
     np.testing.assert_allclose(rmse.values.ravel(), run.metrics["rmse_pos"], rtol=1e-5)
-    with pytest.raises(mjx_radar.ScenarioError.__mro__[1]):  # InputError/ValueError family
-        run.save(saved)  # holds a complete run
+    with pytest.raises(InputError, match="holds a complete run"):
+        run.save(saved)

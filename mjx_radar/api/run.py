@@ -95,6 +95,7 @@ class Run:
             InputError: ``path`` holds a complete run (without ``force``), is a file,
                 cannot be written, or another process is writing there.
         """
+        from mjx_radar.io.lock import lock_dir
         from mjx_radar.io.run_writer import write_run
 
         if self._res is None:
@@ -104,7 +105,8 @@ class Run:
             raise InputError(f"path = {str(path)!r}: exists and is not a directory")
         if (path / "run.json").exists() and not force:
             raise InputError(f"path = {str(path)!r}: holds a complete run; pass force=True")
-        with _out_lock(path):
+        path.mkdir(parents=True, exist_ok=True)
+        with lock_dir(path, "path", what="is writing a run there"):
             write_run(path, self.scenario, self.method, self.seed, self.trials, self.steps,
                       self._res, precision=self.meta.get("precision", "float32"))  # fmt: skip
         self.path = path
@@ -125,7 +127,8 @@ class Run:
             metrics = pd.read_parquet(rd.path / "metrics.parquet")
         except Exception as err:  # pyarrow raises many types for a damaged file
             first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-            raise InputError(f"{rd.path / 'metrics.parquet'}: damaged metrics file ({first})") from None
+            where = rd.path / "metrics.parquet"
+            raise InputError(f"{where}: damaged metrics file ({first})") from None
         trials = np.asarray(rd.meta.get("trial_ids", sorted(metrics["trial"].unique())))
         steps = int(rd.meta.get("steps", rd.arrays["radar"].shape[1]))
         return cls(rd.scenario, rd.meta.get("method", ""), int(rd.meta.get("seed", 0)),
@@ -159,23 +162,6 @@ class Run:
         return Path(snapshot(self._saved(), step, trial, path, grid))
 
 
-def _out_lock(path: Path):
-    """The run-directory lock of the command line if present (io.lock), else a no-op."""
-    try:
-        from mjx_radar.io import lock
-    except ImportError:
-        import contextlib
-
-        return contextlib.nullcontext()
-    return lock.out_lock(path) if hasattr(lock, "out_lock") else _null()
-
-
-def _null():
-    import contextlib
-
-    return contextlib.nullcontext()
-
-
 def _import_mjx_quietly() -> None:
     """Imports ``mujoco.mjx`` with its import-time chatter ("Failed to import warp") muted."""
     import contextlib
@@ -201,7 +187,8 @@ def _trial_ids(trials) -> np.ndarray:
 
 
 def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = None,
-             seed: int | None = None, progress: bool = True, cache: bool = True) -> Run:  # fmt: skip
+             seed: int | None = None, progress: bool = True,
+             cache: bool = True) -> Run:  # fmt: skip
     """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
 
     Args:

@@ -22,14 +22,31 @@ def positive_int(name: str, hi: int = 10**9):
     return parse
 
 
+def method_name(text: str) -> str:
+    """The canonical name of a method, case-insensitive (``DDR-SFIM`` -> ``ddr-sfim``).
+
+    Raises:
+        argparse.ArgumentTypeError: not a method name (one line listing the names).
+    """
+    name = text.strip().lower()
+    if name not in METHODS:
+        raise argparse.ArgumentTypeError(f"{text!r} is not one of {', '.join(METHODS)}")
+    return name
+
+
 def method_list(text: str) -> list[str]:
-    methods = [m.strip() for m in text.split(",") if m.strip()]
-    for m in methods:
-        if m not in METHODS:
-            raise argparse.ArgumentTypeError(f"--methods: {m!r} is not one of {', '.join(METHODS)}")
+    """Comma-separated method names: canonical, case-insensitive, each once.
+
+    A name given twice (``stationary,stationary``, ``ddr-sfim,DDR-SFIM``) counts once,
+    in the order of its first appearance: a study runs every method once.
+
+    Raises:
+        argparse.ArgumentTypeError: an unknown name or an empty list.
+    """
+    methods = [method_name(m) for m in text.split(",") if m.strip()]
     if not methods:
-        raise argparse.ArgumentTypeError("--methods: empty list")
-    return methods
+        raise argparse.ArgumentTypeError("empty list")
+    return list(dict.fromkeys(methods))
 
 
 def seed(text: str) -> int:

@@ -25,14 +25,27 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli.args import check_placement, load_with_overrides, positive_int, seed
+from mjx_radar.cli.args import (
+    check_placement,
+    load_with_overrides,
+    method_name,
+    positive_int,
+    seed,
+)
 from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
+from mjx_radar.io.lock import DirLock, lock_dir
 from mjx_radar.task.method import METHODS
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
-    p.add_argument("--method", default="ddr-sfim", choices=list(METHODS), help="default ddr-sfim")
+    p.add_argument(
+        "--method",
+        type=method_name,
+        default="ddr-sfim",
+        metavar="METHOD",
+        help=f"one of {', '.join(METHODS)} (any case; default ddr-sfim)",
+    )
     p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
     p.add_argument(
         "--steps",
@@ -62,18 +75,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def prepare_out(out: Path, force: bool) -> list[Path]:
-    """Checks that ``out`` can hold a new run, creating it; returns the dirs it created.
+def prepare_out(out: Path, force: bool) -> tuple[list[Path], DirLock]:
+    """Checks that ``out`` can hold a new run, creating and locking it.
+
+    Returns:
+        ``(created, lock)``: the directories it created (for :func:`remove_dirs`) and
+        the writer's lock of ``out`` (:mod:`mjx_radar.io.lock`), to release when done.
 
     Raises:
-        InputError: ``out`` is a file, holds a complete run (without ``force``), or
-            cannot be created or written (checked with a probe file).
+        InputError: ``out`` is a file, holds a complete run (without ``force``),
+            cannot be created or written (checked with a probe file), or another
+            process is writing there.
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out = {str(out)!r}: exists and is not a directory")
-    if (out / "run.json").exists() and not force:
-        raise InputError(f"--out = {str(out)!r}: holds a complete run; pass --force or another dir")
     created = [p for p in [out, *out.parents] if not p.exists()]
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -84,7 +100,17 @@ def prepare_out(out: Path, force: bool) -> list[Path]:
         remove_dirs(created)
         reason = err.strerror or type(err).__name__
         raise InputError(f"--out = {str(out)!r}: cannot create or write there ({reason})") from None
-    return created
+    try:
+        lock = lock_dir(out)  # checked after locking: a writer may finish meanwhile
+        if (out / "run.json").exists() and not force:
+            lock.release()
+            raise InputError(
+                f"--out = {str(out)!r}: holds a complete run; pass --force or another dir"
+            )
+    except InputError:
+        remove_dirs(created)
+        raise
+    return created, lock
 
 
 def remove_dirs(created: list[Path]) -> None:
@@ -153,11 +179,16 @@ def main(args) -> int:
     s, steps = load_with_overrides(args.scenario, args.rollouts, args.steps)
     seed_ = s.seed if args.seed is None else args.seed
     out = args.out or Path("runs") / f"{s.name}_{args.method}"
-    created = prepare_out(out, args.force)
+    created, lock = prepare_out(out, args.force)
+
+    def drop():  # an unfinished run: release the lock, remove the directories it made
+        lock.release()
+        remove_dirs(created)
+
     try:
         est = resources.check(s, args.trials, steps)
     except BaseException:
-        remove_dirs(created)
+        drop()
         raise
     fmt = resources.fmt_bytes
     print(
@@ -177,12 +208,20 @@ def main(args) -> int:
         print(est.compile_line(), file=sys.stderr, flush=True)
         res = simulate(lambda: _run(s, args.method, seed_, trials, steps))
     except KeyboardInterrupt:
-        remove_dirs(created)
+        drop()
         print("\ninterrupted: no results written", file=sys.stderr, flush=True)
         os._exit(EXIT_INTERRUPTED)  # the worker may be inside XLA; do not wait for it
     except BaseException:
-        remove_dirs(created)
+        drop()
         raise
+    try:
+        return _finish(out, args, s, seed_, trials, steps, res)
+    finally:
+        lock.release()
+
+
+def _finish(out: Path, args, s, seed_, trials, steps, res) -> int:
+    """Writes the run directory, prints the summary, renders the video; the exit code."""
     try:
         write_results(out, args, s, seed_, trials, steps, res)
     except KeyboardInterrupt:
@@ -215,60 +254,15 @@ def _run(s, method, seed_, trials, steps):
 
 
 def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
-    """Writes the run directory; on any error or Ctrl-C removes what it wrote."""
-    from mjx_radar.estimation.sensing import noise_constant
-    from mjx_radar.io import results
-    from mjx_radar.io.bundle import bundle_scenario
+    """Writes the run directory (:func:`mjx_radar.io.run_writer.write_run`)."""
+    from mjx_radar.io.run_writer import write_run
     from mjx_radar.io.scenario import resolve_path
 
-    written: list[Path] = []
-    try:
-        dt = s.timing.dt_filter
-        time_s = dt * np.arange(1, steps + 1)
-        frame = results.metrics_frame(s.name, args.method, trials, time_s, res)
-        results.write_parquet(out / "metrics.parquet", frame)
-        written.append(out / "metrics.parquet")
-        keys = ("target", "mean", "cov_diag", "radar", "control", "plan_xy", "sample_xy")
-        keys += ("sample_weight", "sample_cost", "diverged")
-        traj = {k: res[k] for k in keys if k in res}
-        results.write_npz(out / "trajectories.npz", traj | {"time_s": time_s})
-        written.append(out / "trajectories.npz")
-        src = resolve_path(args.scenario)
-        written += bundle_scenario(src, out)
-        div = res.get("diverged")
-        meta = {
-            "scenario": s.name,
-            "scenario_file": "scenario.toml",  # relative to the run directory
-            "source_scenario": str(src.resolve()),
-            "method": args.method,
-            "seed": seed_,
-            "trials": args.trials,
-            "steps": steps,
-            "dt_filter": dt,
-            "dt_control": s.timing.dt_control,
-            "n_radars": s.n_radars,
-            "n_targets": s.n_targets,
-            "r2t": s.mpc.r2t,
-            "r2r": s.mpc.r2r,
-            "rollout": s.mpc.rollout,
-            "noise_constant": noise_constant(s.radar_eq, s.n_targets),
-            "wall_s": res["wall_s"],
-            "compile_s": res["compile_s"],
-            "sim_s": res["sim_s"],
-            "control_hz": res["control_hz"],
-            "precision": getattr(args, "precision", "float32"),
-            "deterministic": bool(getattr(args, "deterministic", False)),
-            "lost_trials": int(np.asarray(res["lost"]).any(axis=-1).sum()),
-            "lost_steps": int(np.asarray(res["lost"]).sum()),
-        }
-        if div is not None:
-            meta["diverged_trials"] = [int(t) for t in trials[np.asarray(div).any(axis=-1)]]
-        results.write_json(out / "run.json", meta)
-    except BaseException:
-        for path in reversed(written):
-            path.unlink(missing_ok=True)
-        remove_dirs([out / "meshes"])
-        raise
+    write_run(
+        out, s, args.method, seed_, trials, steps, res, source=resolve_path(args.scenario),
+        precision=getattr(args, "precision", "float32"),
+        deterministic=bool(getattr(args, "deterministic", False)),
+    )  # fmt: skip
 
 
 def _summary(s, args, res, out: Path) -> None:

@@ -34,7 +34,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import ckf
+from mjx_radar.estimation import ckf, ckf_sqrt
 from mjx_radar.estimation.sensing import ddr_noise_cov
 
 __all__ = [
@@ -87,7 +87,7 @@ def bank_to_joint(means, covs):
     return means.reshape(-1), cov.reshape(6 * m, 6 * m)
 
 
-def predict_bank(means, covs, A6, Q6):
+def predict_bank(means, covs, A6, Q6, form: str = "covariance"):
     """CKF time update of every target with the same linear model.
 
     Args:
@@ -95,19 +95,25 @@ def predict_bank(means, covs, A6, Q6):
         covs: ``[M, 6, 6]`` posterior covariances.
         A6: ``[6, 6]`` per-target transition.
         Q6: ``[6, 6]`` per-target process noise.
+        form: "covariance", or "sqrt" (:mod:`ckf_sqrt`): ``covs`` are then lower
+            Cholesky factors ``S_m`` (returned likewise) and ``Q6`` a factor
+            ``[6, q]`` of the process noise.
 
     Returns:
         ``(means[M, 6], covs[M, 6, 6])`` predicted moments (= ``A P Aᵀ + Q`` up to
         round-off, computed by :func:`ckf.predict` exactly as in the joint filter).
     """
+    filt = ckf_sqrt if form == "sqrt" else ckf
 
     def one(x, p):
-        return ckf.predict(x, p, lambda v: A6 @ v, Q6)
+        return filt.predict(x, p, lambda v: A6 @ v, Q6)
 
     return jax.vmap(one)(means, covs)
 
 
-def update_bank(means, covs, z, radar_pos, h_pair, R_fn, mask=None, residual=None):
+def update_bank(
+    means, covs, z, radar_pos, h_pair, R_fn, mask=None, residual=None, form: str = "covariance"
+):
     """CKF measurement update of every target from its own N radars' measurements.
 
     Args:
@@ -124,10 +130,12 @@ def update_bank(means, covs, z, radar_pos, h_pair, R_fn, mask=None, residual=Non
             pair is dropped exactly (:func:`ckf.update` ``mask``).
         residual: optional ``(a[N·p], b[N·p]) -> a − b`` with angles wrapped
             (:func:`ckf.update` ``residual``).
+        form: "covariance", or "sqrt": ``covs`` are lower Cholesky factors (in and out).
 
     Returns:
         ``(means[M, 6], covs[M, 6, 6])`` posterior moments.
     """
+    filt = ckf_sqrt if form == "sqrt" else ckf
     z = jnp.asarray(z)
     if z.ndim != 3 or z.shape[1] != means.shape[0]:
         raise ValueError(f"z must be [N, M, p] with M = {means.shape[0]}, got {z.shape}")
@@ -138,7 +146,7 @@ def update_bank(means, covs, z, radar_pos, h_pair, R_fn, mask=None, residual=Non
         return jax.vmap(lambda r: h_pair(r, x6))(radar_pos).reshape(n * p)
 
     def one(x, P, zz, keep):
-        return ckf.update(x, P, zz, h_target, R_fn, mask=keep, residual=residual)
+        return filt.update(x, P, zz, h_target, R_fn, mask=keep, residual=residual)
 
     if mask is None:
         return jax.vmap(lambda x, P, zz: one(x, P, zz, None))(means, covs, zm)
@@ -161,17 +169,18 @@ def ccr_R(n_radars: int, sigma_r2, dtype=None):
     return sigma_r2 * jnp.eye(int(n_radars), dtype=dtype or jnp.result_type(float))
 
 
-def predict_joint(mean, cov, A6, Q6):
+def predict_joint(mean, cov, A6, Q6, form: str = "covariance"):
     """Joint-interface time update through the bank (drop-in for ``ckf.predict``).
 
     Args:
         mean: ``[6M]``; cov: ``[6M, 6M]`` (only its diagonal blocks are used).
         A6, Q6: ``[6, 6]`` per-target transition and process noise.
+        form: "covariance", or "sqrt" (cov a block-diagonal factor, Q6 a factor).
 
     Returns:
-        ``(mean[6M], cov[6M, 6M])`` with a block-diagonal covariance.
+        ``(mean[6M], cov[6M, 6M])`` with a block-diagonal covariance (or factor).
     """
-    return bank_to_joint(*predict_bank(*joint_to_bank(mean, cov), A6, Q6))
+    return bank_to_joint(*predict_bank(*joint_to_bank(mean, cov), A6, Q6, form))
 
 
 def update_ranges(mean, cov, z, radar_pos, R_fn, mask=None):

@@ -79,3 +79,13 @@ def check_writable(path: str | Path, field: str = "--out") -> Path:
     os.close(fd)
     os.unlink(probe)
     return path
+
+
+def remove_empty_dirs(created: list[Path]) -> None:
+    """Removes directories a command created, if still empty, deepest first (stops at the
+    first that is not empty)."""
+    for d in created:
+        try:
+            Path(d).rmdir()
+        except OSError:
+            return

@@ -86,7 +86,8 @@ def noise_std_at_r_ref(s: Scenario) -> float:
     p = s.radar_eq
     c2 = SPEED_OF_LIGHT**2
     try:
-        return math.sqrt(c2 * s.n_targets / (8.0 * math.pi**2 * p.fc**2 * 10.0 ** (p.snr_db / 10.0)))
+        snr = 10.0 ** (p.snr_db / 10.0)
+        return math.sqrt(c2 * s.n_targets / (8.0 * math.pi**2 * p.fc**2 * snr))
     except (OverflowError, ZeroDivisionError):
         return math.inf
 

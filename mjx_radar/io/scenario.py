@@ -206,7 +206,10 @@ def bundled_dir() -> Path:
     """The folder of the bundled scenarios (package ``mjx_radar.scenarios``)."""
     from importlib.resources import files
 
-    return Path(str(files("mjx_radar.scenarios")))
+    try:
+        return Path(str(files("mjx_radar.scenarios")))
+    except ModuleNotFoundError:  # a source checkout on sys.path, not installed
+        return Path(__file__).resolve().parents[2] / "scenarios"
 
 
 def bundled_scenarios() -> list[str]:

@@ -29,8 +29,9 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from mjx_radar import precision
 from mjx_radar.control import mppi
-from mjx_radar.estimation import ckf, filter_bank, fisher, ground_prior, linalg, measurement
+from mjx_radar.estimation import ckf_sqrt, filter_bank, fisher, ground_prior, linalg, measurement
 from mjx_radar.physics import kinematics
 from mjx_radar.physics import plant as physics
 from mjx_radar.simulation import placement, track_health
@@ -94,12 +95,13 @@ class LoopCarry(NamedTuple):
 
     data: object  # mjx.Data of the truth plant (radars + drones)
     mean: jax.Array  # [6M] posterior mean
-    cov: jax.Array  # [6M, 6M] posterior covariance
+    cov: jax.Array  # [6M, 6M] posterior covariance P, or its factor S (filter.form = "sqrt")
     pfim: jax.Array  # [M, 6, 6] PFIM along the true trajectory (for the PCRLB)
     u_plan: jax.Array  # [H, 2N] warm start of MPPI
     health: track_health.HealthState  # lost-track detector state
 
 
+@precision.pinned  # full float32 dots, also on GPUs (mjx_radar.precision)
 def init_carry(task: RadarTask, params, trial) -> tuple[LoopCarry, jax.Array]:
     """Initial loop state of a trial and whether its radars could be placed."""
     sc = task.scenario
@@ -108,7 +110,7 @@ def init_carry(task: RadarTask, params, trial) -> tuple[LoopCarry, jax.Array]:
     carry = LoopCarry(
         data=physics.init_data(task.truth, init.radar_state, init.target_state),
         mean=init.mean,
-        cov=init.cov,
+        cov=ckf_sqrt.form_ops(sc.filter.form).carry(init.cov),  # P, or S for "sqrt"
         pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (m, 6, 6)),
         u_plan=jnp.zeros((sc.mpc.horizon, 2 * n)),
         health=track_health.init_health(m),
@@ -131,6 +133,7 @@ def _idle_plan(task: RadarTask, u_plan):
     return zeros, u_plan, rec
 
 
+@precision.pinned  # the whole closed loop is traced inside (mjx_radar.precision)
 def advance(
     task: RadarTask, params, trial, carry: LoopCarry, start, periods: int
 ) -> tuple[LoopCarry, StepRecord, ControlRecord]:
@@ -160,12 +163,14 @@ def advance(
     r_filter = measurement.noise_cov_fn(model, noise, flags.ccr)
     residual = measurement.flat_residual(model) if model.dim > 1 else None
     per_target = sc.filter.structure == "per-target"
+    form = sc.filter.form  # "sqrt": the carried cov is the factor S of P = S Sᵀ
+    filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it (once per segment)
+    q_f, q6 = filt.noise(q_f), filt.noise(params.sigma_w2 * task.w6_filter_unit)
 
     def predict(mean, cov):
         if per_target:  # M independent 6-D CKFs (block-diagonal covariance)
-            q6 = params.sigma_w2 * task.w6_filter_unit
-            return filter_bank.predict_joint(mean, cov, task.a6_filter, q6)
-        return ckf.predict(mean, cov, lambda x: a_f @ x, q_f)
+            return filter_bank.predict_joint(mean, cov, task.a6_filter, q6, form)
+        return filt.predict(mean, cov, lambda x: a_f @ x, q_f)
 
     def update(mean, cov, z, radar_pos, vis):
         if per_target:
@@ -175,14 +180,14 @@ def advance(
 
             means, covs = filter_bank.joint_to_bank(mean, cov)
             post = filter_bank.update_bank(
-                means, covs, z, radar_pos, h_pair, r_filter, mask=vis, residual=residual
+                means, covs, z, radar_pos, h_pair, r_filter, mask=vis, residual=residual, form=form
             )
             mean, cov = filter_bank.bank_to_joint(*post)
         else:
             keep = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
             h = measurement.measurement_function(model, radar_pos)
             kw = {} if residual is None else {"residual": residual}
-            mean, cov = ckf.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep, **kw)
+            mean, cov = filt.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep, **kw)
         if sc.filter.ground_prior:
             mean, cov = ground_prior.apply_ground_prior(mean, cov)
         return mean, cov
@@ -209,7 +214,8 @@ def advance(
         blown = ~(ok_pred & ok)
         mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
-        health, flags_h = track_health.step_health(health, truth, mean, cov, sc.timing.dt_filter)
+        cov_p = filt.cov(cov)  # P for the detector, metrics and records (S Sᵀ for "sqrt")
+        health, flags_h = track_health.step_health(health, truth, mean, cov_p, sc.timing.dt_filter)
         diverged = flags_h.diverged | blown
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
         j3 = measurement.information_dense(
@@ -218,11 +224,11 @@ def advance(
         jd = fisher.data_information(j3)
         pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, task.a6_filter, w6, jd)
         crlb = jnp.sqrt(jnp.mean(jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)))
-        rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov, m)
+        rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov_p, m)
         n_vis = jnp.int32(n * m) if vis is None else jnp.sum(vis).astype(jnp.int32)
         contacts = physics.obstacle_contacts(plant, data)
         rec = StepRecord(
-            truth, mean, jnp.diagonal(cov), radars, rmse_pos, rmse_state, nees, crlb,
+            truth, mean, jnp.diagonal(cov_p), radars, rmse_pos, rmse_state, nees, crlb,
             contacts, n_vis, flags_h.lost | diverged, diverged,
         )  # fmt: skip
         return (data, mean, cov, pfim, health), rec
@@ -232,6 +238,7 @@ def advance(
         # MPPI plans from the estimate at the radars' instant (mpc.aligned), or -- as
         # the paper's code -- from the estimate predicted one filter step ahead.
         pm, pc = (mean, cov) if sc.mpc.aligned else predict(mean, cov)
+        pc = filt.cov(pc)  # the planner takes P
         key = jax.random.fold_in(streams.planner, j)
         res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, params)
         keep = slice(0, kept_samples(sc))

@@ -22,9 +22,7 @@ Python tracing of the MJX step, the objective and the scans altogether.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
-import importlib.metadata
 import os
 import threading
 import time
@@ -35,8 +33,10 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from mjx_radar import precision
 from mjx_radar.io import results
 from mjx_radar.simulation import closed_loop, compile_cache
+from mjx_radar.task import costs
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import make_task
@@ -155,26 +155,15 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
     return jax.jit(init), jax.jit(step, donate_argnums=donate)
 
 
-@functools.cache
-def code_fingerprint() -> str:
-    """Hash of the package's code and models and of the JAX / MuJoCo versions."""
-    h = hashlib.sha256()
-    root = Path(__file__).resolve().parents[1]
-    for path in sorted(root.rglob("*.py")) + sorted(root.parent.glob("models/*.xml")):
-        h.update(path.name.encode())
-        h.update(path.read_bytes())
-    for dist in ("jax", "jaxlib", "mujoco", "mujoco-mjx"):
-        try:
-            h.update(f"{dist}={importlib.metadata.version(dist)}".encode())
-        except importlib.metadata.PackageNotFoundError:
-            pass
-    return h.hexdigest()
+def _variant() -> tuple:
+    """What else a traced program depends on: x64, pinned precision, registered cost terms."""
+    return bool(jax.config.jax_enable_x64), precision.describe(), costs.registry_key()
 
 
 def _key(shape, periods, full, batch, mesh) -> str:
     dev = mesh.devices.flat[0]
     parts = [repr(shape), periods, full, batch, mesh.size, dev.platform, dev.device_kind,
-             bool(jax.config.jax_enable_x64), code_fingerprint()]  # fmt: skip
+             *_variant(), compile_cache.code_fingerprint()]  # fmt: skip
     for obs in shape.obstacles:  # mesh files: their content, not only their path
         if obs.path and Path(obs.path).exists():
             parts.append(hashlib.sha256(Path(obs.path).read_bytes()).hexdigest())
@@ -203,7 +192,7 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     if batch % mesh.size:
         raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
     shape = shape_key(scenario)
-    mem_key = (shape, periods, full, batch, mesh, bool(jax.config.jax_enable_x64))
+    mem_key = (shape, periods, full, batch, mesh, *_variant())
     with _LOCK:
         if mem_key in _CACHE:
             return _CACHE[mem_key], 0.0

@@ -1,31 +1,21 @@
 """Memory and compile-time estimate of a batch of closed-loop trials, before compiling.
 
-A run far too large for the machine should be refused in a second with a line naming
-what to reduce, not after minutes of compilation with an out-of-memory traceback.
-:func:`estimate` sizes the largest arrays of a batch of ``T`` trials (float32, 4 bytes),
-with ``S`` MPPI samples, horizon ``H``, ``N`` radars, ``M`` targets, ``D = 6M`` joint
-state, ``P = 2D = 12M`` cubature points, ``K`` filter steps and ``C = K / control_every``
-control steps:
+A run far too large for the machine is refused in a second with a line naming what
+is too big and what to change, not after minutes of compilation with XLA's
+``RESOURCE_EXHAUSTED`` traceback. :func:`estimate` adds up the device arrays of one
+segment program (:mod:`mjx_radar.simulation.memory_model`: planner expectations, MPPI
+sampling, MJX rollouts, filter; within a documented factor of XLA's own figures) and
+the host's kept trajectories: ``T·K·(3D + 6N + 22)`` plus ``T·C·(2N + 2HN + 64·HN +
+64)`` numbers for ``K`` filter steps and ``C`` control steps (controls, plans and the
+32 kept MPPI samples; 12 metrics per step for a study), counted twice (per-segment
+chunks and their concatenation).
 
-* MPPI sampling (device): the factored proposal draws ``e1 [S, S]`` standard normals
-  per sub-iteration (``Sigma = F F^T + diag(b^2)`` with ``F [P, S]``), quadratic in
-  ``S``: ``6·T·S²`` floats (random bits, the normals and the product; measured: XLA
-  asked for 24.0 TB at ``S = 10^6``, i.e. 24 bytes per entry);
-* planner (device): the objective of every sample, horizon step and cubature point,
-  ``T·S·H·P·M·(N + 6)`` floats (radar-target distances ``[.., N, M]`` and the packed
-  SFIM ``[.., M, 6]``), plus the MPPI samples ``4·T·S·H·2N``;
-* MJX rollouts (device, ``mpc.rollout = "mjx"``): one ``mjx.Data`` per sample,
-  about ``T·S·(400·(N + 1) + 50·obstacles)`` floats;
-* filter (device): the joint CKF's cubature points and covariances
-  ``T·(4·P·D + 8·D² + H·P·D)`` floats;
-* trajectories (host): everything ``run`` keeps, ``T·K·(3D + 6N + 22)`` floats plus
-  ``T·C·(2N + 2HN + 64·HN + 64)`` for controls, plans and the 32 kept MPPI samples,
-  counted twice (per-segment chunks and their concatenation).
-
-These are lower bounds of the peak (XLA adds temporaries), so a run is refused only
-when they alone exceed the memory available: ``MemAvailable`` of ``/proc/meminfo``
-(``os.sysconf`` elsewhere) on the CPU, where device and host share it, and
-``bytes_limit - bytes_in_use`` of ``jax.Device.memory_stats()`` on a GPU.
+A run is refused when the estimate exceeds the memory available: ``MemAvailable``
+of ``/proc/meminfo`` (``os.sysconf`` elsewhere) on the CPU, where device and host
+share it, and ``bytes_limit - bytes_in_use`` of ``jax.Device.memory_stats()`` on a
+GPU. The refusal names the dominant term and the change that shrinks it
+(``[filter] structure = "per-target"`` for the joint filter's expectations, fewer
+samples, a shorter horizon, fewer trials or a smaller ``--chunk``).
 
 Compile size: the packed Fisher information unrolls a loop over the N radars, the
 CKF and the objective unroll over the M targets, and the MJX model holds N bodies
@@ -43,8 +33,9 @@ import os
 
 from mjx_radar.config import Scenario
 from mjx_radar.errors import InputError
+from mjx_radar.simulation import memory_model
+from mjx_radar.simulation.memory_model import FLOAT, MEASURED_FACTOR, float_bytes  # noqa: F401
 
-FLOAT = 4  # bytes (float32)
 KEEP = 32  # MPPI samples kept per control step (closed_loop.N_KEEP_SAMPLES)
 LARGE_N, LARGE_M, LARGE_NM, LARGE_OBSTACLES = 64, 64, 1024, 256
 
@@ -94,34 +85,35 @@ class Estimate:
         )
 
 
-def estimate(scenario: Scenario, trials: int, steps: int, devices: int = 1) -> Estimate:
+def device_terms(scenario: Scenario, trials: int, platform: str | None = None) -> dict:
+    """:func:`memory_model.device_terms` on ``platform`` (default: this process's device)."""
+    return memory_model.device_terms(scenario, trials, platform or _platform())
+
+
+def estimate(
+    scenario: Scenario, trials: int, steps: int, devices: int = 1, full: bool = True
+) -> Estimate:
     """Memory and compile size of ``trials`` closed-loop trials of ``steps`` filter steps.
 
     Args:
-        scenario: the scenario (sizes N, M, S, H, obstacles, rollout kind).
+        scenario: the scenario (sizes N, M, S, H, obstacles, rollout kind, filter).
         trials: T, the batch size (split evenly over ``devices`` for the device terms).
         steps: K filter steps.
         devices: number of devices the batch is sharded over.
+        full: trajectories are kept (``run``); False: only the metrics (``study``).
 
     Returns:
         The :class:`Estimate` (available memory queried from this machine).
     """
     n, m = scenario.n_radars, scenario.n_targets
-    s, h = scenario.mppi.samples, scenario.mpc.horizon
-    d, p = 6 * m, 12 * m
-    t_dev = -(-trials // max(1, devices))
+    h, d = scenario.mpc.horizon, 6 * scenario.n_targets
     c = steps // scenario.timing.control_every
     n_obs = len(scenario.obstacles)
-    device = {
-        "MPPI sampling": 6 * t_dev * s * s * FLOAT,
-        "planner": t_dev * s * h * (p * m * (n + 6) + 8 * n) * FLOAT,
-        "filter": t_dev * (4 * p * d + 8 * d * d + h * p * d) * FLOAT,
-    }
-    if scenario.mpc.rollout == "mjx":
-        device["MJX rollouts"] = t_dev * s * (400 * (n + 1) + 50 * n_obs) * FLOAT
-    per_step = 3 * d + 6 * n + 22
-    per_control = 2 * n + 2 * h * n + 2 * KEEP * h * n + 2 * KEEP
-    host = {"trajectories": 2 * trials * (steps * per_step + c * per_control) * FLOAT}
+    device = device_terms(scenario, -(-trials // max(1, devices)))
+    per_step = 3 * d + 6 * n + 22 if full else 12
+    per_control = 2 * n + 2 * h * n + 2 * KEEP * h * n + 2 * KEEP if full else 0
+    traj = 2 * trials * (steps * per_step + c * per_control) * float_bytes()
+    host = {"trajectories": traj}
     shared, dev_avail = _device_available()
     host_avail = host_available()
     if shared:
@@ -134,49 +126,81 @@ def estimate(scenario: Scenario, trials: int, steps: int, devices: int = 1) -> E
     return Estimate(device, host, dev_avail, host_avail, shared, compile_s, large, summary)
 
 
-_KNOBS = {
-    "MPPI sampling": ("mppi.samples", "mppi.samples or --trials"),
-    "planner": ("mppi.samples", "mppi.samples, mpc.horizon or --trials"),
-    "MJX rollouts": ("mppi.samples", "mppi.samples or --trials, or use --rollouts analytic"),
-    "filter": ("targets", "the number of targets or --trials"),
-    "trajectories": ("--steps", "--steps or --trials"),
-}
-
-
-def check(scenario: Scenario, trials: int, steps: int, devices: int = 1) -> Estimate:
+def check(
+    scenario: Scenario,
+    trials: int,
+    steps: int,
+    devices: int = 1,
+    *,
+    full: bool = True,
+    batch_option: str = "--trials",
+) -> Estimate:
     """:func:`estimate`, refusing a run whose arrays cannot fit in the available memory.
+
+    Args:
+        scenario, trials, steps, devices, full: as :func:`estimate`.
+        batch_option: the option that sets the batch, named in the refusal
+            (``"--trials"``, or ``"--chunk"``: trials per device).
 
     Raises:
         InputError: one line naming the dominant term, its size, the memory available
-            and the fields or options to reduce.
+            and the change that shrinks it.
     """
-    est = estimate(scenario, trials, steps, devices)
+    est = estimate(scenario, trials, steps, devices, full)
     need = est.device | est.host if est.shared else est.device
     avail = est.host_available if est.shared else est.device_available
     where = "in host RAM" if est.shared else "on the device"
-    _refuse_if(scenario, trials, need, avail, where)
+    batch = f"{batch_option} {-(-trials // devices) if batch_option == '--chunk' else trials}"
+    _refuse_if(scenario, batch, need, avail, where)
     if not est.shared:
-        _refuse_if(scenario, trials, est.host, est.host_available, "in host RAM")
+        _refuse_if(scenario, batch, est.host, est.host_available, "in host RAM")
     return est
 
 
-def _refuse_if(scenario: Scenario, trials: int, need: dict, avail: int | None, where: str):
+def _refuse_if(scenario: Scenario, batch: str, need: dict, avail: int | None, where: str):
     if avail is None or sum(need.values()) <= avail:
         return
     term = max(need, key=need.get)
-    field, knobs = _KNOBS[term]
-    value = {
-        "mppi.samples": scenario.mppi.samples,
-        "targets": scenario.n_targets,
-        "--steps": None,
-    }[field]
+    what, fix = _advice(scenario, term, batch, need[term])
     verb = "need" if term.endswith("s") else "needs"
-    what = f"{field} = {value}, --trials {trials}" if value is not None else f"--trials {trials}"
     raise InputError(
-        f"{what}: the {term} {verb} ~{fmt_bytes(need[term])} (all arrays "
+        f"{scenario.name}: {what}: the {term} {verb} ~{fmt_bytes(need[term])} (all arrays "
         f"~{fmt_bytes(sum(need.values()))}), this machine has {fmt_bytes(avail)} free {where}; "
-        f"reduce {knobs}"
+        f"{fix}"
     )
+
+
+def _advice(scenario: Scenario, term: str, batch: str, size: int) -> tuple[str, str]:
+    """``(the settings behind term, the change that shrinks it)`` for a refusal line."""
+    s, h, m = scenario.mppi.samples, scenario.mpc.horizon, scenario.n_targets
+    joint = scenario.filter.structure == "joint"
+    per_target = 'set [filter] structure = "per-target"'
+    if term == "planner expectations":
+        p = 12 * m if joint else 12
+        what = (f"mppi.samples = {s}, mpc.horizon = {h}, {m} targets x {p} cubature points "
+                f"({scenario.filter.structure} filter), {batch}")  # fmt: skip
+        fix = f"reduce mppi.samples, mpc.horizon or {batch.split()[0]}"
+        if joint:
+            alt = dataclasses.replace(
+                scenario, filter=dataclasses.replace(scenario.filter, structure="per-target")
+            )
+            ratio = device_terms(alt, 1)[term] / device_terms(scenario, 1)[term]
+            fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
+        return what, fix
+    if term == "filter":
+        what = f"{m} targets ({scenario.filter.structure} filter), {batch}"
+        fix = f"reduce the number of targets or {batch.split()[0]}"
+        return what, f"{per_target} or {fix}" if joint else fix
+    if term == "line of sight":
+        return f"{len(scenario.obstacles)} obstacles, mppi.samples = {s}, {batch}", (
+            f"reduce mppi.samples, mpc.horizon, the obstacles or {batch.split()[0]}"
+        )
+    if term == "trajectories":
+        return batch, f"reduce --steps or {batch.split()[0]}"
+    fix = f"reduce mppi.samples or {batch.split()[0]}"
+    if term == "MJX rollouts":
+        fix += ", or use --rollouts analytic"
+    return f"mppi.samples = {s}, {batch}", fix
 
 
 def fmt_bytes(b: float) -> str:
@@ -201,6 +225,13 @@ def host_available() -> int | None:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):
         return None
+
+
+def _platform() -> str:
+    """``"cpu"`` or ``"gpu"`` (``jax.Device.platform``) of this process's first device."""
+    import jax
+
+    return jax.local_devices()[0].platform
 
 
 def _device_available() -> tuple[bool, int | None]:

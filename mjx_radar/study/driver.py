@@ -101,8 +101,10 @@ def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> d
     worker is creating (only ``scenarios/``, ``chunks/`` or temporaries, no manifest
     yet) counts as a fresh study.
     """
-    if not out.exists() or (out.is_dir() and not any(out.iterdir())):
-        return None
+    from mjx_radar.io.lock import is_lock_file
+
+    if not out.exists() or (out.is_dir() and all(map(is_lock_file, out.iterdir()))):
+        return None  # new, empty, or only the lock files of this study's workers
     if not out.is_dir():
         raise InputError(f"--out = {str(out)!r}: exists and is not a directory")
     if not resume:
@@ -202,9 +204,20 @@ def start_manifest(out: Path, scenarios, config: dict, manifest: dict | None) ->
         manifest = {"config": config, "commands": []}
     manifest.setdefault("commands", []).append(shlex.join(sys.argv))
     results.write_json(out / "manifest.json", manifest)
-    for part in (out / "chunks").glob(".*.part"):  # temporaries of a killed write
-        part.unlink(missing_ok=True)
     return manifest
+
+
+def remove_temporaries(chunks: list[Chunk]) -> None:
+    """Removes the temporaries (``.NAME.XXXXXXXX.part``) of killed writes of ``chunks``.
+
+    Call it with the chunks this worker owns (:meth:`Worker.mine`): their only writer
+    is this worker, under its lock, so none of them is another worker's write in flight.
+    """
+    names = {c.path.name for c in chunks}
+    for folder in {c.path.parent for c in chunks}:
+        for part in folder.glob(".*.part") if folder.is_dir() else ():
+            if part.name[1:-5].rsplit(".", 1)[0] in names:
+                part.unlink(missing_ok=True)
 
 
 def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices: str, n_dev: int):

@@ -94,3 +94,20 @@ def baseline_of(method: Method) -> Method | None:
     if method.noise != "ddr" or not method.plans:
         return None
     return next((m for m in METHODS.values() if m.noise == "ccr" and m.info == method.info), None)
+
+
+def normalise_methods(names) -> list[str]:
+    """Canonical method names, case-insensitive, each once in order of first appearance.
+
+    Raises:
+        ValueError: an unknown name, a non-string or an empty list (one line).
+    """
+    out = []
+    for name in names:
+        key = name.strip().lower() if isinstance(name, str) else name
+        if key not in METHODS:
+            raise ValueError(f"methods: {name!r} is not one of {', '.join(METHODS)}")
+        out.append(key)
+    if not out:
+        raise ValueError("methods: empty list")
+    return list(dict.fromkeys(out))

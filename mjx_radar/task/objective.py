@@ -17,6 +17,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from mjx_radar import precision
 from mjx_radar.estimation import ckf, linalg
 from mjx_radar.task.costs import Horizon
 
@@ -49,6 +50,7 @@ class Plan(NamedTuple):
     terms: dict
 
 
+@precision.pinned
 def plan_context(task, radar_state, mean, cov) -> PlanContext:
     """Builds the :class:`PlanContext` from the CKF estimate at the planning time.
 
@@ -76,13 +78,19 @@ def plan_context(task, radar_state, mean, cov) -> PlanContext:
 
 
 def make_objective(task):
-    """Returns ``cost(u[H, N*2], ctx, params) -> (cost[], Plan)`` for one sequence."""
+    """Returns ``cost(u[H, N*2], ctx, params) -> (cost[], Plan)`` for one sequence.
+
+    Its dots are traced at :data:`mjx_radar.precision.ESTIMATION`, the rollout's at
+    :data:`~mjx_radar.precision.PLANNER`.
+    """
     sc = task.scenario
     h, n = sc.mpc.horizon, sc.n_radars
 
+    @precision.pinned  # cubature expectations in full float32 (mjx_radar.precision)
     def cost(u_flat, ctx: PlanContext, params):
         u = u_flat.reshape(h, n, 2)
-        traj = task.rollout(ctx.radar_state, u)  # [H, N, 6]
+        with precision.scope("planner"):
+            traj = task.rollout(ctx.radar_state, u)  # [H, N, 6]
         hz = Horizon(u, traj, ctx.target_points, ctx.info0)
         disc = params.gamma ** jnp.arange(h, dtype=traj.dtype)
         terms = {t.name: jnp.sum(disc * t.fn(hz, task, params)) for t in task.terms}

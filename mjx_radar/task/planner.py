@@ -15,6 +15,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
+from mjx_radar import precision
 from mjx_radar.control import mppi
 from mjx_radar.physics import kinematics
 from mjx_radar.task import objective
@@ -28,6 +29,8 @@ def make_planner(task) -> Callable:
     step with ``mppi.shift(result.mean)``) and the :class:`objective.Plan` of the
     optimised mean sequence. ``mean``/``cov`` are the estimate at the time of
     ``radar_state``. Jittable; ``task`` is static, ``params`` a runtime pytree.
+    Dots are traced at :data:`mjx_radar.precision.ESTIMATION`, the MPPI sampling at
+    :data:`~mjx_radar.precision.PLANNER`.
     """
     sc = task.scenario
     n = sc.n_radars
@@ -36,11 +39,13 @@ def make_planner(task) -> Callable:
     lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
     init_std = jnp.tile(jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), n)
 
+    @precision.pinned
     def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key, params):
         ctx = objective.plan_context(task, radar_state, mean, cov)
-        res = mppi.optimize(
-            lambda u: cost_fn(u, ctx, params), u_plan, key, sc.mppi, init_std, lower, upper
-        )
+        with precision.scope("planner"):  # MPPI sampling and refit; the cost re-pins
+            res = mppi.optimize(
+                lambda u: cost_fn(u, ctx, params), u_plan, key, sc.mppi, init_std, lower, upper
+            )
         return res, cost_fn(res.mean, ctx, params)[1]
 
     return plan

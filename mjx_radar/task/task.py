@@ -82,9 +82,14 @@ def _rollout_backend(scenario: Scenario) -> Callable:
     return lambda state, u: integrate(state, jnp.repeat(u, k, axis=0))[k - 1 :: k]
 
 
-@functools.cache
 def make_task(shape: Scenario) -> RadarTask:
-    """Builds the task of a scenario shape (cached: one task per shape and process)."""
+    """Builds the task of a scenario shape (cached: one task per shape, registered cost
+    terms (:func:`mjx_radar.task.costs.registry_key`) and process)."""
+    return _make_task(shape, costs.registry_key())
+
+
+@functools.cache
+def _make_task(shape: Scenario, registry: tuple) -> RadarTask:
     t, m, mpc = shape.timing, shape.n_targets, shape.mpc
     occ = occlusion.occluders(shape.obstacles) if shape.obstacles else None
     grid = None

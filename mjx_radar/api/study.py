@@ -1,0 +1,136 @@
+"""``mjx_radar.run_study`` and :class:`Study`: a Monte Carlo study from a Python script.
+
+The same study as ``mjx-radar study`` (:mod:`mjx_radar.study.execute`): the same
+chunks, files and numbers, resumable (``resume=True``), one writer per directory.
+Scenarios may be :class:`~mjx_radar.Scenario` objects made in Python: each is
+validated and written to the study directory as TOML (``scenarios/NAME.toml``), like
+a scenario file given on the command line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+
+from mjx_radar.errors import InputError
+from mjx_radar.io.checks import ScenarioError
+
+
+@dataclasses.dataclass
+class Study:
+    """A finished study directory.
+
+    Attributes:
+        path: the study directory.
+        meta: the contents of ``study.json``.
+        metrics: long-format table of every scenario x method x trial x step (the
+            columns of ``metrics.parquet``).
+    """
+
+    path: Path
+    meta: dict
+    metrics: pd.DataFrame
+
+    @classmethod
+    def load(cls, path: str | Path) -> Study:
+        """Reads a finished study directory (``InputError`` if it is not one)."""
+        path = Path(path)
+        if not (path / "study.json").is_file() or not (path / "metrics.parquet").is_file():
+            raise InputError(f"study = {str(path)!r}: not a complete study directory")
+        meta = json.loads((path / "study.json").read_text())
+        return cls(path, meta, pd.read_parquet(path / "metrics.parquet"))
+
+    def summary(self) -> pd.DataFrame:
+        """The report's table: one row per scenario and method (``summary.csv``).
+
+        Columns as :func:`mjx_radar.study.metrics.summary`: mean / median / HDI-upper /
+        kept-mean position RMSE, PCRLB, lost-trial and lost-step rates and the DDR
+        reductions vs stationary and vs CCR in percent.
+        """
+        from mjx_radar.study import metrics
+
+        return metrics.summary(metrics.per_step(self.metrics), self.metrics)
+
+    def report(self) -> Path:
+        """Writes ``summary.csv``, ``report.md`` and the figures (``mjx-radar report``)."""
+        from mjx_radar.study.report import write_report
+
+        return write_report(self.path)
+
+
+def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=None,
+              steps: int | None = None, seed: int | None = None, resume: bool = False,
+              rollouts: str | None = None, progress: bool = True) -> Study:  # fmt: skip
+    """Runs (or resumes) a Monte Carlo study and returns it (``mjx-radar study``).
+
+    Args:
+        scenarios: scenarios: :class:`~mjx_radar.Scenario` objects, bundled names or TOML
+            paths (a single one may be given alone).
+        methods: method names (default all of ``mjx_radar.METHODS``); case-insensitive,
+            repeats collapsed.
+        trials: trials per scenario and method.
+        chunk: trials per device per call, and per result file.
+        out: the study directory (required).
+        steps: filter steps (default each scenario's).
+        seed: base seed (default each scenario's).
+        resume: continue the study in ``out`` (its settings must match); a finished
+            study is returned as it is.
+        rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (default the scenario's).
+        progress: show a progress bar on stderr.
+
+    Raises:
+        ScenarioError: an invalid scenario or argument (nothing compiled, nothing written).
+        InputError: an unusable ``out`` (not empty without ``resume``, another process
+            writing there, settings differing from the study's), or a study too large.
+
+    Example:
+        >>> study = mjx_radar.run_study("smoke", methods=["stationary", "ddr-sfim"],
+        ...                             trials=4, chunk=2, out="studies/s")  # doctest: +SKIP
+        >>> study.summary()[["scenario", "method", "median_rmse_pos"]]  # doctest: +SKIP
+    """
+    from mjx_radar.io.scenario_edit import validate
+    from mjx_radar.study import execute
+    from mjx_radar.task.method import METHODS, normalise_methods
+
+    if out is None:
+        raise ScenarioError("out: the study directory is required")
+    items = [scenarios] if isinstance(scenarios, str | Path) or hasattr(scenarios, "name") \
+        else list(scenarios)  # fmt: skip
+    if not items:
+        raise ScenarioError("scenarios: must name at least one scenario")
+    for name, value, hi in (("trials", trials, 10**6), ("chunk", chunk, 10**6)):
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= hi:
+            raise ScenarioError(f"{name} = {value!r}: must be an integer in [1, {hi}]")
+    try:
+        methods = normalise_methods(list(METHODS) if methods is None else list(methods))
+    except ValueError as err:
+        raise ScenarioError(str(err)) from None
+    if rollouts not in (None, "mjx", "analytic"):
+        raise ScenarioError(f"rollouts = {rollouts!r}: must be one of mjx, analytic")
+    with tempfile.TemporaryDirectory(prefix="mjx_radar_study_") as tmp:
+        files = []
+        for item in items:
+            if isinstance(item, str | Path):
+                files.append(str(item))
+            else:  # a Scenario made in Python: validated, then a TOML file like any other
+                s = validate(item)
+                path = Path(tmp) / f"{s.name}.toml"
+                s.to_toml(path)
+                files.append(str(path))
+        opts = execute.StudyOptions(
+            scenarios=files, methods=methods, trials=trials, steps=steps, seed=seed,
+            chunk=chunk, rollouts=rollouts, out=Path(out), resume=resume,
+            precision=_precision(), progress=progress,
+        )  # fmt: skip
+        execute.run_study(opts)
+    return Study.load(out)
+
+
+def _precision() -> str:
+    import jax
+
+    return "float64" if jax.config.jax_enable_x64 else "float32"

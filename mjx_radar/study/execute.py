@@ -1,0 +1,211 @@
+"""One Monte Carlo study from its options to ``study.json``: ``mjx-radar study`` and
+``mjx_radar.run_study`` both call :func:`run_study` (chunks and files:
+:mod:`mjx_radar.study.driver`).
+
+Order of work: the scenarios are loaded and validated, the worker is set up (a
+``jax.distributed`` process, a ``--shard``, or the only one), ``--out`` is locked
+(:func:`lock_out`), the study directory is checked against a resumed study's settings,
+placement and memory are checked for every scenario, and only then is anything
+compiled; chunks run in rounds of one per device, each written when done, and the
+worker that finds every chunk present consolidates.
+
+One study per directory at a time (:mod:`mjx_radar.io.lock`): a plain study (or a
+resume) holds the directory's lock exclusively, so a second one is refused in one line
+(exit 2 on the command line). The workers of ``--shard I/N`` and ``--distributed``
+share the directory on purpose, so they hold it *shared* (still excluding a plain
+study or a resume of it) plus an exclusive lock of their own worker,
+``.lock.shard-I-of-N``, so the same shard cannot run twice at once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from mjx_radar.errors import InputError
+from mjx_radar.io.atomic import remove_empty_dirs
+
+
+@dataclasses.dataclass
+class StudyOptions:
+    """What a study runs (the options of ``mjx-radar study``).
+
+    Attributes:
+        scenarios: scenario files or bundled names.
+        methods: canonical method names, each once.
+        trials, steps, seed, chunk, rollouts: as ``mjx-radar study --help`` says
+            (``steps``/``seed``/``rollouts`` ``None``: each scenario's).
+        out: the study directory.
+        resume: continue the study in ``out``.
+        precision: ``"float32"`` or ``"float64"`` (x64 must already be on for the latter).
+        progress: show a progress bar on stderr.
+    """
+
+    scenarios: list
+    methods: list
+    trials: int
+    steps: int | None
+    seed: int | None
+    chunk: int
+    rollouts: str | None
+    out: Path
+    resume: bool = False
+    precision: str = "float32"
+    progress: bool = True
+
+
+def lock_out(out: Path, worker) -> tuple[list[Path], list]:
+    """Creates ``out`` if needed and takes its locks (see the module docstring).
+
+    Returns:
+        ``(created, locks)``: the directories it created and the held
+        :class:`~mjx_radar.io.lock.DirLock` s.
+
+    Raises:
+        InputError: ``out`` is a file or cannot be created, or another process holds
+            a conflicting lock.
+    """
+    from mjx_radar.io.lock import lock_dir
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out = {str(out)!r}: exists and is not a directory")
+    created = [p for p in [out, *out.parents] if not p.exists()]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        remove_empty_dirs(created)
+        reason = err.strerror or type(err).__name__
+        raise InputError(f"--out = {str(out)!r}: cannot create it ({reason})") from None
+    locks = []
+    try:
+        if worker.kind == "single":
+            locks.append(lock_dir(out))
+        else:
+            locks.append(lock_dir(out, shared=True))
+            own = f"{worker.kind}-{worker.index}-of-{worker.count}"
+            what = f"is running {worker.kind} {worker.index}/{worker.count} there"
+            locks.append(lock_dir(out, name=f".lock.{own}", what=what))
+    except InputError:
+        for lock in locks:
+            lock.release()
+        remove_empty_dirs(created)
+        raise
+    return created, locks
+
+
+def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
+    """Runs (or resumes, or joins) the study of ``opts``; 0 when this worker is done.
+
+    Args:
+        opts: the study.
+        make_worker: returns this process's :class:`~mjx_radar.study.driver.Worker`
+            (called after the scenarios validated); default the only worker.
+
+    Raises:
+        ScenarioError, InputError: bad scenarios or options, an unusable or locked
+            ``out``, settings differing from the resumed study's, a study too large.
+    """
+    from mjx_radar.study import driver
+
+    times = driver.StudyTimes()
+    scenarios, config = driver.load_scenarios(
+        opts.scenarios, opts.methods, opts.trials, opts.steps, opts.seed, opts.chunk,
+        opts.rollouts, opts.precision,
+    )  # fmt: skip
+    worker = make_worker() if make_worker else driver.Worker()
+    created, locks = lock_out(opts.out, worker)
+    try:
+        return _study(opts, scenarios, config, worker, times)
+    except BaseException:
+        for lock in locks:
+            lock.release()
+        if worker.kind == "single":  # workers may be creating the directory together
+            remove_empty_dirs(created)  # only if still empty: a refusal before the manifest
+        raise
+    finally:
+        for lock in locks:
+            lock.release()
+
+
+def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
+    from tqdm import tqdm
+
+    from mjx_radar.simulation import resources, runner
+    from mjx_radar.study import driver
+
+    joining = worker.kind != "single"  # workers share the directory
+    manifest = driver.check_out(args.out, config, args.resume or joining, joining)
+    from mjx_radar.simulation.placement import check_placeable
+
+    for s, _, _, sd in scenarios:
+        try:
+            check_placeable(s, sd, args.trials)
+        except ValueError as err:
+            raise InputError(str(err)) from None
+    mesh = runner.device_mesh()
+    n_dev, devices = mesh.size, str(list(mesh.devices.flat))
+    for s, _, n_steps, _ in scenarios:  # refuse what cannot fit before writing anything
+        resources.check(s, args.chunk * n_dev, n_steps, n_dev, full=False, batch_option="--chunk")
+    if worker.index == 0 or worker.kind == "shard":
+        manifest = driver.start_manifest(args.out, scenarios, config, manifest)
+    chunks = driver.all_chunks(scenarios, args.methods, args.trials, args.chunk, args.out)
+    driver.remove_temporaries(worker.mine(chunks))  # of this worker's killed writes
+    todo = [c for c in worker.mine(chunks) if not c.path.exists()]
+    print(
+        f"study: {len(scenarios)} scenario(s) x {len(args.methods)} method(s) x {args.trials} "
+        f"trials, chunks of {args.chunk}; worker {worker.index + 1}/{worker.count}: "
+        f"{len(todo)} chunk(s) to run on {n_dev} device(s): {devices}",
+        file=sys.stderr,
+    )
+    if todo:
+        steps0 = todo[0].steps
+        shapes = [c.scenario for c in todo if c.steps == steps0]
+        print(f"study: compiling for {n_dev} device(s) ...", file=sys.stderr)
+        wall = runner.precompile(shapes, args.chunk * n_dev, steps0, mesh=mesh)
+        times.compile_s += wall
+        print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
+    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
+    with tqdm(total=total, unit="trial-step", desc="study", file=sys.stderr,
+              dynamic_ncols=True, disable=not todo or not args.progress) as bar:  # fmt: skip
+        for group in driver.rounds(todo, n_dev):
+            bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
+            done = sum(c.last - c.first + 1 for c in group)
+            driver.run_round(
+                group, args.chunk, n_dev, mesh, lambda k, n=done: bar.update(k * n), times
+            )
+    if worker.kind == "distributed":
+        # Every process waits: JAX's shutdown barrier gives up after 300 s, so a process
+        # that left early would abort the others. Process 0 then consolidates.
+        wait_for(chunks)
+        if worker.index != 0:
+            return 0
+    missing = [c for c in chunks if not c.path.exists()]
+    if missing:
+        print(
+            f"study: shard {worker.index}/{worker.count} done; {len(chunks) - len(missing)} of "
+            f"{len(chunks)} chunks present; the last shard to finish (or --resume) consolidates",
+            file=sys.stderr,
+        )
+        return 0
+    frame, meta = driver.finish(
+        args.out, scenarios, config, manifest or {}, chunks, times, devices, n_dev
+    )
+    print(
+        f"study complete: {len(frame)} rows in {args.out / 'metrics.parquet'}; wall "
+        f"{meta['wall_s']:.1f} s (compile {meta['compile_s']:.1f} s, simulation "
+        f"{meta['sim_s']:.1f} s)"
+    )
+    return 0
+
+
+def wait_for(chunks, timeout_s: float = 7 * 24 * 3600.0) -> None:
+    """A process of a distributed study waits until every chunk file exists."""
+    deadline = time.monotonic() + timeout_s
+    while not all(c.path.exists() for c in chunks):
+        if time.monotonic() > deadline:
+            raise TimeoutError("distributed study: chunks still missing after the timeout")
+        time.sleep(1.0)
