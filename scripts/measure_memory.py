@@ -10,7 +10,8 @@ donated aliases) and their ratio ``estimate / (temp + arg + out - alias)``::
         --trials 100 --metrics-only
 
 ``--metrics-only`` compiles the study's program (metrics, no trajectories); the default
-is ``run``'s (full trajectories). Numbers are in docs/scaling.md ("Memory estimate").
+is ``run``'s (full trajectories). The figures measured so far (CPU and H100) are the
+tables of ``tests/test_resources.py``.
 """
 
 from __future__ import annotations

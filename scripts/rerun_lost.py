@@ -69,6 +69,10 @@ def main() -> int:
                              "rmse_study": before["rmse"], "lost_rerun": bool(again.loc[t, "lost"]),
                              "diverged_rerun": bool(again.loc[t, "diverged"]),
                              "rmse_rerun": again.loc[t, "rmse"]})  # fmt: skip
+            args.out.parent.mkdir(parents=True, exist_ok=True)  # after each group: partial
+            pd.DataFrame(rows).to_csv(args.out.with_suffix(".csv"), index=False)
+            print(f"{name} {method}: {len(lost)} lost trials rerun, "
+                  f"{int(again['lost'].gt(0).sum())} lost again", flush=True)
     table = pd.DataFrame(rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.out.with_suffix(".csv"), index=False)

@@ -3,9 +3,9 @@
 XLA's figure for a program is ``compiled.memory_analysis()`` of the segment ("step")
 program: temporaries + arguments + outputs - donated aliases (what XLA allocates at
 once; a 300-target joint run asked for exactly its temporaries, 26.8 GB, and died).
-``CPU_MEASURED`` holds it for small shapes on the CPU (jax 0.10.2,
-``scripts/measure_memory.py`` / the test below), ``GPU_MEASURED`` for the bundled
-scenarios on one H100 (jax 0.11.2). The estimate must lie within
+``CPU_MEASURED`` / ``CPU_BUNDLED`` hold it for small shapes and two bundled scenes on
+the CPU (jax 0.10.2), ``GPU_MEASURED`` for the bundled scenarios at study sizes on one
+H100 (jax 0.11.2), all from ``scripts/measure_memory.py``. The estimate must lie within
 ``resources.MEASURED_FACTOR`` of each; two CPU shapes are compiled here again.
 """
 
@@ -28,49 +28,69 @@ from mjx_radar.simulation import resources
 REPO = Path(__file__).resolve().parent.parent
 LO, HI = resources.MEASURED_FACTOR
 
-# (targets M, radars N, samples S, horizon H, filter, rollouts, trials T, XLA bytes)
+# (targets M, radars N, samples S, horizon H, filter, rollouts, trials T, azimuth, a box
+# obstacle, XLA bytes)
 CPU_MEASURED = [
-    (2, 2, 64, 8, "joint", "analytic", 1, 1_360_432),
-    (4, 2, 64, 8, "joint", "analytic", 1, 4_955_076),
-    (8, 2, 64, 8, "joint", "analytic", 1, 19_276_636),
-    (16, 2, 64, 8, "joint", "analytic", 1, 76_546_716),
-    (8, 4, 64, 8, "joint", "analytic", 1, 20_927_540),
-    (8, 2, 128, 8, "joint", "analytic", 1, 38_386_716),
-    (8, 2, 64, 15, "joint", "analytic", 1, 36_048_148),
-    (8, 2, 64, 8, "joint", "analytic", 4, 76_776_391),
-    (8, 2, 64, 8, "per-target", "analytic", 1, 2_629_132),
-    (16, 2, 64, 8, "per-target", "analytic", 1, 5_168_418),
-    (8, 2, 64, 8, "joint", "mjx", 1, 19_299_596),
-    (300, 2, 64, 8, "joint", "mjx", 1, 26_786_447_872),  # the RESOURCE_EXHAUSTED run
+    (2, 2, 64, 8, "joint", "analytic", 1, False, False, 1_361_412),
+    (4, 2, 64, 8, "joint", "analytic", 1, False, False, 4_955_076),
+    (8, 2, 64, 8, "joint", "analytic", 1, False, False, 19_284_636),
+    (16, 2, 64, 8, "joint", "analytic", 1, False, False, 76_546_716),
+    (8, 4, 64, 8, "joint", "analytic", 1, False, False, 20_928_540),
+    (8, 2, 128, 8, "joint", "analytic", 1, False, False, 38_386_716),
+    (8, 2, 64, 15, "joint", "analytic", 1, False, False, 36_049_148),
+    (8, 2, 64, 8, "joint", "analytic", 4, False, False, 76_776_391),
+    (8, 2, 64, 8, "per-target", "analytic", 1, False, False, 2_629_132),
+    (16, 2, 64, 8, "per-target", "analytic", 1, False, False, 5_174_668),
+    (8, 2, 64, 8, "joint", "mjx", 1, False, False, 19_299_356),
+    (8, 2, 256, 8, "joint", "mjx", 1, False, False, 76_723_228),
+    (24, 48, 16, 1, "joint", "analytic", 1, False, False, 52_810_764),  # filter-bound
+    (24, 48, 16, 1, "per-target", "analytic", 1, False, False, 3_121_388),
+    (8, 2, 64, 8, "joint", "analytic", 1, True, False, 20_828_940),
+    (4, 2, 64, 8, "joint", "analytic", 1, False, True, 4_963_396),
+    (4, 6, 64, 8, "joint", "analytic", 1, False, True, 7_295_916),
+    (8, 2, 64, 8, "per-target", "analytic", 1, False, True, 2_641_260),
+    (300, 2, 64, 8, "joint", "mjx", 1, False, False, 26_786_447_872),  # RESOURCE_EXHAUSTED
 ]
-# (bundled scenario, filter, trials per device, study program?, XLA bytes on an H100)
+# (bundled scenario, filter, rollouts, trials per device, XLA bytes): the CPU (analytic
+# rollouts, full program) and one H100 (the study's metrics-only program)
+CPU_BUNDLED = [
+    ("city_4r4t", "joint", "analytic", 1, 96_209_868),  # 12 meshes: line of sight
+    ("forest_4r4t", "joint", "analytic", 1, 136_450_636),  # 150 trees
+]
 GPU_MEASURED = [
-    ("smoke", "joint", 1, False, 713_692),
-    ("paper_4r4t", "joint", 256, True, 6_034_935_955),
-    ("swarm_32r32t", "per-target", 100, True, 19_727_482_119),
-    ("swarm_32r32t", "joint", 1, False, 5_612_974_700),
+    ("smoke", "joint", "analytic", 1, 713_692),
+    ("paper_3r4t", "joint", "mjx", 500, 10_585_344_891),
+    ("paper_4r4t", "joint", "mjx", 256, 6_034_935_955),
+    ("city_4r4t", "joint", "mjx", 256, 12_105_767_139),
+    ("swarm_8r8t", "joint", "mjx", 50, 6_514_868_373),
+    ("swarm_16r16t", "per-target", "mjx", 100, 5_193_136_583),
+    ("swarm_32r32t", "per-target", "mjx", 100, 19_727_482_119),
+    ("swarm_32r32t", "joint", "mjx", 1, 5_612_974_700),
 ]
 
 
-def _scenario_text(m, n, s, h, structure, rollout, name="shape") -> str:
+def _scenario_text(m, n, s, h, structure, rollout, azimuth=False, box=False, name="shape"):
     rng = np.random.default_rng(0)
     rows = []
     for _ in range(m):
         x, y = rng.uniform(-300, 300, 2)
         vx, vy = rng.uniform(-15, 15, 2)
         rows.append(f"  [{x:.2f}, {y:.2f}, {rng.uniform(40, 80):.2f}, {vx:.2f}, {vy:.2f}, 0.0],")
-    mppi = f"\n[mppi]\nsamples = {s}\niterations = 3\n" if s else ""
-    return (
-        f'name = "{name}"\nn_radars = {n}\nseed = 0\ntargets = [\n' + "\n".join(rows) + "\n]\n"
-        f"\n[timing]\ndt_filter = 0.025\ndt_control = 0.1\nsteps = 80\n"
-        f'\n[mpc]\nhorizon = {h}\nrollout = "{rollout}"\n{mppi}'
-        f'\n[filter]\nstructure = "{structure}"\n'
-    )
+    text = f'name = "{name}"\nn_radars = {n}\nseed = 0\ntargets = [\n' + "\n".join(rows) + "\n]\n"
+    if box:  # radars are then placed by hand, clear of it
+        text += f"radars = [{', '.join(f'[{30 * i - 400}.0, -400.0, 0.0]' for i in range(n))}]\n"
+        text += '\n[[obstacles]]\nkind = "box"\npos = [250.0, -150.0, 10.0]\n'
+        text += "size = [30.0, 6.0, 10.0]\n"
+    text += "\n[timing]\ndt_filter = 0.025\ndt_control = 0.1\nsteps = 80\n"
+    text += f'\n[mpc]\nhorizon = {h}\nrollout = "{rollout}"\n'
+    text += f"\n[mppi]\nsamples = {s}\niterations = 3\n" if s else ""
+    text += f'\n[filter]\nstructure = "{structure}"\n'
+    return text + ('\n[measurement]\nmodel = "range-azimuth"\n' if azimuth else "")
 
 
-def _shape(tmp_path, m, n, s, h, structure, rollout):
-    path = tmp_path / f"shape_{m}_{n}_{s}_{h}_{structure}_{rollout}.toml"
-    path.write_text(_scenario_text(m, n, s, h, structure, rollout))
+def _shape(tmp_path, *shape):
+    path = tmp_path / f"shape_{'_'.join(map(str, shape))}.toml"
+    path.write_text(_scenario_text(*shape))
     return load_scenario(path)
 
 
@@ -78,19 +98,25 @@ def _with(s, structure):
     return dataclasses.replace(s, filter=dataclasses.replace(s.filter, structure=structure))
 
 
-@pytest.mark.parametrize("case", CPU_MEASURED, ids=lambda c: "-".join(map(str, c[:7])))
+@pytest.mark.parametrize("case", CPU_MEASURED, ids=lambda c: "-".join(map(str, c[:9])))
 def test_estimate_within_factor_of_cpu_measurements(tmp_path, case):
-    *shape, trials, xla = case
-    est = sum(resources.device_terms(_shape(tmp_path, *shape), trials, "cpu").values())
+    *shape, trials, azimuth, box, xla = case
+    s = _shape(tmp_path, *shape, azimuth, box)
+    est = sum(resources.device_terms(s, trials, "cpu").values())
     assert LO <= est / xla <= HI, (case, est / xla)
 
 
-@pytest.mark.parametrize("case", GPU_MEASURED, ids=lambda c: f"{c[0]}-{c[1]}-{c[2]}")
-def test_estimate_within_factor_of_h100_measurements(case):
-    name, structure, trials, _, xla = case
+@pytest.mark.parametrize(
+    "platform, case",
+    [("cpu", c) for c in CPU_BUNDLED] + [("gpu", c) for c in GPU_MEASURED],
+    ids=lambda c: c if isinstance(c, str) else "-".join(map(str, c[:4])),
+)
+def test_estimate_within_factor_of_bundled_scenarios(platform, case):
+    name, structure, rollout, trials, xla = case
     s = _with(load_scenario(name), structure)
-    est = sum(resources.device_terms(s, trials, "gpu").values())
-    # a program of a few MB (smoke: 2.0x) is fused more tightly on the GPU; never below
+    s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollout))
+    est = sum(resources.device_terms(s, trials, platform).values())
+    # a program of a few MB (smoke: 1.6x) is fused more tightly on the GPU; never below
     assert LO <= est / xla and (est / xla <= HI or xla < 10e6), (case, est / xla)
 
 
@@ -99,7 +125,7 @@ def test_estimate_matches_a_fresh_compilation(tmp_path, structure):
     """Compiles a small shape's step program now and compares with XLA's figure."""
     from mjx_radar.simulation import programs, runner
 
-    s = _shape(tmp_path, 4, 2, 64, 8, structure, "analytic")
+    s = _shape(tmp_path, 4, 2, 64, 8, structure, "analytic", False, False)
     progs, _ = programs.compile_programs(s, 2, runner.segment_periods(s, 8), full=True)
     ma = progs.step.memory_analysis()
     xla = (ma.temp_size_in_bytes + ma.argument_size_in_bytes + ma.output_size_in_bytes
@@ -111,7 +137,7 @@ def test_estimate_matches_a_fresh_compilation(tmp_path, structure):
 def test_300_targets_joint_refused_before_compiling(tmp_path):
     """The run that died in XLA asking for 26.8 GB: one line, exit 2, in seconds."""
     path = tmp_path / "many.toml"
-    path.write_text(_scenario_text(300, 4, 0, 15, "joint", "mjx", name="many"))
+    path.write_text(_scenario_text(300, 4, 0, 15, "joint", "mjx", name="many"))  # S = 200
     s = load_scenario(path)
     need = sum(resources.estimate(s, 1, 80).device.values())
     if (resources.host_available() or 0) > need:

@@ -95,18 +95,17 @@ class Run:
             InputError: ``path`` holds a complete run (without ``force``), is a file,
                 cannot be written, or another process is writing there.
         """
+        from mjx_radar.io.atomic import create_dir
         from mjx_radar.io.lock import lock_dir
         from mjx_radar.io.run_writer import write_run
 
         if self._res is None:
             raise InputError("Run.save: this run was loaded from a directory; copy that instead")
         path = Path(path)
-        if path.exists() and not path.is_dir():
-            raise InputError(f"path = {str(path)!r}: exists and is not a directory")
-        if (path / "run.json").exists() and not force:
-            raise InputError(f"path = {str(path)!r}: holds a complete run; pass force=True")
-        path.mkdir(parents=True, exist_ok=True)
+        create_dir(path, "path", probe=True)
         with lock_dir(path, "path", what="is writing a run there"):
+            if (path / "run.json").exists() and not force:
+                raise InputError(f"path = {str(path)!r}: holds a complete run; pass force=True")
             write_run(path, self.scenario, self.method, self.seed, self.trials, self.steps,
                       self._res, precision=self.meta.get("precision", "float32"))  # fmt: skip
         self.path = path

@@ -2,8 +2,10 @@
 
 Before anything is compiled the command checks, each failure one line and exit 2:
 the scenario and options, that ``--out`` can be created and written (a probe file),
-that it does not hold a complete run (unless ``--force``), that the radars can be
-placed, and that the run fits in memory (:mod:`mjx_radar.simulation.resources`).
+that no other process is writing there (it holds ``--out``'s lock until it is done:
+:mod:`mjx_radar.io.lock`; ``--force`` does not override a live writer), that it does
+not hold a complete run (unless ``--force``), that the radars can be placed, and
+that the run fits in memory (:mod:`mjx_radar.simulation.resources`).
 The simulation runs in a worker thread so Ctrl-C is honoured at once, even in the
 middle of a long compilation: one line, exit 130, no result file. Results are
 written atomically, ``run.json`` last; an interrupted write removes what it wrote.
@@ -19,7 +21,6 @@ import argparse
 import os
 import signal
 import sys
-import tempfile
 import threading
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from mjx_radar.cli.args import (
     seed,
 )
 from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
+from mjx_radar.io.atomic import create_dir, remove_empty_dirs
 from mjx_radar.io.lock import DirLock, lock_dir
 from mjx_radar.task.method import METHODS
 
@@ -88,18 +90,7 @@ def prepare_out(out: Path, force: bool) -> tuple[list[Path], DirLock]:
             process is writing there.
     """
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out = {str(out)!r}: exists and is not a directory")
-    created = [p for p in [out, *out.parents] if not p.exists()]
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(dir=out, prefix=".probe.", suffix=".part")
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as err:
-        remove_dirs(created)
-        reason = err.strerror or type(err).__name__
-        raise InputError(f"--out = {str(out)!r}: cannot create or write there ({reason})") from None
+    created = create_dir(out, probe=True)
     try:
         lock = lock_dir(out)  # checked after locking: a writer may finish meanwhile
         if (out / "run.json").exists() and not force:
@@ -115,11 +106,7 @@ def prepare_out(out: Path, force: bool) -> tuple[list[Path], DirLock]:
 
 def remove_dirs(created: list[Path]) -> None:
     """Removes the directories :func:`prepare_out` created, if still empty (deepest first)."""
-    for d in created:
-        try:
-            d.rmdir()
-        except OSError:
-            return
+    remove_empty_dirs(created)
 
 
 def simulate(fn):

@@ -89,3 +89,32 @@ def remove_empty_dirs(created: list[Path]) -> None:
             Path(d).rmdir()
         except OSError:
             return
+
+
+def create_dir(out: str | Path, field: str = "--out", probe: bool = False) -> list[Path]:
+    """Creates directory ``out`` (and parents); returns the directories it created.
+
+    Args:
+        out: the directory.
+        field: the option named in an error message.
+        probe: also check that a file can be written there (a temporary probe file).
+
+    Raises:
+        InputError: ``out`` is a file, or cannot be created (or written), in one line.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{field} = {str(out)!r}: exists and is not a directory")
+    created = [p for p in [out, *out.parents] if not p.exists()]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if probe:
+            fd, name = tempfile.mkstemp(dir=out, prefix=".probe.", suffix=".part")
+            os.close(fd)
+            os.unlink(name)
+    except OSError as err:
+        remove_empty_dirs(created)
+        reason = err.strerror or type(err).__name__
+        what = "create or write there" if probe else "create it"
+        raise InputError(f"{field} = {str(out)!r}: cannot {what} ({reason})") from None
+    return created

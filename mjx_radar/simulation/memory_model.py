@@ -32,10 +32,10 @@ for the joint filter (``[filter] structure = "joint"``: its points live in the
 XLA's figure for a program is ``compiled.memory_analysis()`` of its step program:
 temporaries + arguments + outputs - donated aliases (``scripts/measure_memory.py``).
 The estimate / that figure lies in :data:`MEASURED_FACTOR` on every shape of
-``tests/test_resources.py``: 0.9-1.06 on 17 CPU shapes (joint and per-target, 2 to
-300 targets, 2 to 48 radars, MJX and analytic rollouts, obstacles, azimuth), 1.0-1.3
-for the bundled scenarios at study sizes on an H100 (2.0 for the 1 MB smoke program,
-which the GPU fuses more tightly).
+``tests/test_resources.py``: 0.91-1.27 on 21 CPU shapes (joint and per-target, 2 to
+300 targets, 2 to 48 radars, MJX and analytic rollouts, boxes, meshes and trees,
+azimuth), 1.02-1.32 for the bundled scenarios at study sizes (1 to 500 trials per
+device) on an H100; 1.6 for the 0.7 MB smoke program, which the GPU fuses more tightly.
 """
 
 from __future__ import annotations

@@ -79,6 +79,12 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
     """Scenarios with the command-line overrides and the study configuration."""
     from mjx_radar.io.scenario import load_with_overrides, resolve_path
 
+    methods = list(methods)
+    for i, m in enumerate(methods):  # before anything runs: duplicates break consolidation
+        if m not in METHODS:
+            raise InputError(f"methods: {m!r} is not one of {', '.join(METHODS)}")
+        if m in methods[:i]:
+            raise InputError(f"methods: {m!r} given twice")
     scenarios, entries = [], []
     for name in names:
         s, n_steps = load_with_overrides(name, rollouts, steps)

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from mjx_radar.errors import InputError
-from mjx_radar.io.atomic import remove_empty_dirs
+from mjx_radar.io.atomic import create_dir, remove_empty_dirs
 
 
 @dataclasses.dataclass
@@ -71,15 +71,7 @@ def lock_out(out: Path, worker) -> tuple[list[Path], list]:
     from mjx_radar.io.lock import lock_dir
 
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out = {str(out)!r}: exists and is not a directory")
-    created = [p for p in [out, *out.parents] if not p.exists()]
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        remove_empty_dirs(created)
-        reason = err.strerror or type(err).__name__
-        raise InputError(f"--out = {str(out)!r}: cannot create it ({reason})") from None
+    created = create_dir(out)
     locks = []
     try:
         if worker.kind == "single":
