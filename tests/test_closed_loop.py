@@ -30,7 +30,7 @@ def results(smoke):
             smoke if m in MJX_PLANNER else analytic, m, 0, np.arange(TRIALS), STEPS
         )
         for m in METHODS
-    }  # "stationary" first: every later method on the MJX planner reuses its program
+    }  # one program per rollout backend and program kind (ddr-pfim reuses ccr-pfim's)
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -101,10 +101,11 @@ def test_trial_results_do_not_depend_on_batch(smoke, results):
 
 
 def test_one_program_per_scenario_shape(smoke, results):
-    # Every method ran on the already compiled program of its shape; a scenario that
-    # differs only in its numbers (method, seed, keep-outs, weights, radar equation,
-    # initial states) reuses it: no compilation (compile_s == 0) and the same executable.
-    assert results["ddr-sfim"]["compile_s"] == 0.0  # compiled for "stationary" first
+    # A method ran on the already compiled program of its shape and program kind (the
+    # noise model is a runtime flag); a scenario that differs only in its numbers
+    # (seed, keep-outs, weights, radar equation, initial states) reuses it: no
+    # compilation (compile_s == 0) and the same executable.
+    assert results["ddr-pfim"]["compile_s"] == 0.0  # compiled for "ccr-pfim" first
     numbers = dataclasses.replace(
         smoke,
         name="other",
@@ -116,10 +117,10 @@ def test_one_program_per_scenario_shape(smoke, results):
         radar_eq=dataclasses.replace(smoke.radar_eq, snr_db=-10.0),
     )
     periods = runner.segment_periods(smoke, STEPS)
-    first, _ = runner.compile_programs(smoke, TRIALS, periods, True)
-    again, seconds = runner.compile_programs(numbers, TRIALS, periods, True)
+    first, _ = runner.compile_programs(smoke, TRIALS, periods, True, kind="sfim")
+    again, seconds = runner.compile_programs(numbers, TRIALS, periods, True, kind="sfim")
     assert seconds == 0.0 and again is first
-    res = runner.run_trials(numbers, "ccr-pfim", 11, np.arange(TRIALS), STEPS)
+    res = runner.run_trials(numbers, "ccr-sfim", 11, np.arange(TRIALS), STEPS)
     assert res["compile_s"] == 0.0 and np.all(np.isfinite(res["rmse_pos"]))
     # ... and the numbers do reach the program: another seed, another truth.
-    assert not np.array_equal(res["target"], results["ccr-pfim"]["target"])
+    assert not np.array_equal(res["target"], results["ddr-sfim"]["target"])

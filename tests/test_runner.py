@@ -77,6 +77,7 @@ def test_phases_progress_and_compile_log(first_run):
     assert len(log) == 1
     entry = log[0]
     assert entry["source"] == "traced"  # a fresh export directory
+    assert entry["kind"] == "sfim"  # only the information this method plans with
     assert (entry["n_radars"], entry["n_targets"], entry["batch"], entry["devices"]) == (2, 2, 2, 1)
     assert entry["trace_lower_s"] > 0 and entry["xla_compile_s"] > 0
 
@@ -94,10 +95,15 @@ def test_second_call_reuses_the_program_and_reproduces(tiny, first_run):
     assert rev["compile_s"] == 0.0
     for k in results.METRIC_COLUMNS:
         np.testing.assert_array_equal(rev[k], res[k][::-1], err_msg=k)
-    # another method is a runtime argument of the same program, with other numbers
-    other = runner.run_trials(tiny, "stationary", 0, TRIALS, STEPS, full=False)
+    # the other noise model of the same information kind is a runtime argument of the
+    # same program, with other numbers
+    other = runner.run_trials(tiny, "ccr-sfim", 0, TRIALS, STEPS, full=False)
     assert other["compile_s"] == 0.0
     assert not np.array_equal(other["rmse_pos"], res["rmse_pos"])
+    # stationary radars compile their own program, without a planner
+    still = runner.run_trials(tiny, "stationary", 0, TRIALS, STEPS, full=False)
+    assert still["compile_s"] > 0 and programs.COMPILE_LOG[-1]["kind"] == "none"
+    assert not np.array_equal(still["rmse_pos"], res["rmse_pos"])
 
 
 def test_export_cache_round_trip(tiny, first_run, export_dir, monkeypatch):

@@ -158,7 +158,7 @@ def advance(
     plant = task.truth
     a_f, q_f = task.a_filter, process_noise(task, params)
     w6 = params.sigma_w2 * task.w6_filter_unit
-    planner = make_planner(task)
+    planner = make_planner(task) if task.kind != "none" else None
     streams = trial_streams(params.seed, trial)
     r_filter = measurement.noise_cov_fn(model, noise, flags.ccr)
     residual = measurement.flat_residual(model) if model.dim > 1 else None
@@ -253,11 +253,16 @@ def advance(
 
     def control_period(lc: LoopCarry, j):
         loop = (lc.data, lc.mean, lc.cov, lc.pfim, lc.health)
-        u, u_plan, crec = jax.lax.cond(
-            flags.plans,
-            lambda: plan(loop, j, lc.u_plan),
-            lambda: _idle_plan(task, lc.u_plan),
-        )
+        if task.kind == "none":  # stationary program: no planner compiled
+            u, u_plan, crec = _idle_plan(task, lc.u_plan)
+        elif task.kind != "all":  # one information kind: always plans
+            u, u_plan, crec = plan(loop, j, lc.u_plan)
+        else:
+            u, u_plan, crec = jax.lax.cond(
+                flags.plans,
+                lambda: plan(loop, j, lc.u_plan),
+                lambda: _idle_plan(task, lc.u_plan),
+            )
         ks = j * every + 1 + jnp.arange(every)
         loop, srec = jax.lax.scan(lambda c_, k: filter_step(c_, k, u), loop, ks)
         data, mean, cov, pfim, health = loop

@@ -2,7 +2,8 @@
 
 Two programs advance a batch of trials (:mod:`mjx_radar.simulation.closed_loop`,
 vmapped over trials; the runner compiles them for a one-device mesh per device and
-drives each device from its own thread):
+drives each device from its own thread), per scenario shape and *program kind* (what
+is compiled of the planner: :data:`mjx_radar.task.method.PROGRAM_KINDS`):
 
 * ``init(trials, *params) -> (*carry, ok)``
 * ``step(trials, start, *params, *carry) -> (*carry, *records)``
@@ -160,9 +161,9 @@ def _variant() -> tuple:
     return bool(jax.config.jax_enable_x64), precision.describe(), costs.registry_key()
 
 
-def _key(shape, periods, full, batch, mesh) -> str:
+def _key(shape, periods, full, batch, mesh, kind) -> str:
     dev = mesh.devices.flat[0]
-    parts = [repr(shape), periods, full, batch, mesh.size, dev.platform, dev.device_kind,
+    parts = [repr(shape), periods, full, batch, mesh.size, dev.platform, dev.device_kind, kind,
              *_variant(), compile_cache.code_fingerprint()]  # fmt: skip
     for obs in shape.obstacles:  # mesh files: their content, not only their path
         if obs.path and Path(obs.path).exists():
@@ -176,7 +177,8 @@ _LOCK = threading.Lock()
 COMPILE_LOG: list[dict] = []
 
 
-def compile_programs(scenario, batch: int, periods: int, full: bool = False, mesh=None):
+def compile_programs(scenario, batch: int, periods: int, full: bool = False, mesh=None,
+                     kind: str = "all"):  # fmt: skip
     """Ahead-of-time compiled :class:`Programs` of a scenario's shape; ``(programs, seconds)``.
 
     Args:
@@ -185,6 +187,9 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
         periods: control periods per segment.
         full: return trajectories (else metrics only).
         mesh: devices to spread the trials over (default: the default device).
+        kind: what is compiled of the planner (:data:`mjx_radar.task.method.PROGRAM_KINDS`):
+            a method's ``kind`` (``"none"``, ``"sfim"``, ``"pfim"``: that method and the
+            other noise model's) or ``"all"`` (every method).
 
     Seconds are 0 when this process compiled them before.
     """
@@ -192,12 +197,12 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     if batch % mesh.size:
         raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
     shape = shape_key(scenario)
-    mem_key = (shape, periods, full, batch, mesh, *_variant())
+    mem_key = (shape, periods, full, batch, mesh, kind, *_variant())
     with _LOCK:
         if mem_key in _CACHE:
             return _CACHE[mem_key], 0.0
     t0 = time.perf_counter()
-    task = make_task(shape)
+    task = make_task(shape, kind)
     params = task_params(scenario, parse_method("stationary"))
     p_leaves, params_tree = jax.tree.flatten(params)
     trial_sh, rep = NamedSharding(mesh, SPLIT), NamedSharding(mesh, WHOLE)
@@ -206,7 +211,7 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     start = jax.ShapeDtypeStruct((), jnp.int32, sharding=rep)
     p_specs = [spec(x, rep) for x in p_leaves]
     store = compile_cache.program_dir()
-    path = store / f"loop-{_key(shape, periods, full, batch, mesh)}.jaxexport" if store else None
+    path = store / f"loop-{_key(shape, periods, full, batch, mesh, kind)}.jaxexport" if store else None
     exported = _load(path) if path else None
     source = "export cache" if exported else "traced"
     if exported is None:
@@ -238,7 +243,7 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     with _LOCK:
         _CACHE[mem_key] = progs
         COMPILE_LOG.append({"n_radars": scenario.n_radars, "n_targets": scenario.n_targets,
-                            "batch": batch, "devices": mesh.size, "source": source,
+                            "batch": batch, "devices": mesh.size, "kind": kind, "source": source,
                             "trace_lower_s": t1 - t0, "xla_compile_s": t2 - t1})  # fmt: skip
     return progs, t2 - t0
 

@@ -5,11 +5,13 @@ per segment (the loop inside a segment never leaves the device); between segment
 the host only updates the progress bar. Results come back as numpy arrays with
 leading axes ``[T, ...]``.
 
-One program per scenario *shape* (:func:`mjx_radar.task.params.shape_key`), segment
-length, output kind, batch and device mesh (:mod:`mjx_radar.simulation.programs`):
-the method and the scenario's numbers are runtime arguments
-(:class:`~mjx_radar.task.params.TaskParams`), so every method of a scenario, and
-every scenario that differs only in its numbers, share it. Compilation is ahead of
+One program per scenario *shape* (:func:`mjx_radar.task.params.shape_key`), program
+kind (the method's information kind: ``none``, ``sfim``, ``pfim``), segment length,
+output kind, batch and device mesh (:mod:`mjx_radar.simulation.programs`): the noise
+model and the scenario's numbers are runtime arguments
+(:class:`~mjx_radar.task.params.TaskParams`), so the CCR and DDR methods of a kind,
+and every scenario that differs only in its numbers, share it; a run compiles only
+the information it needs (stationary radars: no planner). Compilation is ahead of
 time and timed apart from the simulation.
 """
 
@@ -32,7 +34,7 @@ from mjx_radar.simulation.programs import (
     parallel,
     record_template,
 )
-from mjx_radar.task.method import parse_method
+from mjx_radar.task.method import METHODS, parse_method
 from mjx_radar.task.params import shape_key, task_params
 
 __all__ = ["COMPILE_LOG", "compile_programs", "device_mesh", "precompile", "run_trials"]
@@ -42,21 +44,23 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     """Compiles the programs of several scenarios concurrently; returns the wall time [s].
 
     XLA compilation releases the GIL, so a thread pool compiles the programs of a
-    study's scenario shapes in parallel on the host's cores. ``jobs`` holds scenarios
-    (or tuples whose first item is the scenario); scenarios of the same shape share one
-    program.
+    study's scenario shapes and program kinds in parallel on the host's cores.
+    ``jobs`` holds ``(scenario, method)`` pairs (a method or its name), or scenarios
+    alone (every method's kind); jobs of the same shape and kind share one program.
     """
     shapes = {}
     for job in jobs:
-        s = job[0] if isinstance(job, tuple) else job
-        shapes.setdefault(shape_key(s), s)
+        s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
+        kinds = [parse_method(m).kind for m in methods] or [m.kind for m in METHODS.values()]
+        for kind in kinds:
+            shapes.setdefault((shape_key(s), kind), (s, kind))
     todo = list(shapes.values())
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     t0 = time.perf_counter()
-    parallel([  # one thread per shape (big stacks: XLA's compiler recurses deeply)
-        lambda s=s: device_programs(s, batch // len(devices), segment_periods(s, steps), full,
-                                    devices)
-        for s in todo
+    parallel([  # one thread per shape and kind (big stacks: XLA's compiler recurses deeply)
+        lambda s=s, k=k: device_programs(s, batch // len(devices), segment_periods(s, steps),
+                                         full, devices, k)
+        for s, k in todo
     ])  # fmt: skip
     return time.perf_counter() - t0
 
@@ -108,7 +112,8 @@ def run_trials(
     if steps % every:
         raise ValueError(f"steps: {steps} must be a multiple of {every}")
     periods = periods or segment_periods(scenario, steps)
-    params = task_params(scenario, parse_method(method), seed)
+    method = parse_method(method)
+    params = task_params(scenario, method, seed)
     trials = np.asarray(trials, np.int32)
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     if trials.shape[0] % len(devices):
@@ -116,7 +121,9 @@ def run_trials(
     if phase:
         phase("compiling")
     t0 = time.perf_counter()
-    progs = device_programs(scenario, trials.shape[0] // len(devices), periods, full, devices)
+    progs = device_programs(
+        scenario, trials.shape[0] // len(devices), periods, full, devices, method.kind
+    )
     compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0
     if phase:
         phase("simulating")
@@ -161,7 +168,8 @@ def run_trials(
     return res
 
 
-def device_programs(scenario, batch: int, periods: int, full: bool, devices) -> list:
+def device_programs(scenario, batch: int, periods: int, full: bool, devices,
+                    kind: str = "all") -> list:  # fmt: skip
     """``[(programs, seconds)]``: the single-device program of each device, each for
     ``batch`` trials. Every device runs the same per-device program, so a trial's
     numbers never depend on the number of devices.
@@ -175,7 +183,7 @@ def device_programs(scenario, batch: int, periods: int, full: bool, devices) -> 
     """
 
     def one(d):
-        return compile_programs(scenario, batch, periods, full, device_mesh([d]))
+        return compile_programs(scenario, batch, periods, full, device_mesh([d]), kind)
 
     devices = list(devices)
     if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:

@@ -155,7 +155,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     )
     if todo:
         steps0 = todo[0].steps
-        shapes = [c.scenario for c in todo if c.steps == steps0]
+        shapes = [(c.scenario, c.method) for c in todo if c.steps == steps0]
         print(f"study: compiling for {n_dev} device(s) ...", file=sys.stderr)
         wall = runner.precompile(shapes, args.chunk * n_dev, steps0, mesh=mesh)
         times.compile_s += wall

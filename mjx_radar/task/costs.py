@@ -6,7 +6,8 @@ every term's discounted value. With t = 0..H-1 indexing the radar state after co
 t+1 and E_p the mean over the CKF cubature points of the target states at that time:
 
 * ``information``: ``−E_p[Σ_m log det J_m(t)]`` with J the SFIM, or the PFIM recursion
-  started from the filter's information (method flag ``pfim``; only that branch runs);
+  started from the filter's information (method flag ``pfim``; only that branch runs;
+  a task of program kind ``"sfim"`` / ``"pfim"`` compiles only its branch);
   the measurement model gives the per-pair information (DDR or CCR noise: flag ``ccr``);
 * ``radar_radar``: ``α1 · #{radar pairs closer than R2R}``;
 * ``radar_target``: ``α2 · E_p[#{radar-target pairs closer than R2T}]``;
@@ -83,6 +84,9 @@ def information(h: Horizon, task, params) -> jax.Array:
         ld = fisher.pfim_logdets(h.info0, task.a6, task.w6_unit, params.sigma_w2, jd)
         return ld.sum(-1)
 
+    kind = getattr(task, "kind", "all")  # a program of one information kind compiles only it
+    if kind in ("sfim", "pfim"):
+        return -(pfim if kind == "pfim" else sfim)(j3)
     return -jax.lax.cond(params.method.pfim, pfim, sfim, j3)
 
 

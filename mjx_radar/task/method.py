@@ -6,9 +6,12 @@ which information the planner maximises (``info``: SFIM, PFIM, or ``none`` for
 radars that never move). Below the boundary no code looks at a method's name.
 
 Inside a compiled program a method is a :class:`MethodFlags` pytree of unbatched
-runtime scalars, so one program serves every method of a scenario shape and only
-the taken branch runs (``lax.cond`` on an unbatched predicate stays a branch under
-``vmap``).
+runtime scalars. What a program compiles of the planner is static, its *program
+kind* (:data:`PROGRAM_KINDS`, the method's ``info``): ``"none"`` compiles no planner
+at all, ``"sfim"`` / ``"pfim"`` only that information, so CCR and DDR methods of an
+information kind share a program (``ccr`` stays a runtime flag). Kind ``"all"``
+serves every method: both information branches joined by ``lax.cond`` on the runtime
+flags (an unbatched predicate stays a branch under ``vmap``).
 
 Adding a method is one line in :data:`METHODS`.
 """
@@ -20,6 +23,8 @@ from typing import Any, NamedTuple
 
 NOISE_MODELS = ("ddr", "ccr")
 INFO_KINDS = ("sfim", "pfim", "none")
+#: what a compiled program carries of the planner: one information kind, or all methods
+PROGRAM_KINDS = ("none", "sfim", "pfim", "all")
 
 
 @dataclass(frozen=True)
@@ -47,6 +52,11 @@ class Method:
     def plans(self) -> bool:
         """Whether MPPI moves the radars."""
         return self.info != "none"
+
+    @property
+    def kind(self) -> str:
+        """The program kind that runs this method (its information kind)."""
+        return self.info
 
     def flags(self) -> MethodFlags:
         """The method as runtime scalars for a compiled program."""

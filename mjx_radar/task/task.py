@@ -43,6 +43,9 @@ class RadarTask:
         a_control: CV transition at the control step ``[6M, 6M]``.
         a6, w6_unit: one target's control-step transition / unit process noise [6, 6].
         a6_filter, w6_filter_unit: the same at the filter step (the PCRLB).
+        kind: what is compiled of the planner (:data:`~mjx_radar.task.method.PROGRAM_KINDS`):
+            ``"all"`` (every method, runtime flags), ``"sfim"`` / ``"pfim"`` (that
+            information only) or ``"none"`` (no planner: stationary radars).
     """
 
     scenario: Scenario
@@ -60,6 +63,7 @@ class RadarTask:
     w6_unit: jax.Array
     a6_filter: jax.Array
     w6_filter_unit: jax.Array
+    kind: str = "all"
 
 
 def _rollout_backend(scenario: Scenario) -> Callable:
@@ -82,10 +86,20 @@ def _rollout_backend(scenario: Scenario) -> Callable:
     return lambda state, u: integrate(state, jnp.repeat(u, k, axis=0))[k - 1 :: k]
 
 
-def make_task(shape: Scenario) -> RadarTask:
-    """Builds the task of a scenario shape (cached: one task per shape, registered cost
-    terms (:func:`mjx_radar.task.costs.registry_key`) and process)."""
-    return _make_task(shape, costs.registry_key())
+def make_task(shape: Scenario, kind: str = "all") -> RadarTask:
+    """Builds the task of a scenario shape (cached: one task per shape, program kind,
+    registered cost terms (:func:`mjx_radar.task.costs.registry_key`) and process)."""
+    return _task_of_kind(shape, costs.registry_key(), kind)
+
+
+@functools.cache
+def _task_of_kind(shape: Scenario, registry: tuple, kind: str) -> RadarTask:
+    from mjx_radar.task.method import PROGRAM_KINDS
+
+    if kind not in PROGRAM_KINDS:
+        raise ValueError(f"program kind {kind!r} not in {PROGRAM_KINDS}")
+    base = _make_task(shape, registry)
+    return base if kind == "all" else dataclasses.replace(base, kind=kind)
 
 
 @functools.cache
