@@ -6,11 +6,15 @@ Runs, each in a fresh process and in this order:
 2. the same again (warm: XLA cache + program export cache);
 3. the same with another R2T, SNR, weight and seed (a scenario file differing only in
    numbers: must hit the caches);
-4. optionally (``--study-trials T``) ``mjx-radar study SCENARIO --methods M1,M2 --trials T
+4. the README quick start, ``mjx-radar run scenarios/smoke.toml`` (80 steps), with
+   an empty cache directory (skip with ``--no-quick-start``);
+5. optionally (``--study-trials T``) ``mjx-radar study SCENARIO --methods M1,M2 --trials T
    --chunk T`` cold and warm.
 
 Prints one line per step with the process wall time and the compile / simulation
-split reported by the run, then a summary. Usage::
+split reported by the run, then the issue's table (issue 27, "Start in seconds":
+quick start compile <= 15 s, ``run paper_3r4t --steps 600`` <= 30 s cold and <= 12 s
+warm on the 2-core CPU) and the machine's load average. Usage::
 
     python scripts/bench_startup.py --scenario scenarios/paper_3r4t.toml --steps 600
 """
@@ -19,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -68,6 +73,7 @@ def main() -> None:
     ap.add_argument("--study-trials", type=int, default=0)
     ap.add_argument("--study-methods", default="ddr-sfim,ddr-pfim")
     ap.add_argument("--study-steps", type=int, default=600)
+    ap.add_argument("--no-quick-start", action="store_true", help="skip the quick start row")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench_startup_"))
     cache = work / "cache"
@@ -80,6 +86,13 @@ def main() -> None:
         wall, rc = _cli([run[0], str(scen), *run[1:], "--out", str(out)], cache)
         meta = json.loads((out / "run.json").read_text()) if rc == 0 else {}
         rows.append((f"run {label}", wall, meta.get("compile_s"), meta.get("sim_s"), rc))
+    if not args.no_quick_start:  # README quick start, its own empty cache
+        out = work / "quick_start"
+        smoke = Path(__file__).resolve().parents[1] / "scenarios" / "smoke.toml"
+        cmd = ["run", str(smoke), "--out", str(out), "--force"]
+        wall, rc = _cli(cmd, work / "cache_quick")
+        meta = json.loads((out / "run.json").read_text()) if rc == 0 else {}
+        rows.append(("quick start cold", wall, meta.get("compile_s"), meta.get("sim_s"), rc))
     if args.study_trials:
         for label in ("cold", "warm"):
             if label == "cold":
@@ -95,7 +108,20 @@ def main() -> None:
     for what, wall, comp, sim, rc in rows:
         f = lambda x: f"{x:10.1f}" if isinstance(x, float) else f"{'-':>10s}"  # noqa: E731
         print(f"{what:28s} {wall:8.1f} {f(comp)} {f(sim)[2:]:>8s} {rc}")
-    print(json.dumps({"rows": rows}))
+    _goals(rows, f"{src.stem} {args.steps} steps")
+    print(json.dumps({"rows": rows, "load": os.getloadavg()}))
+
+
+def _goals(rows, what: str) -> None:
+    """The issue's table: measured vs goal (process wall time; compile for the quick start)."""
+    got = {r[0]: r for r in rows}
+    goals = [("run cold", f"run {what}, cold", 1, 30.0), ("run warm", f"run {what}, warm", 1, 12.0),
+             ("quick start cold", "quick start compile", 2, 15.0)]  # fmt: skip
+    print(f"\n{'goal (issue 27, CPU)':36s} {'measured_s':>10s} {'goal_s':>7s}")
+    for key, label, col, goal in goals:
+        if key in got and isinstance(got[key][col], float):
+            print(f"{label:36s} {got[key][col]:10.1f} {goal:7.1f}")
+    print(f"load average (1, 5, 15 min): {os.getloadavg()}")
 
 
 if __name__ == "__main__":

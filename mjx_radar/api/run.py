@@ -11,7 +11,7 @@ fixed seed gives the same numbers from either. A :class:`Run` holds the result:
 - ``summary()``: the figures ``mjx-radar run`` prints;
 - ``save(dir)`` writes a run directory (exactly what ``mjx-radar run --out dir``
   writes), ``Run.load(dir)`` reads any run directory back, ``render`` and
-  ``snapshot`` draw it.
+  ``snapshot`` draw it, ``view`` writes the interactive HTML viewer.
 """
 
 from __future__ import annotations
@@ -159,6 +159,21 @@ class Run:
         from mjx_radar.viz.snapshot import snapshot
 
         return Path(snapshot(self._saved(), step, trial, path, grid))
+
+    def view(self, path: str | Path | None = None, trial=None, max_frames: int = 150,
+             samples: int | None = None) -> Path:  # fmt: skip
+        """Interactive 3-D view as one offline HTML file (``mjx-radar view``); returns its path.
+
+        Args:
+            path: ``.html`` file (default ``view.html`` in the run directory; an unsaved
+                run is saved to a temporary directory first).
+            trial: a trial position or a list of them (default: as many as fit ~14 MB).
+            max_frames: at most this many frames per trial (every k-th filter step).
+            samples: MPPI samples per frame (default up to 32, fewer to fit ~14 MB).
+        """
+        from mjx_radar.viz.viewer import view
+
+        return view(self._saved(), path, trial, max_frames, samples).path
 
 
 def _import_mjx_quietly() -> None:

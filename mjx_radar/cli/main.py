@@ -26,11 +26,12 @@ COMMANDS = {
     "report": ("mjx_radar.cli.report", "figures and tables of a study directory"),
     "render": ("mjx_radar.cli.render", "render a saved run to MP4/GIF"),
     "snapshot": ("mjx_radar.cli.snapshot", "two-panel scene + FIM heat-map figure of a run"),
+    "view": ("mjx_radar.cli.view", "interactive 3-D view of a saved run (one offline HTML file)"),
 }
 
 
 COMPILING = ("run", "study")  # sub-commands that compile XLA programs
-LIGHT = ("validate", "report")  # sub-commands that never simulate (no MJX import)
+LIGHT = ("validate", "report", "view")  # sub-commands that never simulate (no MJX import)
 
 
 def add_cache_arguments(p: argparse.ArgumentParser) -> None:

@@ -211,7 +211,8 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     start = jax.ShapeDtypeStruct((), jnp.int32, sharding=rep)
     p_specs = [spec(x, rep) for x in p_leaves]
     store = compile_cache.program_dir()
-    path = store / f"loop-{_key(shape, periods, full, batch, mesh, kind)}.jaxexport" if store else None
+    key = _key(shape, periods, full, batch, mesh, kind)
+    path = store / f"loop-{key}.jaxexport" if store else None
     exported = _load(path) if path else None
     source = "export cache" if exported else "traced"
     if exported is None:

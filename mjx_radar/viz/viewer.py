@@ -1,0 +1,297 @@
+"""``mjx-radar view``: one self-contained, offline HTML file to look inside a saved run.
+
+A plotly figure (docs/viewer.md): left, a 3-D scene animated by frames with a time
+slider and play / pause — ground extent and obstacle wireframes, radars with their
+trails and R2T rings, true drones, CKF estimates with their 2-sigma axes, the kept
+MPPI samples (at the radars' height, coloured by relative weight), the plan and
+the radar-to-drone lines of sight (:mod:`mjx_radar.viz.viewer_traces`); right, the
+position RMSE and the PCRLB of the selected trial against time with a marker at the
+current step. A dropdown selects the trial; each trial has its own frames and slider
+(a few lines of JavaScript swap them). Each layer is one named trace, shown or
+hidden from the legend. plotly.js is embedded: opening the file makes no request.
+
+Steps are subsampled to at most ``max_frames`` frames per trial (every k-th filter
+step, the last step always included) and at most ``samples`` MPPI samples (the
+highest weights) per frame; the title says what was dropped.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from html import escape
+from pathlib import Path
+
+import numpy as np
+
+from mjx_radar.errors import InputError
+from mjx_radar.io.atomic import atomic_write, check_writable
+from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
+from mjx_radar.viz.viewer_traces import frame_traces, layer_styles, static_traces
+
+MAX_FRAMES = 150
+MAX_SAMPLES = 32
+MAX_TRIALS = 8  # trials in one file by default (each adds its frames)
+SIZE_BUDGET = 14e6  # bytes: defaults fit this (plotly.js itself is about 4.8 MB)
+PLOTLY_JS = 4.9e6
+
+# The trial dropdown: show that trial's slider, point play at its frames, go to its
+# first frame. plotly.js runs the button's own restyle (metrics curves) first.
+TRIAL_JS = """
+var gd = document.getElementById('{plot_id}');
+gd.on('plotly_buttonclicked', function (e) {
+  if (!e.menu || e.menu.name !== 'trial') return;
+  var i = e.active, n = gd.layout.sliders.length, upd = {};
+  for (var j = 0; j < n; j++) upd['sliders[' + j + '].visible'] = (j === i);
+  var play = gd.layout.updatemenus[0].buttons[0].args;
+  upd['updatemenus[0].buttons[0].args'] = ['trial' + i, play[1]];
+  Plotly.relayout(gd, upd).then(function () {
+    Plotly.animate(gd, ['t' + i + ':0'], {mode: 'immediate', frame: {duration: 0, redraw: true},
+                   transition: {duration: 0}});
+  });
+});
+"""
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewInfo:
+    """What :func:`view` wrote and what it left out."""
+
+    path: Path | None
+    trials: tuple[int, ...]  # trial positions shown
+    trials_run: int  # trials in the run directory
+    steps: int  # filter steps K of the run
+    frames: int  # frames per trial
+    stride: int  # every stride-th filter step
+    samples: int  # MPPI samples drawn per frame
+    samples_kept: int  # MPPI samples in the run directory per control step
+    bytes: int = 0
+
+    def dropped(self) -> str:
+        """One line: what the file leaves out of the run directory."""
+        parts = [f"{self.frames} of {self.steps} steps (every {self.stride})"]
+        if len(self.trials) < self.trials_run:
+            parts.append(f"{len(self.trials)} of {self.trials_run} trials (--trial)")
+        parts.append(f"{self.samples} of {self.samples_kept} kept MPPI samples per frame")
+        return "; ".join(parts)
+
+
+def frame_steps(steps: int, max_frames: int) -> np.ndarray:
+    """0-based filter steps of the frames: every k-th, ending at the last; ``<= max_frames``."""
+    stride = math.ceil(steps / max_frames)
+    return np.arange(steps - 1, -1, -stride)[::-1]
+
+
+def _metrics(rd: RunDir):
+    import pandas as pd
+
+    path = rd.path / "metrics.parquet"
+    if not path.is_file():
+        raise InputError(f"RUN_DIR = {str(rd.path)!r}: not a complete run directory "
+                         "(no metrics.parquet)")  # fmt: skip
+    try:
+        return pd.read_parquet(path, columns=["trial", "step", "time_s", "rmse_pos", "crlb_pos"])
+    except Exception as err:  # pyarrow raises many types for a damaged file
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise InputError(f"{path}: damaged metrics file ({first})") from None
+
+
+def _trial_list(trial, n: int) -> tuple[int, ...] | None:
+    if trial is None:
+        return None
+    ids = [trial] if isinstance(trial, int | np.integer) else list(trial)
+    bad = [t for t in ids if isinstance(t, bool) or not isinstance(t, int | np.integer)
+           or not 0 <= t < n]  # fmt: skip
+    if not ids or bad:
+        raise InputError(f"--trial = {bad[0] if bad else trial!r}: must be in [0, {n - 1}]")
+    return tuple(dict.fromkeys(int(t) for t in ids))
+
+
+def _fit(tr, ks, plan, trials: int, samples: int | None, n_trials: int | None):
+    """``(trials, samples)`` whose estimated HTML size fits :data:`SIZE_BUDGET`.
+
+    Only what the caller left as ``None`` is lowered: samples first (32, 16, 8), then
+    the number of trials (at least one).
+    """
+    frame = frame_traces(tr, ks[-1], 1, plan)
+    fixed = sum(a.nbytes for d in frame for a in (d["x"], d["y"], d["z"])) - frame[6]["x"].nbytes
+    per_sample = frame[6]["x"].nbytes * 13 / 4  # x, y, z float32 and the weight per point
+
+    def size(t, s):
+        return PLOTLY_JS + 1.15 * t * len(ks) * ((fixed + s * per_sample) * 4 / 3 + 2000)
+
+    s = min(MAX_SAMPLES, tr.sample_xy.shape[1]) if samples is None else samples
+    t = min(trials, MAX_TRIALS) if n_trials is None else n_trials
+    while samples is None and s > 8 and size(t, s) > SIZE_BUDGET:
+        s //= 2
+    while n_trials is None and t > 1 and size(t, s) > SIZE_BUDGET:
+        t -= 1
+    return t, s
+
+
+def _curves(metrics, trial_id: int, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rows = metrics[metrics["trial"] == trial_id].sort_values("step")
+    if len(rows) != steps:
+        raise InputError(f"metrics.parquet: trial {trial_id} has {len(rows)} rows, "
+                         f"expected {steps}; damaged metrics file")  # fmt: skip
+    return (rows["time_s"].to_numpy(np.float32), rows["rmse_pos"].to_numpy(np.float32),
+            rows["crlb_pos"].to_numpy(np.float32))  # fmt: skip
+
+
+def _slider(t: int, times: np.ndarray, visible: bool) -> dict:
+    steps = [
+        dict(method="animate", label=f"{s:.2f}",
+             args=[[f"t{t}:{i}"], {"mode": "immediate", "frame": {"duration": 0, "redraw": True},
+                                   "transition": {"duration": 0}}])
+        for i, s in enumerate(times)
+    ]  # fmt: skip
+    return dict(active=0, steps=steps, visible=visible, x=0.05, len=0.9, y=0.02,
+                currentvalue={"prefix": "t = ", "suffix": " s"}, pad={"t": 30})  # fmt: skip
+
+
+def _menus(trials, ids, metric_idx: list[list[int]]) -> list[dict]:
+    play = dict(label="play", method="animate",
+                args=["trial0", {"frame": {"duration": 80, "redraw": True}, "fromcurrent": True,
+                                 "transition": {"duration": 0}, "mode": "immediate"}])  # fmt: skip
+    pause = dict(label="pause", method="animate",
+                 args=[[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate",
+                                "transition": {"duration": 0}}])  # fmt: skip
+    menus = [dict(type="buttons", direction="left", x=0.05, y=0.0, xanchor="right",
+                  yanchor="top", pad={"t": 40}, buttons=[play, pause])]  # fmt: skip
+    everything = sorted(i for idx in metric_idx for i in idx)
+    buttons = [
+        dict(label=f"trial {ids[t]}", method="restyle",
+             args=[{"visible": [i in metric_idx[j] for i in everything]}, everything])
+        for j, t in enumerate(trials)
+    ]  # fmt: skip
+    menus.append(dict(name="trial", type="dropdown", active=0, x=0.0, y=1.0, xanchor="left",
+                      buttons=buttons, showactive=True))  # fmt: skip
+    return menus
+
+
+def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
+                 samples: int | None = None):  # fmt: skip
+    """The viewer's ``plotly.graph_objects.Figure`` of a run directory.
+
+    Args:
+        run_dir: a run directory path or a loaded :class:`~mjx_radar.viz.run_dir.RunDir`.
+        trial: a trial position, a list of them, or ``None``: the first trials (at most
+            :data:`MAX_TRIALS`) that fit :data:`SIZE_BUDGET` with the other options.
+        max_frames: at most this many frames per trial (>= 1).
+        samples: at most this many MPPI samples per frame (>= 0); ``None``: up to
+            :data:`MAX_SAMPLES`, halved (down to 8) while the file would exceed the budget.
+
+    Returns:
+        ``(figure, ViewInfo)`` (``ViewInfo.path`` is ``None``).
+
+    Raises:
+        InputError: a damaged or incomplete run directory, a bad trial or option.
+    """
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    if isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 1:
+        raise InputError(f"--max-frames = {max_frames!r}: must be an integer >= 1")
+    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, int)
+                                or samples < 0):  # fmt: skip
+        raise InputError(f"--samples = {samples!r}: must be an integer >= 0")
+    rd = run_dir if isinstance(run_dir, RunDir) else load_run(run_dir)
+    metrics = _metrics(rd)
+    trials = _trial_list(trial, rd.trials)
+    ids = rd.meta.get("trial_ids") or list(range(rd.trials))
+    plans = rd.arrays.get("plan_xy")
+    tr0 = load_trial(rd, trials[0] if trials else 0)
+    ks = frame_steps(tr0.steps, max_frames)
+    count, samples = _fit(tr0, ks, None if plans is None else plans[0], rd.trials, samples,
+                          None if trials is None else len(trials))  # fmt: skip
+    trials = trials or tuple(range(count))
+    trs = [load_trial(rd, t) for t in trials]
+    n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
+    boxes = np.array([tr.bounds() for tr in trs])
+    lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
+    ztop = max(float(max(tr.target[..., 2].max() for tr in trs)) * 1.15, 1.0)
+    fig = make_subplots(rows=1, cols=2, column_widths=[0.64, 0.36], horizontal_spacing=0.08,
+                        specs=[[{"type": "scene"}, {"type": "xy"}]])  # fmt: skip
+    for trace in static_traces(rd.scenario, lo, hi):
+        fig.add_trace(trace)
+    first = len(fig.data)
+    for style, data in zip(layer_styles(n, m), frame_traces(trs[0], ks[0], samples, None),
+                           strict=True):  # fmt: skip
+        fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
+    anim = list(range(first, len(fig.data) + 1))  # the layers and the metrics marker
+    fig.add_trace(go.Scatter(x=[], y=[], mode="markers", name="current step",
+                             legendgroup="metrics", marker={"size": 9, "color": "black"}),
+                  row=1, col=2)  # fmt: skip
+    metric_idx, frames, sliders = [], [], []
+    for j, (t, tr) in enumerate(zip(trials, trs, strict=True)):
+        time, rmse, crlb = _curves(metrics, ids[t], tr.steps)
+        metric_idx.append([len(fig.data), len(fig.data) + 1])
+        for name, y, colour in (("RMSE", rmse, "rgb(0,90,200)"), ("PCRLB", crlb, "rgb(220,0,0)")):
+            fig.add_trace(go.Scatter(x=time, y=y, mode="lines", name=f"{name} (trial {ids[t]})",
+                                     legendgroup="metrics", visible=j == 0,
+                                     line={"color": colour}),
+                          row=1, col=2)  # fmt: skip
+        plan = None if plans is None else plans[t]
+        for i, k in enumerate(ks):
+            data = frame_traces(tr, k, samples, plan)
+            data.append(dict(type="scatter", x=[time[k]] * 2, y=[rmse[k], crlb[k]]))
+            frames.append(go.Frame(data=data, traces=anim, name=f"t{j}:{i}", group=f"trial{j}"))
+        sliders.append(_slider(j, time[ks], j == 0))
+    fig.frames = frames
+    if frames:  # the figure opens at the first frame of the first trial
+        for i, d in zip(anim, frames[0].data, strict=True):
+            fig.data[i].update(d)
+    fig.data[first + 6].line.color = frames[0].data[6].line.color
+    kept = int(trs[0].sample_xy.shape[1])
+    stride = math.ceil(trs[0].steps / max_frames)
+    info = ViewInfo(None, trials, rd.trials, trs[0].steps, len(ks), stride, min(samples, kept),
+                    kept)  # fmt: skip
+    pad = 0.05 * float(max(hi - lo))
+    span = np.maximum(hi - lo + 2 * pad, 1.0)
+    fig.update_layout(
+        title={"text": f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
+                       f" — shown: {info.dropped()}", "font": {"size": 13}},
+        template="plotly_white", height=760, margin={"l": 10, "r": 10, "t": 70, "b": 10},
+        updatemenus=_menus(trials, ids, metric_idx), sliders=sliders,
+        legend={"groupclick": "toggleitem"},
+        scene={"xaxis": {"range": [lo[0] - pad, hi[0] + pad], "title": {"text": "x [m]"}},
+               "yaxis": {"range": [lo[1] - pad, hi[1] + pad], "title": {"text": "y [m]"}},
+               "zaxis": {"range": [0.0, ztop], "title": {"text": "z [m]"}},
+               "aspectmode": "manual",
+               "aspectratio": {"x": 1.0, "y": float(span[1] / span[0]), "z": 0.4}},
+        xaxis={"title": {"text": "time [s]"}}, yaxis={"title": {"text": "position [m]"},
+                                                     "type": "log"},
+    )  # fmt: skip
+    return fig, info
+
+
+def view(run_dir, out_path=None, trial=None, max_frames: int = MAX_FRAMES,
+         samples: int | None = None) -> ViewInfo:  # fmt: skip
+    """Writes the viewer of a run directory as one self-contained HTML file.
+
+    Args:
+        run_dir: a complete run directory.
+        out_path: ``.html`` file (default ``run_dir/view.html``).
+        trial: see :func:`build_figure`.
+        max_frames: at most this many frames per trial.
+        samples: at most this many MPPI samples per frame.
+
+    Returns:
+        :class:`ViewInfo` with the path and the file's size.
+
+    Raises:
+        InputError: see :func:`build_figure`; a wrong extension or an unwritable path.
+    """
+    import plotly.io as pio
+
+    out_path = Path(out_path or Path(run_dir) / "view.html")
+    if out_path.suffix.lower() not in (".html", ".htm"):
+        raise InputError(f"--out = {str(out_path)!r}: extension must be .html")
+    fig, info = build_figure(run_dir, trial, max_frames, samples)
+    check_writable(out_path, "--out")
+    html = pio.to_html(fig, include_plotlyjs=True, full_html=True, auto_play=False,
+                       post_script=TRIAL_JS, config={"displaylogo": False})  # fmt: skip
+    html = html.replace("<head>", f"<head><title>{escape(fig.layout.title.text)}</title>", 1)
+    data = html.encode()
+    atomic_write(out_path, lambda tmp: Path(tmp).write_bytes(data))
+    return dataclasses.replace(info, path=out_path, bytes=len(data))

@@ -1,0 +1,172 @@
+"""Geometry and per-frame traces of the offline HTML viewer (:mod:`mjx_radar.viz.viewer`).
+
+Everything here is numpy on the host: polylines are ``[P, 3]`` float32 arrays with a
+NaN row between pieces (plotly draws a gap there), so one trace holds all radars'
+rings, all samples or all lines of sight of a step, and a frame is a handful of
+array slices, not a Python loop over points.
+
+:func:`static_traces` gives the layers that never move (ground extent, obstacles);
+:func:`frame_traces` the layers of one filter step, in the order of :data:`LAYERS`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB
+
+RING_POINTS = 40  # segments of an R2T ring
+ROUND_POINTS = 24  # segments of a cylinder's outline
+#: animated layers: (legend name, legendgroup), one trace each, in frame order
+LAYERS = (
+    ("radars", "radars"),
+    ("radar trails", "radars"),
+    ("R2T rings", "rings"),
+    ("drones (truth)", "drones"),
+    ("estimates", "estimates"),
+    ("2-sigma axes", "estimates"),
+    ("MPPI samples", "samples"),
+    ("plan", "plan"),
+    ("lines of sight", "los"),
+)
+SAMPLE_SCALE = "Plasma"
+
+
+def _rgb(c) -> str:
+    r, g, b = (int(round(255 * v)) for v in c)
+    return f"rgb({r},{g},{b})"
+
+
+def polylines(paths: np.ndarray) -> np.ndarray:
+    """``[P, L, 3]`` paths -> ``[P * (L + 1), 3]`` float32 points, NaN row after each path."""
+    paths = np.asarray(paths, np.float32)
+    gap = np.full((*paths.shape[:-2], 1, 3), np.nan, np.float32)
+    return np.concatenate([paths, gap], axis=-2).reshape(-1, 3)
+
+
+def segments(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Segments ``a[i] -> b[i]`` (``[P, 3]`` each) as one NaN-separated polyline ``[3P, 3]``."""
+    return polylines(np.stack([a, b], axis=-2))
+
+
+def rings(centers: np.ndarray, radius: float, z: float = 0.5) -> np.ndarray:
+    """Horizontal circles of ``radius`` around ``centers[:, :2]`` at height ``z``."""
+    t = np.linspace(0.0, 2.0 * np.pi, RING_POINTS + 1)
+    c = np.asarray(centers, np.float32)[:, None, :2]
+    xy = c + radius * np.stack([np.cos(t), np.sin(t)], -1)[None]
+    return polylines(np.concatenate([xy, np.full((*xy.shape[:2], 1), z)], -1))
+
+
+def _xyz(points: np.ndarray) -> dict:
+    return {"x": points[:, 0], "y": points[:, 1], "z": points[:, 2]}
+
+
+def obstacle_outline(obstacles) -> np.ndarray:
+    """Wireframe prisms of the obstacles: footprint polygon at bottom and top, vertical edges.
+
+    Boxes and meshes use :func:`mjx_radar.world.obstacles.footprint_polygon` (a mesh:
+    the convex hull of its projected vertices, what the planner avoids), cylinders a
+    circle; heights from the box / cylinder size or the mesh's vertex z range.
+    """
+    from mjx_radar.world.obstacles import footprint_polygon, mesh_vertices
+
+    pieces = []
+    for obs in obstacles:
+        pos = np.asarray(obs.pos, float)
+        if obs.kind == "cylinder":
+            t = np.linspace(0.0, 2.0 * np.pi, ROUND_POINTS, endpoint=False)
+            poly = pos[:2] + obs.size[0] * np.stack([np.cos(t), np.sin(t)], -1)
+            z0, z1 = pos[2] - obs.size[1], pos[2] + obs.size[1]
+        else:
+            poly = footprint_polygon(obs)
+            if obs.kind == "box":
+                z0, z1 = pos[2] - obs.size[2], pos[2] + obs.size[2]
+            else:
+                z = mesh_vertices(obs)[:, 2]
+                z0, z1 = float(z.min()), float(z.max())
+        ring = np.concatenate([poly, poly[:1]])
+        lo = np.column_stack([ring, np.full(len(ring), max(z0, 0.0))])
+        hi = np.column_stack([ring, np.full(len(ring), z1)])
+        pieces += [polylines(np.stack([lo, hi])), segments(lo[:-1], hi[:-1])]
+    return np.concatenate(pieces) if pieces else np.zeros((0, 3), np.float32)
+
+
+def static_traces(scenario, lo, hi) -> list[dict]:
+    """The ground extent (rectangle at z = 0) and the obstacle wireframes."""
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    ground = np.column_stack([np.concatenate([corners, corners[:1]]), np.zeros(5)])
+    out = [
+        dict(type="scatter3d", mode="lines", name="ground extent", legendgroup="world",
+             line={"color": "rgb(120,120,120)", "width": 2}, hoverinfo="skip",
+             **_xyz(ground.astype(np.float32)))
+    ]  # fmt: skip
+    if scenario.obstacles:
+        out.append(
+            dict(type="scatter3d", mode="lines", name="obstacles", legendgroup="world",
+                 line={"color": "rgb(90,90,90)", "width": 3}, hoverinfo="skip",
+                 **_xyz(obstacle_outline(scenario.obstacles)))
+        )  # fmt: skip
+    return out
+
+
+def layer_styles(n: int, m: int) -> list[dict]:
+    """The constant attributes of the :data:`LAYERS` traces (names, colours, widths)."""
+    radar_c = [_rgb(RADAR_RGB[i % len(RADAR_RGB)]) for i in range(n)]
+    target_c = [_rgb(TARGET_RGB[i % len(TARGET_RGB)]) for i in range(m)]
+    styles = [
+        dict(mode="markers+text", marker={"size": 6, "symbol": "square", "color": radar_c},
+             text=[f"R{i}" for i in range(n)], textposition="top center"),
+        dict(mode="lines", line={"color": "rgb(0,115,255)", "width": 3}, opacity=0.6),
+        dict(mode="lines", line={"color": "rgb(230,25,25)", "width": 2, "dash": "dash"}),
+        dict(mode="markers+text", marker={"size": 5, "symbol": "diamond", "color": target_c},
+             text=[f"D{j}" for j in range(m)], textposition="top center"),
+        dict(mode="markers", marker={"size": 4, "symbol": "circle-open", "color": target_c}),
+        dict(mode="lines", line={"color": "rgb(200,160,0)", "width": 4}),
+        dict(mode="lines", line={"color": [], "colorscale": SAMPLE_SCALE, "cmin": 0.0,
+             "cmax": 1.0, "width": 2, "showscale": True,
+             "colorbar": {"title": {"text": "MPPI weight"}, "len": 0.4, "x": 0.57,
+                                  "y": 0.8, "thickness": 12}}),
+        dict(mode="lines", line={"color": "rgb(0,160,60)", "width": 5}),
+        dict(mode="lines", line={"color": "rgb(150,150,150)", "width": 1}, opacity=0.5),
+    ]  # fmt: skip
+    return [
+        dict(type="scatter3d", name=name, legendgroup=group, hoverinfo="skip", **style)
+        for (name, group), style in zip(LAYERS, styles, strict=True)
+    ]
+
+
+def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[dict]:
+    """The data of the :data:`LAYERS` traces at filter step ``k`` of a trial.
+
+    Args:
+        tr: a :class:`~mjx_radar.viz.run_dir.Trial`.
+        k: filter step (0-based).
+        samples: at most this many MPPI samples, the highest weights.
+        plan_xy: ``[C, H, N, 2]`` planned radar paths of the trial, or ``None``.
+    """
+    radar = tr.radar[k, :, :3].astype(np.float32)
+    n, m = radar.shape[0], tr.target.shape[1]
+    target, mean = tr.target[k, :, :3], tr.mean[k]
+    c = tr.control_index(k)
+    w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
+    keep = np.argsort(w, kind="stable")[-samples:]  # ascending: the best drawn last
+    paths = np.moveaxis(tr.sample_xy[c][keep], 2, 1)  # [S, N, H, 2]
+    z = np.broadcast_to(radar[None, :, None, 2:3], (*paths.shape[:-1], 1))
+    sample_pts = polylines(np.concatenate([paths, z], -1).reshape(-1, paths.shape[2], 3))
+    sample_w = np.repeat(w[keep], n * (paths.shape[2] + 1)).astype(np.float32)
+    two_sigma = 2.0 * tr.sigma[k][:, None, :] * np.eye(3)[None]  # [M, 3 axes, 3]
+    axes = segments((mean[:, None] - two_sigma).reshape(-1, 3),
+                    (mean[:, None] + two_sigma).reshape(-1, 3))  # fmt: skip
+    if plan_xy is not None:
+        plan = np.moveaxis(plan_xy[min(c, len(plan_xy) - 1)], 1, 0)  # [N, H, 2]
+        plan_pts = polylines(np.concatenate([plan, radar[:, None, 2:3].repeat(plan.shape[1], 1)],
+                                            -1))  # fmt: skip
+    else:
+        plan_pts = np.zeros((0, 3), np.float32)
+    los = segments(np.repeat(radar, m, 0), np.tile(target, (n, 1)))
+    points = [radar, polylines(np.moveaxis(tr.trail(k), 1, 0)), rings(radar, tr.meta["r2t"]),
+              target.astype(np.float32), mean.astype(np.float32), axes, sample_pts, plan_pts,
+              los]  # fmt: skip
+    out = [dict(type="scatter3d", **_xyz(p)) for p in points]
+    out[6]["line"] = {"color": sample_w}
+    return out

@@ -1,0 +1,190 @@
+"""The offline HTML viewer (``mjx-radar view``, ``Run.view``) on synthetic run directories.
+
+The run directories are written by :func:`mjx_radar.io.run_writer.write_run` from
+synthetic arrays of the right schema (no closed loop is compiled), for the bundled
+``smoke`` scenario and, for the sizes, ``paper_3r4t`` (600 steps).
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mjx_radar
+from mjx_radar.errors import InputError
+from mjx_radar.io.results import METRIC_COLUMNS
+from mjx_radar.io.run_writer import write_run
+from mjx_radar.viz import viewer
+from mjx_radar.viz.viewer_traces import LAYERS
+
+cli_main = importlib.import_module("mjx_radar.cli.main")
+CHROMIUM = Path("/usr/bin/chromium")
+
+
+def synthetic_run(out, scenario, trials=1, steps=None, seed=0) -> Path:
+    """A run directory of synthetic arrays (schema of io.results) for ``scenario``."""
+    s = scenario
+    rng = np.random.default_rng(seed)
+    steps = steps or s.timing.steps
+    every = s.timing.control_every
+    c, n, m = steps // every, s.n_radars, s.n_targets
+    h, k_s = s.mpc.horizon, min(32, s.mppi.samples)
+    t = s.timing.dt_filter * np.arange(1, steps + 1)
+    init = np.asarray(s.target_init, np.float32)
+    target = init[None, None] + np.zeros((trials, steps, m, 6), np.float32)
+    target[..., :3] += init[None, None, :, 3:] * t[None, :, None, None]
+    target[..., 0] += 5.0 * np.arange(trials)[:, None, None]
+    mean = (target + rng.normal(0, 1, target.shape)).reshape(trials, steps, 6 * m)
+    cov = np.full((trials, steps, 6 * m), 4.0, np.float32)
+    radar = np.zeros((trials, steps, n, 6), np.float32)
+    radar[..., 0] = 100.0 * np.arange(n) - 50.0 + 0.5 * t[None, :, None]
+    radar[..., 1] = -80.0 + 0.2 * t[None, :, None] + 3.0 * np.arange(trials)[:, None, None]
+    radar[..., 2] = 1.0
+    base = radar[:, ::every, None, None, :, :2]  # [T, C, 1, 1, N, 2]
+    steps_h = np.arange(1, h + 1)[None, None, None, :, None, None]
+    sample_xy = (base + steps_h * rng.normal(0, 1, (trials, c, k_s, 1, n, 2))).astype(np.float32)
+    res = {name: rng.uniform(1, 5, (trials, steps)) for name in METRIC_COLUMNS}
+    res.update(
+        lost=np.zeros((trials, steps)),
+        diverged=np.zeros((trials, steps)),
+        target=target,
+        mean=mean.astype(np.float32),
+        cov_diag=cov,
+        radar=radar,
+        control=np.zeros((trials, c, n, 2), np.float32),
+        plan_xy=sample_xy[:, :, 0],
+        sample_xy=sample_xy,
+        sample_weight=rng.uniform(0, 1, (trials, c, k_s)).astype(np.float32),
+        sample_cost=np.zeros((trials, c, k_s), np.float32),
+        wall_s=1.0,
+        compile_s=0.0,
+        sim_s=1.0,
+        control_hz=10.0,
+    )
+    return write_run(out, s, "ddr-sfim", s.seed, np.arange(trials), steps, res)
+
+
+@pytest.fixture(scope="module")
+def smoke2(tmp_path_factory):
+    """A two-trial smoke run directory."""
+    out = tmp_path_factory.mktemp("view") / "smoke2"
+    return synthetic_run(out, mjx_radar.load_scenario("smoke"), trials=2)
+
+
+def _anim(fig, name: str) -> int:
+    return [t.name for t in fig.data].index(name)
+
+
+def test_frames_hold_the_run_arrays(smoke2):
+    rd = viewer.load_run(smoke2)
+    fig, info = viewer.build_figure(rd, max_frames=30, samples=5)
+    ks = viewer.frame_steps(rd.arrays["radar"].shape[1], 30)
+    assert info.frames == len(ks) <= 30 and ks[-1] == rd.arrays["radar"].shape[1] - 1
+    assert info.trials == (0, 1) and len(fig.frames) == 2 * len(ks)
+    i_radar, i_drone = _anim(fig, "radars"), _anim(fig, "drones (truth)")
+    names = {f.name: f for f in fig.frames}
+    for t in (0, 1):
+        for i, k in enumerate(ks):
+            f = names[f"t{t}:{i}"]
+            traces = dict(zip(f.traces, f.data, strict=True))
+            for idx, key in ((i_radar, "radar"), (i_drone, "target")):
+                got = np.column_stack([traces[idx].x, traces[idx].y, traces[idx].z])
+                want = rd.arrays[key][t, k, :, :3]
+                np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-4)
+            samples = traces[_anim(fig, "MPPI samples")]
+            assert np.isfinite(np.asarray(samples.x, float)).sum() == 5 * 2 * 8  # S * N * H
+    np.testing.assert_allclose(  # the figure opens at the first frame of trial 0
+        fig.data[i_radar].x, rd.arrays["radar"][0, ks[0], :, 0], rtol=1e-6
+    )
+    assert {t.name for t in fig.data} >= {name for name, _ in LAYERS}
+    menu = [m for m in fig.layout.updatemenus if m.name == "trial"][0]
+    assert [b.label for b in menu.buttons] == ["trial 0", "trial 1"]
+    assert len(fig.layout.sliders) == 2 and [s.visible for s in fig.layout.sliders] == [True, False]
+    assert "80 of 80 steps" not in fig.layout.title.text and "5 of 32" in fig.layout.title.text
+
+
+def test_html_is_self_contained(smoke2, tmp_path):
+    info = viewer.view(smoke2, tmp_path / "v.html", trial=[1], max_frames=20)
+    html = info.path.read_text()
+    assert info.trials == (1,) and info.bytes == info.path.stat().st_size < 15e6
+    scripts = re.findall(r"<script[^>]*>(.*?)</script>", html, re.S | re.I)
+    markup = re.sub(r"(<script[^>]*>).*?(</script>)", r"\1\2", html, flags=re.S | re.I)
+    assert not re.search(r"<script[^>]*\bsrc\s*=", html, re.I)  # nothing loaded by URL
+    assert not re.search(r"\b(?:src|href)\s*=", markup, re.I)  # no link, image, style sheet
+    library = [s for s in scripts if "plotly.js v" in s[:2000]]
+    assert len(library) == 1 and len(library[0]) > 2e6  # plotly.js inline
+    ours = [s for s in scripts if "Plotly.newPlot" in s]  # the figure and the trial menu
+    assert len(ours) == 1 and "http" not in ours[0]
+    assert html.count("<script") >= 2 and "plotly_buttonclicked" in html
+
+
+@pytest.mark.parametrize(
+    "kwargs, text",
+    [({"trial": 2}, "--trial = 2"), ({"trial": [0, -1]}, "--trial = -1"),
+     ({"max_frames": 0}, "--max-frames"), ({"samples": -1}, "--samples")],
+)  # fmt: skip
+def test_bad_options(smoke2, tmp_path, kwargs, text):
+    with pytest.raises(InputError, match=re.escape(text)):
+        viewer.view(smoke2, tmp_path / "v.html", **kwargs)
+    assert not (tmp_path / "v.html").exists()
+
+
+def test_cli(smoke2, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(smoke2, run)
+    assert cli_main.main(["view", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert str(run / "view.html") in out and "shown:" in out and (run / "view.html").is_file()
+    assert cli_main.main(["view", str(run), "--trial", "7"]) == 2
+    assert cli_main.main(["view", str(tmp_path / "nope")]) == 2
+    assert cli_main.main(["view", str(run), "--out", str(tmp_path / "v.png")]) == 2
+    (run / "metrics.parquet").write_bytes(b"garbage")
+    assert cli_main.main(["view", str(run)]) == 2
+    (run / "trajectories.npz").unlink()
+    assert cli_main.main(["view", str(run)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 5 and all(line.startswith("error: ") for line in err)
+
+
+def test_run_view_saves_first(smoke2, tmp_path):
+    run = mjx_radar.Run.load(smoke2)
+    path = run.view(tmp_path / "r.html", trial=0, max_frames=10, samples=2)
+    assert path == tmp_path / "r.html" and path.stat().st_size < 15e6
+
+
+def test_paper_sized_run_fits_an_email(tmp_path):
+    s = mjx_radar.load_scenario("paper_3r4t")
+    d = synthetic_run(tmp_path / "paper", s, trials=3)
+    info = viewer.view(d)
+    assert info.frames == 150 and info.steps == 600 and info.bytes < 15e6
+    assert "150 of 600 steps (every 4)" in info.dropped()
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (Debian package "
+                    "chromium): the headless-browser check of the HTML is skipped")  # fmt: skip
+def test_headless_browser_draws_the_scene(smoke2, tmp_path):
+    import imageio.v3 as iio
+
+    html = viewer.view(smoke2, tmp_path / "v.html", max_frames=10).path
+    png = tmp_path / "shot.png"
+    cmd = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu",
+           "--disable-background-networking", "--disable-component-update", "--no-first-run",
+           f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={png}",
+           "--window-size=1000,800", "--virtual-time-budget=5000",
+           html.resolve().as_uri()]  # fmt: skip
+    subprocess.run(cmd, capture_output=True, timeout=120, check=False)
+    assert png.is_file(), "chromium wrote no screenshot"
+    rgb = iio.imread(png)[..., :3].astype(int)
+    assert rgb.std() > 5, "blank page"
+
+    def near(colour, tol=40):
+        return int((np.abs(rgb - np.array(colour)).sum(-1) < tol).sum())
+
+    assert near((0, 115, 255)) > 10, "no radar-blue pixels"  # radar 0 marker and legend
+    assert near((217, 13, 13)) + near((230, 25, 25)) > 10, "no drone / ring red pixels"
