@@ -282,7 +282,7 @@ def _runs(sc, structure):
     for form in ("covariance", "sqrt"):
         s = dataclasses.replace(sc, filter=dataclasses.replace(sc.filter, structure=structure,
                                                                form=form))  # fmt: skip
-        for method in ("stationary", "ddr-sfim"):  # one program (the method is runtime)
+        for method in ("stationary", "ddr-sfim"):  # programs of kinds "none" and "sfim"
             out[form, method] = runner.run_trials(s, method, 0, [0, 1], 80)
     return out
 

@@ -109,7 +109,8 @@ def test_second_call_reuses_the_program_and_reproduces(tiny, first_run):
 def test_export_cache_round_trip(tiny, first_run, export_dir, monkeypatch):
     # The traced program was exported beside the cache; a process that has not compiled
     # it (here: an emptied in-memory cache) loads it without tracing, same numbers.
-    assert len(list(export_dir.glob("loop-*.jaxexport"))) == 1
+    # (two programs: kind "sfim" and, from the test above, the stationary kind "none")
+    assert len(list(export_dir.glob("loop-*.jaxexport"))) == 2
     monkeypatch.setattr(programs, "_CACHE", {})
     n0 = len(programs.COMPILE_LOG)
     b = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False)
