@@ -7,12 +7,12 @@ differences are paired. All methods share one compiled program.
 """
 
 import pandas as pd
-from _common import parse
+from _common import parse, small
 
 import mjx_radar
 
 args = parse(__doc__.splitlines()[0], "compare_methods")
-scenario = mjx_radar.load_scenario("smoke" if args.small else "paper_3r4t")
+scenario = small(mjx_radar.load_scenario("smoke" if args.small else "paper_3r4t"), args)
 trials, steps = (2, 16) if args.small else (16, None)
 
 frames = [

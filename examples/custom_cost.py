@@ -10,7 +10,7 @@ part of the program cache key, so editing the term recompiles.
 
 import jax
 import jax.numpy as jnp
-from _common import parse
+from _common import parse, small
 
 import mjx_radar
 
@@ -24,7 +24,7 @@ def stay_home(h, task, params):
 
 
 args = parse(__doc__.splitlines()[0], "custom_cost")
-scenario = mjx_radar.load_scenario("smoke" if args.small else "paper_3r4t")
+scenario = small(mjx_radar.load_scenario("smoke" if args.small else "paper_3r4t"), args)
 trials, steps = (2, 16) if args.small else (8, None)
 
 free = mjx_radar.simulate(scenario, trials=trials, steps=steps, seed=0, progress=False)

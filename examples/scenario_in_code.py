@@ -28,7 +28,8 @@ scenario = Scenario(
         Obstacle(kind="cylinder", pos=(-120.0, 100.0, 0.0), size=(15.0, 20.0)),  # r, half height
     ),
     timing=Timing(steps=16 if args.small else 400),
-    mpc=MPCConfig(horizon=8 if args.small else 15, los=True),  # occlusion-aware planner
+    mpc=MPCConfig(horizon=8 if args.small else 15, los=True,  # occlusion-aware planner
+                  rollout="analytic" if args.small else "mjx"),  # small: compiles faster
     mppi=MPPIConfig(samples=64, iterations=3) if args.small else MPPIConfig(),
 )
 scenario = mjx_radar.validate(scenario)  # the rules of a TOML file; ScenarioError if not

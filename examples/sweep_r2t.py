@@ -11,12 +11,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import pandas as pd
-from _common import parse
+from _common import parse, small
 
 import mjx_radar
 
 args = parse(__doc__.splitlines()[0], "sweep_r2t")
-base = mjx_radar.load_scenario("smoke" if args.small else "paper_3r4t")
+base = small(mjx_radar.load_scenario("smoke" if args.small else "paper_3r4t"), args)
 trials, steps = (2, 16) if args.small else (8, None)
 values = [75.0, 125.0, 200.0] if args.small else [50.0, 75.0, 100.0, 125.0, 150.0, 200.0, 300.0]
 

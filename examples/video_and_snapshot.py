@@ -6,12 +6,12 @@ The same as ``mjx-radar run ... --out DIR && mjx-radar render DIR && mjx-radar
 snapshot DIR --step K``, from Python.
 """
 
-from _common import parse
+from _common import parse, small
 
 import mjx_radar
 
 args = parse(__doc__.splitlines()[0], "video_and_snapshot")
-scenario = mjx_radar.load_scenario("smoke" if args.small else "city_4r4t")
+scenario = small(mjx_radar.load_scenario("smoke" if args.small else "city_4r4t"), args)
 steps = 16 if args.small else 400
 
 run = mjx_radar.simulate(scenario, "ddr-sfim", trials=2, steps=steps, seed=0, progress=False)

@@ -275,20 +275,25 @@ def smoke():
     return dataclasses.replace(sc, mpc=dataclasses.replace(sc.mpc, rollout="analytic"))
 
 
-def _runs(sc, structure):
+def _runs(sc, structure, methods=("stationary", "ddr-sfim")):
     from mjx_radar.simulation import runner
 
     out = {}
     for form in ("covariance", "sqrt"):
         s = dataclasses.replace(sc, filter=dataclasses.replace(sc.filter, structure=structure,
                                                                form=form))  # fmt: skip
-        for method in ("stationary", "ddr-sfim"):  # programs of kinds "none" and "sfim"
+        for method in methods:  # programs of kinds "none" and "sfim"
             out[form, method] = runner.run_trials(s, method, 0, [0, 1], 80)
     return out
 
 
-@pytest.mark.parametrize("structure", ["joint", pytest.param("per-target", marks=pytest.mark.slow)])
-def test_closed_loop_sqrt_matches_covariance_form(smoke, structure):
+@pytest.mark.parametrize(
+    "structure, methods",
+    [("joint", ("stationary",)),  # CI: the filter alone (two cheap no-planner programs)
+     pytest.param("joint", ("stationary", "ddr-sfim"), marks=pytest.mark.slow),
+     pytest.param("per-target", ("stationary", "ddr-sfim"), marks=pytest.mark.slow)],
+)  # fmt: skip
+def test_closed_loop_sqrt_matches_covariance_form(smoke, structure, methods):
     """smoke, same seed, 2 trials × 80 steps, both forms; stationary and DDR-SFIM radars.
 
     Stationary radars isolate the filter: the float32 forms differ by the covariance
@@ -297,8 +302,8 @@ def test_closed_loop_sqrt_matches_covariance_form(smoke, structure):
     poorly observed z). With MPPI (ddr-sfim) the elite selection amplifies those into
     different radar paths (measured ≤ 2 % on the time-mean rmse_pos / nees).
     """
-    out = _runs(smoke, structure)
-    for method in ("stationary", "ddr-sfim"):
+    out = _runs(smoke, structure, methods)
+    for method in methods:
         a, b = out["covariance", method], out["sqrt", method]
         for k in ("rmse_pos", "nees", "cov_diag", "mean"):
             assert np.all(np.isfinite(b[k])), k
@@ -306,6 +311,8 @@ def test_closed_loop_sqrt_matches_covariance_form(smoke, structure):
     a, b = out["covariance", "stationary"], out["sqrt", "stationary"]
     for k, tol in (("mean", 2e-3), ("cov_diag", 2e-3), ("rmse_pos", 1e-2), ("nees", 5e-2)):
         assert _rel(b[k], a[k]) < tol, (k, _rel(b[k], a[k]))
+    if "ddr-sfim" not in methods:
+        return
     a, b = out["covariance", "ddr-sfim"], out["sqrt", "ddr-sfim"]
     for k, tol in (("rmse_pos", 0.05), ("nees", 0.1)):
         assert abs(b[k].mean() / a[k].mean() - 1.0) < tol, k
