@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
@@ -9,6 +10,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+from mjx_radar.io.scenario import load_scenario
 
 
 @pytest.fixture
@@ -29,3 +32,16 @@ def sigkill_once_written():
             proc.wait()
 
     return kill
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    """smoke shrunk to the cheapest program: horizon 3, 32 samples x 1 iteration, analytic
+    rollouts (programs and runner tests)."""
+    s = load_scenario("smoke")
+    return dataclasses.replace(
+        s,
+        name="tiny",
+        mpc=dataclasses.replace(s.mpc, horizon=3, rollout="analytic"),
+        mppi=dataclasses.replace(s.mppi, samples=32, iterations=1),
+    )

@@ -12,17 +12,6 @@ from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import make_task
 
 
-@pytest.fixture(scope="module")
-def tiny():
-    s = load_scenario("smoke")
-    return dataclasses.replace(
-        s,
-        name="tiny",
-        mpc=dataclasses.replace(s.mpc, horizon=3, rollout="analytic"),
-        mppi=dataclasses.replace(s.mppi, samples=32, iterations=1),
-    )
-
-
 def _lowered(scenario, kind: str, method: str) -> str:
     """StableHLO text of one control period of one trial, for a program kind."""
     task = make_task(shape_key(scenario), kind)

@@ -14,17 +14,6 @@ TRIALS = np.arange(2)
 
 
 @pytest.fixture(scope="module")
-def tiny():
-    s = load_scenario("smoke")
-    return dataclasses.replace(
-        s,
-        name="tiny",
-        mpc=dataclasses.replace(s.mpc, horizon=3, rollout="analytic"),
-        mppi=dataclasses.replace(s.mppi, samples=32, iterations=1),
-    )
-
-
-@pytest.fixture(scope="module")
 def export_dir(tmp_path_factory):
     """The export cache switched on in a fresh directory (XLA's own cache left as it is)."""
     path = tmp_path_factory.mktemp("cache")

@@ -260,7 +260,7 @@ def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: 
     import jax
 
     from mjx_radar.io import results
-    from mjx_radar.io.run_writer import run_meta
+    from mjx_radar.io.run_writer import TRAJECTORY_KEYS, run_meta
     from mjx_radar.simulation import compile_cache, resources, runner
     from mjx_radar.simulation.placement import check_placeable
 
@@ -279,8 +279,6 @@ def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: 
                                 phase=bar.set_description_str)  # fmt: skip
     time_s = s.timing.dt_filter * np.arange(1, steps + 1)
     frame = results.metrics_frame(s.name, method, ids, time_s, res)
-    from mjx_radar.io.run_writer import TRAJECTORY_KEYS
-
     arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}
     arrays["time_s"] = time_s
     precision = "float64" if jax.config.jax_enable_x64 else "float32"
