@@ -1,10 +1,11 @@
-"""A self-contained copy of a scenario file: the TOML plus its mesh files.
+"""A self-contained copy of a scenario file: the TOML plus its mesh and map files.
 
 ``mjx-radar run --out DIR`` writes ``DIR/scenario.toml`` and copies every mesh the
 scenario names into ``DIR/meshes/``, rewriting the mesh paths of the copy relative
 to ``DIR`` (mesh paths are resolved relative to the scenario file's folder), so the
 run directory can be moved or archived and ``load_scenario(DIR/scenario.toml)``
-still finds its meshes. A scenario without meshes is copied verbatim (comments
+still finds its meshes. Map files (``[buildings]``, ``[occupancy]``, docs/maps.md)
+are copied into ``DIR/maps/`` the same way. A scenario without meshes is copied verbatim (comments
 kept); with meshes the ``path = ...`` lines are rewritten in place when that
 reproduces the intended table, else the copy is re-serialised (comments lost).
 """
@@ -53,10 +54,41 @@ def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
                 copied[source] = rel
             mapping[given] = copied[source]
             o["path"] = copied[source]
+    else:
+        mapping = {}
+    written += _bundle_maps(src, out_dir, raw, mapping)
+    if mapping:
         text = _rewrite_paths(text, mapping, raw)
     dest = out_dir / "scenario.toml"
     results.atomic_write(dest, lambda tmp: Path(tmp).write_text(text))
     return written + [dest]
+
+
+def _bundle_maps(src: Path, out_dir: Path, raw: dict, mapping: dict[str, str]) -> list[Path]:
+    """Copies the ``[buildings]`` / ``[occupancy]`` map files into ``out_dir/maps/``.
+
+    A GeoJSON file goes to ``maps/NAME``; an occupancy YAML and its image to
+    ``maps/STEM/`` (the image keeps its path relative to the YAML). ``mapping`` and
+    ``raw`` get the new relative paths.
+    """
+    from mjx_radar.io.scenario_maps import map_files
+
+    written: list[Path] = []
+    for table in ("buildings", "occupancy"):
+        if not isinstance(raw.get(table), dict):
+            continue
+        given = str(raw[table]["path"])
+        files = map_files({table: raw[table]}, src.parent)
+        folder = "maps" if table == "buildings" else f"maps/{files[0].stem}"
+        for k, source in enumerate(files):
+            rel = f"{folder}/{source.name}" if k == 0 else \
+                f"{folder}/{source.relative_to(files[0].parent).as_posix()}"
+            results.atomic_write(out_dir / rel, lambda tmp, s=source: shutil.copyfile(s, tmp))
+            written.append(out_dir / rel)
+            if k == 0:
+                mapping[given] = rel
+                raw[table]["path"] = rel
+    return written
 
 
 def _free_name(out_dir: Path, name: str, taken: set[str]) -> str:

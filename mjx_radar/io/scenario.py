@@ -49,6 +49,8 @@ EXTRA_KEYS = {
     ),
     "obstacles": ("[]", "`[[obstacles]]` tables (docs/obstacles.md)"),
     "forest": ("none", "`[forest]` table of generated trees (docs/obstacles.md)"),
+    "buildings": ("none", "`[buildings]` GeoJSON footprints, extruded (docs/maps.md)"),
+    "occupancy": ("none", "`[occupancy]` ROS map_server occupancy grid (docs/maps.md)"),
 }
 
 
@@ -158,6 +160,15 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         )
         if "forest" in raw:
             kwargs["obstacles"] += so.forest(raw["forest"], kwargs.get("radar_init", ()))
+    if "buildings" in raw or "occupancy" in raw:
+        from mjx_radar.io import scenario_maps as sm
+
+        found = kwargs.get("obstacles", ())
+        if "buildings" in raw:
+            found += sm.buildings(raw["buildings"], base, external)
+        if "occupancy" in raw:
+            found += sm.occupancy(raw["occupancy"], base, external)
+        kwargs["obstacles"] = found
     scenario = Scenario(**kwargs)
     from mjx_radar.io import plausibility
 
