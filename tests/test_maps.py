@@ -259,3 +259,32 @@ def test_bad_occupancy_maps(tmp_path):
     (tmp_path / "m.yaml").write_text(text.replace("m.png", "i.png"))
     with pytest.raises(ScenarioError, match="need 8-bit gray"):
         _load(tmp_path, '[occupancy]\npath = "m.yaml"\n')
+
+
+def test_bundle_copies_map_files(tmp_path):
+    from mjx_radar.io.bundle import bundle_scenario
+
+    root = Path(__file__).parent.parent / "scenarios"
+    for name in ("town_4r4t", "yard_3r4t"):
+        out = tmp_path / name
+        written = bundle_scenario(root / f"{name}.toml", out)
+        copy = load_scenario(out / "scenario.toml")  # loads from the run directory alone
+        assert copy.obstacles == load_scenario(name).obstacles
+        assert all(p.is_relative_to(out) for p in written)
+    assert (tmp_path / "town_4r4t" / "maps" / "town.geojson").is_file()
+    assert (tmp_path / "yard_3r4t" / "maps" / "yard" / "yard.pgm").is_file()
+
+
+@pytest.mark.slow
+def test_yard_closed_loop_never_enters_occupied_cells():
+    import mjx_radar
+
+    s = load_scenario("yard_3r4t")
+    s = s.replace(mpc={"rollout": "analytic"})
+    run = mjx_radar.simulate(s, trials=2, steps=120, progress=False)
+    assert run.metrics["obstacle_contacts"].sum() == 0
+    radar_xy = np.asarray(run.arrays["radar"])[..., :2]  # [T, K, N, 2]
+    moved = np.linalg.norm(radar_xy[:, -1] - radar_xy[:, 0], axis=-1)
+    assert moved.max() > 5.0  # the radars did drive
+    gap = obstacles.union_sdf(s.obstacles, radar_xy)
+    assert gap.min() >= obstacles.HULL_RADIUS, gap.min()
