@@ -47,13 +47,20 @@ def _rect(cx, cy, w, h, yaw=0.0):
 def town_features() -> list[dict]:
     """40 buildings, one or two per 100 m block (blocks centred at ±50, ±150, ±250)."""
     rng = np.random.default_rng(24)
-    centres = [(x, y) for x in (-250, -150, -50, 50, 150, 250) for y in (-250, -150, -50, 50, 150, 250)]
+    centres = [
+        (x, y) for x in (-250, -150, -50, 50, 150, 250) for y in (-250, -150, -50, 50, 150, 250)
+    ]
     feats = []
 
     def add(rings, height, kind):
         geo = [[local_to_lonlat(np.vstack([r, r[:1]])).tolist() for r in rings]]
-        feats.append({"type": "Feature", "properties": {"height": height, "kind": kind},
-                      "geometry": {"type": "Polygon", "coordinates": geo[0]}})  # fmt: skip
+        feats.append(
+            {
+                "type": "Feature",
+                "properties": {"height": height, "kind": kind},
+                "geometry": {"type": "Polygon", "coordinates": geo[0]},
+            }
+        )
 
     for k, (cx, cy) in enumerate(centres):
         h = float(np.round(rng.uniform(8.0, 45.0), 1))
@@ -73,9 +80,16 @@ def town_features() -> list[dict]:
             add([_rect(cx, cy, 50, 40, float(rng.uniform(-0.4, 0.4)))], h, "block")
     # one MultiPolygon: two kiosks on the plaza edge sharing a feature
     kiosks = [_rect(-50, 30, 8, 8), _rect(-30, 50, 8, 8)]
-    feats.append({"type": "Feature", "properties": {"height": 4.0, "kind": "kiosks"},
-                  "geometry": {"type": "MultiPolygon", "coordinates": [
-                      [local_to_lonlat(np.vstack([r, r[:1]])).tolist()] for r in kiosks]}})  # fmt: skip
+    feats.append(
+        {
+            "type": "Feature",
+            "properties": {"height": 4.0, "kind": "kiosks"},
+            "geometry": {
+                "type": "MultiPolygon",
+                "coordinates": [[local_to_lonlat(np.vstack([r, r[:1]])).tolist()] for r in kiosks],
+            },
+        }
+    )
     return feats
 
 
@@ -110,10 +124,13 @@ def main(argv=None) -> None:
     doc = {"type": "FeatureCollection", "features": town_features()}
     (out / "town.geojson").write_text(json.dumps(doc, indent=None, separators=(",", ":")) + "\n")
     img = yard_image()
-    header = f"P5\n# yard occupancy grid, scripts/make_maps.py\n{img.shape[1]} {img.shape[0]}\n255\n"
+    header = (
+        f"P5\n# yard occupancy grid, scripts/make_maps.py\n{img.shape[1]} {img.shape[0]}\n255\n"
+    )
     (out / "yard.pgm").write_bytes(header.encode() + img.tobytes())
     (out / "yard.yaml").write_text(
-        "# ROS map_server map (scripts/make_maps.py): 2.5 m cells, lower-left corner at (-160, -160)\n"
+        "# ROS map_server map (scripts/make_maps.py): 2.5 m cells, "
+        "lower-left corner at (-160, -160)\n"
         "image: yard.pgm\nresolution: 2.5\norigin: [-160.0, -160.0, 0.0]\nnegate: 0\n"
         "occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
     )

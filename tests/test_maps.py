@@ -11,7 +11,7 @@ import pytest
 import shapely
 from PIL import Image
 
-from mjx_radar.config import Obstacle, RadarLimits
+from mjx_radar.config import RadarLimits
 from mjx_radar.io.scenario import ScenarioError, load_scenario
 from mjx_radar.physics import plant as physics
 from mjx_radar.world import buildings, obstacles, occupancy
@@ -34,8 +34,11 @@ def _geojson(tmp_path, features, crs=None, name="b.geojson"):
 
 def _feature(rings, height=10.0, key="height"):
     props = {key: height} if key else {}
-    return {"type": "Feature", "properties": props,
-            "geometry": {"type": "Polygon", "coordinates": [np.asarray(r).tolist() for r in rings]}}  # fmt: skip
+    return {
+        "type": "Feature",
+        "properties": props,
+        "geometry": {"type": "Polygon", "coordinates": [np.asarray(r).tolist() for r in rings]},
+    }
 
 
 def _load(tmp_path, table):
@@ -118,18 +121,27 @@ def test_bundled_map_data_is_made_by_the_script(tmp_path):
 @pytest.mark.parametrize(
     "table, files, needle",
     [
-        ('[buildings]\npath = "b.geojson"\ncrs = "local"\n',
-         [_feature([[[0, 0], [10, 10], [10, 0], [0, 10], [0, 0]]])], "Self-intersection"),
-        ('[buildings]\npath = "b.geojson"\ncrs = "local"\n',
-         [_feature([[[0, 0], [10, 0], [10, 10], [0, 0]]], key=None)], "missing or non-numeric"),
-        ('[buildings]\npath = "b.geojson"\ncrs = "local"\n',
-         [_feature([[[0, 0], [10, 0], [10, 10], [0, 0]]], height=-3.0)], "height -3.0"),
+        (
+            '[buildings]\npath = "b.geojson"\ncrs = "local"\n',
+            [_feature([[[0, 0], [10, 10], [10, 0], [0, 10], [0, 0]]])],
+            "Self-intersection",
+        ),
+        (
+            '[buildings]\npath = "b.geojson"\ncrs = "local"\n',
+            [_feature([[[0, 0], [10, 0], [10, 10], [0, 0]]], key=None)],
+            "missing or non-numeric",
+        ),
+        (
+            '[buildings]\npath = "b.geojson"\ncrs = "local"\n',
+            [_feature([[[0, 0], [10, 0], [10, 10], [0, 0]]], height=-3.0)],
+            "height -3.0",
+        ),
         ('[buildings]\npath = "b.geojson"\ncrs = "EPSG:3857"\n', [], "buildings.crs"),
         ('[buildings]\npath = "b.geojson"\ncrs = "lonlat"\n', [], "buildings.origin"),
         ('[buildings]\npath = "b.geojson"\ncrs = "local"\nextra = 1\n', [], "unknown field"),
         ('[buildings]\npath = "../b.geojson"\ncrs = "local"\n', [], "outside"),
     ],
-)  # fmt: skip
+)
 def test_bad_buildings_raise_one_line(tmp_path, table, files, needle):
     _geojson(tmp_path, files or [_feature([[[100, 100], [110, 100], [110, 110], [100, 100]]])])
     with pytest.raises(ScenarioError) as err:
@@ -213,8 +225,13 @@ def test_radar_never_enters_occupied_cells_at_full_speed(tmp_path):
     assert len(boxes) == 2
     dt, lim = 0.025, RadarLimits()
     plant = physics.make_plant(3, 1, dt, lim, boxes)
-    s0 = jnp.array([[-20.0, -20.0, 0, 1.2, 50, 0], [0.0, -20, 0, np.pi / 2, 50, 0],
-                    [-19.0, 30, 0, -np.pi / 2, 50, 0]])  # fmt: skip
+    s0 = jnp.array(
+        [
+            [-20.0, -20.0, 0, 1.2, 50, 0],
+            [0.0, -20, 0, np.pi / 2, 50, 0],
+            [-19.0, 30, 0, -np.pi / 2, 50, 0],
+        ]
+    )
     u = jnp.tile(jnp.array([[35.0, 0.0]]), (120, 3, 1))
 
     def run(s0, u):

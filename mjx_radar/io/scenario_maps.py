@@ -21,17 +21,23 @@ from mjx_radar.io.checks import Rule, ScenarioError, check, key_name, show
 #: field -> (rule, default, doc); default None = required
 BUILDINGS = {
     "path": (None, None, "GeoJSON FeatureCollection of Polygon/MultiPolygon footprints"),
-    "crs": (Rule(str, choices=("local", "lonlat")), None,
-            "'local' (metres, x east, y north) or 'lonlat' (WGS84 degrees)"),
+    "crs": (
+        Rule(str, choices=("local", "lonlat")),
+        None,
+        "'local' (metres, x east, y north) or 'lonlat' (WGS84 degrees)",
+    ),
     "origin": (None, [], "[lon, lat] of the local frame's origin [deg] (crs = 'lonlat' only)"),
     "height_key": (Rule(str), "height", "feature property holding the height [m]"),
-}  # fmt: skip
+}
 OCCUPANCY = {
     "path": (None, None, "ROS map_server YAML file (image, resolution, origin, thresholds)"),
     "height": (Rule(float, 0.0, 1e3, lo_open=True), 5.0, "obstacle height of occupied cells [m]"),
-    "unknown": (Rule(str, choices=("occupied", "free")), "occupied",
-                "what a cell between the thresholds becomes"),
-}  # fmt: skip
+    "unknown": (
+        Rule(str, choices=("occupied", "free")),
+        "occupied",
+        "what a cell between the thresholds becomes",
+    ),
+}
 SUFFIXES = {"buildings": (".geojson", ".json"), "occupancy": (".yaml", ".yml")}
 
 
@@ -63,7 +69,9 @@ def _fields(table: str, raw: Any, spec: dict) -> dict:
         raise ScenarioError(f"{table}: must be a table")
     for key in raw:
         if key not in spec:
-            raise ScenarioError(f"{table}.{key_name(key)}: unknown field; allowed: {', '.join(spec)}")
+            raise ScenarioError(
+                f"{table}.{key_name(key)}: unknown field; allowed: {', '.join(spec)}"
+            )
     out = {}
     for key, (rule, default, _) in spec.items():
         if key not in raw and default is None:
@@ -82,10 +90,14 @@ def buildings(raw: Any, base: Path, allow_external: bool = False) -> tuple[Obsta
     origin = v["origin"]
     if v["crs"] == "lonlat":
         if not isinstance(origin, list) or len(origin) != 2:
-            raise ScenarioError(f"buildings.origin = {show(origin)}: crs = 'lonlat' needs "
-                                "[lon, lat] of the local origin [deg]")  # fmt: skip
-        origin = (check("buildings.origin[0]", origin[0], Rule(float, -180.0, 180.0)),
-                  check("buildings.origin[1]", origin[1], Rule(float, -85.0, 85.0)))  # fmt: skip
+            raise ScenarioError(
+                f"buildings.origin = {show(origin)}: crs = 'lonlat' needs "
+                "[lon, lat] of the local origin [deg]"
+            )
+        origin = (
+            check("buildings.origin[0]", origin[0], Rule(float, -180.0, 180.0)),
+            check("buildings.origin[1]", origin[1], Rule(float, -85.0, 85.0)),
+        )
     elif origin != []:
         raise ScenarioError(f"buildings.origin = {show(origin)}: only with crs = 'lonlat'")
     try:
@@ -120,8 +132,10 @@ def occupancy(raw: Any, base: Path, allow_external: bool = False) -> tuple[Obsta
 def _check_extent(table: str, obstacles) -> None:
     for o in obstacles:
         if max(abs(o.pos[0]), abs(o.pos[1])) > SCENE:
-            raise ScenarioError(f"{table}: an obstacle at {list(o.pos[:2])} lies beyond "
-                                f"{SCENE:g} m of the origin (check origin / crs)")  # fmt: skip
+            raise ScenarioError(
+                f"{table}: an obstacle at {list(o.pos[:2])} lies beyond "
+                f"{SCENE:g} m of the origin (check origin / crs)"
+            )
 
 
 def map_files(raw: dict, base: Path) -> list[Path]:

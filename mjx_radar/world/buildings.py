@@ -43,8 +43,13 @@ from mjx_radar.config import Obstacle
 
 WGS84_A = 6378137.0  # semi-major axis [m]
 WGS84_E2 = 6.69437999014e-3  # first eccentricity squared
-LONLAT_NAMES = ("urn:ogc:def:crs:OGC:1.3:CRS84", "urn:ogc:def:crs:OGC::CRS84", "EPSG:4326",
-                "urn:ogc:def:crs:EPSG::4326", "CRS84")  # fmt: skip
+LONLAT_NAMES = (
+    "urn:ogc:def:crs:OGC:1.3:CRS84",
+    "urn:ogc:def:crs:OGC::CRS84",
+    "EPSG:4326",
+    "urn:ogc:def:crs:EPSG::4326",
+    "CRS84",
+)
 MAX_BUILDINGS = 2000
 
 
@@ -113,11 +118,15 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
     if declared is not None:  # the 2008 GeoJSON "crs" member (RFC 7946 dropped it)
         name = declared.get("properties", {}).get("name") if isinstance(declared, dict) else None
         if name not in LONLAT_NAMES:
-            raise MapError(f"unknown CRS {name!r}; only WGS84 lon/lat (RFC 7946) or a "
-                           "local metric frame (no crs member, buildings.crs = 'local')")  # fmt: skip
+            raise MapError(
+                f"unknown CRS {name!r}; only WGS84 lon/lat (RFC 7946) or a "
+                "local metric frame (no crs member, buildings.crs = 'local')"
+            )
         if crs != "lonlat":
-            raise MapError(f"the file declares CRS {name!r} (lon/lat); set buildings.crs = "
-                           "'lonlat' and buildings.origin")  # fmt: skip
+            raise MapError(
+                f"the file declares CRS {name!r} (lon/lat); set buildings.crs = "
+                "'lonlat' and buildings.origin"
+            )
     features = doc.get("features")
     if not isinstance(features, list) or not features:
         raise MapError("features: must be a non-empty array")
@@ -133,8 +142,10 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
         if not (math.isfinite(h) and 0.0 < h <= 1000.0):
             raise MapError(f"{where}: height {h!r} must be in (0, 1000] m")
         if feat["geometry"].get("type") not in ("Polygon", "MultiPolygon"):
-            raise MapError(f"{where}: geometry must be a Polygon or MultiPolygon, "
-                           f"not {feat['geometry'].get('type')!r}")  # fmt: skip
+            raise MapError(
+                f"{where}: geometry must be a Polygon or MultiPolygon, "
+                f"not {feat['geometry'].get('type')!r}"
+            )
         try:
             geom = shape(feat["geometry"])
         except Exception as err:  # shapely raises several types for malformed rings

@@ -97,8 +97,11 @@ def read_map(yaml_path: str | Path, unknown: str = "occupied") -> OccupancyGrid:
     if mode not in ("trinary", "scale"):
         raise MapError(f"mode = {mode!r}: must be trinary or scale (raw is not supported)")
     origin = meta["origin"]
-    if (not isinstance(origin, list) or len(origin) != 3
-            or not all(isinstance(v, int | float) and math.isfinite(v) for v in origin)):  # fmt: skip
+    if (
+        not isinstance(origin, list)
+        or len(origin) != 3
+        or not all(isinstance(v, int | float) and math.isfinite(v) for v in origin)
+    ):
         raise MapError(f"origin = {origin!r}: must be [x, y, yaw] (3 finite numbers)")
     image = meta["image"]
     if not isinstance(image, str) or not image:
@@ -178,6 +181,12 @@ def box_obstacles(grid: OccupancyGrid, height: float) -> tuple[Obstacle, ...]:
     for i0, i1, j0, j1 in rects:
         cx, cy = to_world(grid, np.array([0.5 * (i0 + i1), 0.5 * (j0 + j1)]))
         half = (0.5 * (i1 - i0) * grid.resolution, 0.5 * (j1 - j0) * grid.resolution)
-        out.append(Obstacle(kind="box", pos=(float(cx), float(cy), 0.5 * height),
-                            size=(*half, 0.5 * height), yaw=float(grid.origin[2])))  # fmt: skip
+        out.append(
+            Obstacle(
+                kind="box",
+                pos=(float(cx), float(cy), 0.5 * height),
+                size=(*half, 0.5 * height),
+                yaw=float(grid.origin[2]),
+            )
+        )
     return tuple(out)
