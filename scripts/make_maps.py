@@ -1,6 +1,6 @@
 """Writes the bundled map data of town_4r4t and yard_3r4t (no downloads; deterministic).
 
-* ``scenarios/maps/town.geojson``: a block of 40 building footprints (rectangles,
+* ``scenarios/maps/town.geojson``: a block of 42 building features, 43 footprints (rectangles,
   rotated rectangles, L shapes, one courtyard block with a hole, one MultiPolygon)
   on a 100 m street grid (streets along x, y = 0, ±100, ±200, ±300 stay free),
   heights 8-45 m, in WGS84 lon/lat about ``ORIGIN`` (the inverse of
@@ -45,7 +45,7 @@ def _rect(cx, cy, w, h, yaw=0.0):
 
 
 def town_features() -> list[dict]:
-    """40 buildings, one or two per 100 m block (blocks centred at ±50, ±150, ±250)."""
+    """42 features: none, one or two per 100 m block (blocks centred at ±50, ±150, ±250)."""
     rng = np.random.default_rng(24)
     centres = [
         (x, y) for x in (-250, -150, -50, 50, 150, 250) for y in (-250, -150, -50, 50, 150, 250)
@@ -78,8 +78,8 @@ def town_features() -> list[dict]:
             add([_rect(cx + 17, cy, 24, 60)], float(np.round(h * 0.6, 1)), "slab")
         else:
             add([_rect(cx, cy, 50, 40, float(rng.uniform(-0.4, 0.4)))], h, "block")
-    # one MultiPolygon: two kiosks on the plaza edge sharing a feature
-    kiosks = [_rect(-50, 30, 8, 8), _rect(-30, 50, 8, 8)]
+    # one MultiPolygon: two kiosks on the plaza sharing a feature
+    kiosks = [_rect(35, 65, 8, 8), _rect(65, 35, 8, 8)]
     feats.append(
         {
             "type": "Feature",
