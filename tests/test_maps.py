@@ -185,6 +185,13 @@ def test_occupancy_follows_map_server_conventions(tmp_path):
     rgb = np.array([[[0, 0, 255], [255, 255, 0]]], np.uint8)  # means 85 and 170
     g = occupancy.read_map(_write_map(tmp_path, rgb, name="c.png"), "free")
     np.testing.assert_array_equal(g.occupied, [[True, False]])
+    # RGBA in scale mode: alpha is excluded from the mean and never changes an
+    # occupied or free pixel; an in-between pixel is unknown (occupied by default)
+    rgba = np.array([[[0, 0, 0, 0], [255, 255, 255, 0], [128, 128, 128, 255]]], np.uint8)
+    g = occupancy.read_map(_write_map(tmp_path, rgba, mode="scale", name="a.png"), "free")
+    np.testing.assert_array_equal(g.occupied, [[True, False, False]])
+    g = occupancy.read_map(tmp_path / "m.yaml", "occupied")
+    np.testing.assert_array_equal(g.occupied, [[True, False, True]])
     # cell (i, j) centre = origin + (i + 1/2, j + 1/2) * resolution, rotated by yaw
     g = occupancy.read_map(_write_map(tmp_path, x, yaw=math.pi / 2))
     np.testing.assert_allclose(occupancy.cell_centres(g)[1, 2], [-1.0 - 0.75, 2.0 + 1.25])

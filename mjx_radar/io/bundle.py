@@ -81,8 +81,8 @@ def _bundle_maps(src: Path, out_dir: Path, raw: dict, mapping: dict[str, str]) -
         files = map_files({table: raw[table]}, src.parent)
         folder = "maps" if table == "buildings" else f"maps/{files[0].stem}"
         for k, source in enumerate(files):
-            rel = f"{folder}/{source.name}" if k == 0 else \
-                f"{folder}/{source.relative_to(files[0].parent).as_posix()}"
+            name = source.name if k == 0 else source.relative_to(files[0].parent).as_posix()
+            rel = f"{folder}/{name}"
             results.atomic_write(out_dir / rel, lambda tmp, s=source: shutil.copyfile(s, tmp))
             written.append(out_dir / rel)
             if k == 0:

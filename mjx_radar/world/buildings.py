@@ -108,6 +108,10 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
     import shapely
     from shapely.geometry import shape
 
+    if crs not in ("local", "lonlat"):
+        raise MapError(f"unknown CRS {crs!r}; must be 'local' or 'lonlat'")
+    if crs == "lonlat" and origin is None:
+        raise MapError("crs = 'lonlat' needs the origin (lon0, lat0) [deg]")
     try:
         doc = json.loads(Path(path).read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:

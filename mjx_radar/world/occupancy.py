@@ -10,8 +10,9 @@ Nav2 ``nav2_map_server/src/map_io.cpp``):
   with ``negate = 0`` its occupancy probability is ``p = (255 − x) / 255``
   (black = occupied), with ``negate = 1`` ``p = x / 255``;
 * ``p > occupied_thresh`` → occupied; ``p < free_thresh`` → free; otherwise
-  unknown (``mode`` ``trinary``, the default, or ``scale``; a pixel with alpha < 255
-  is unknown in ``scale`` mode); ``mode = raw`` is refused;
+  unknown (``mode: trinary``, the default). In ``mode: scale`` map_server gives such
+  a cell a scaled value in (0, 100) (or unknown when its alpha < 255); either way it
+  is neither occupied nor free, and here it is unknown too. ``mode: raw`` is refused;
 * image row 0 is the TOP of the map: cell ``(i, j)`` (column i, row j counted
   from the BOTTOM image row) covers ``[i, i + 1) × [j, j + 1)`` cells of side
   ``resolution`` [m/pixel] in the map frame, whose origin is the lower-left corner
@@ -121,14 +122,10 @@ def read_map(yaml_path: str | Path, unknown: str = "occupied") -> OccupancyGrid:
         raise
     except Exception as err:  # PIL raises many types for bad images
         raise MapError(f"image {image}: cannot read ({str(err).splitlines()[0]})") from None
-    alpha = px[..., 3] if px.shape[-1] == 4 else np.full(px.shape[:2], 255.0)
     x = px[..., :3].mean(-1)
     p = x / 255.0 if negate else (255.0 - x) / 255.0
     occupied = p > occ_th
     free = p < free_th
-    if mode == "scale":
-        free &= alpha >= 255.0
-        occupied &= alpha >= 255.0
     unknown_cells = ~occupied & ~free
     if unknown not in ("occupied", "free"):
         raise MapError(f"unknown = {unknown!r}: must be 'occupied' or 'free'")
