@@ -257,10 +257,21 @@ def test_radar_never_enters_occupied_cells_at_full_speed(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["town_4r4t", "yard_3r4t"])
-def test_map_scenarios_load(name):
+def test_map_scenarios_load_and_round_trip(name, tmp_path):
+    import tomllib
+
+    import mjx_radar
+
     s = load_scenario(name)
     assert s.obstacles and s.radar_init
     assert s.replace(name="x").obstacles == s.obstacles  # Python round trip (to_toml)
+    s.to_toml(tmp_path / "s.toml")
+    assert load_scenario(tmp_path / "s.toml") == s and mjx_radar.validate(s) == s
+    assert name in mjx_radar.bundled_scenarios()
+    root = Path(__file__).parent.parent
+    data = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    shipped = data["package-data"]["mjx_radar.scenarios"]
+    assert {"maps/*.geojson", "maps/*.yaml", "maps/*.pgm"} <= set(shipped)
 
 
 def test_bad_occupancy_maps(tmp_path):
