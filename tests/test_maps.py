@@ -195,6 +195,9 @@ def test_occupancy_follows_map_server_conventions(tmp_path):
     # cell (i, j) centre = origin + (i + 1/2, j + 1/2) * resolution, rotated by yaw
     g = occupancy.read_map(_write_map(tmp_path, x, yaw=math.pi / 2))
     np.testing.assert_allclose(occupancy.cell_centres(g)[1, 2], [-1.0 - 0.75, 2.0 + 1.25])
+    phi = obstacles.union_sdf(occupancy.box_obstacles(g, 3.0), occupancy.cell_centres(g))
+    np.testing.assert_array_equal(phi < 0, g.occupied)  # rotated boxes cover the cells
+    assert np.abs(phi).min() >= 0.25 - 1e-9
 
 
 def test_merged_boxes_tile_the_occupied_cells_exactly():

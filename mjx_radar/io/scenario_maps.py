@@ -131,6 +131,9 @@ def occupancy(raw: Any, base: Path, allow_external: bool = False) -> tuple[Obsta
 
 def _check_extent(table: str, obstacles) -> None:
     for o in obstacles:
+        if o.size and max(o.size) > 1e4:
+            big = max(o.size)
+            raise ScenarioError(f"{table}: an obstacle of half size {big:g} m; at most 1e4 m")
         if max(abs(o.pos[0]), abs(o.pos[1])) > SCENE:
             raise ScenarioError(
                 f"{table}: an obstacle at {list(o.pos[:2])} lies beyond "

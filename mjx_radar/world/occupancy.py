@@ -183,7 +183,7 @@ def box_obstacles(grid: OccupancyGrid, height: float) -> tuple[Obstacle, ...]:
                 kind="box",
                 pos=(float(cx), float(cy), 0.5 * height),
                 size=(*half, 0.5 * height),
-                yaw=float(grid.origin[2]),
+                yaw=math.atan2(math.sin(grid.origin[2]), math.cos(grid.origin[2])),
             )
         )
     return tuple(out)
