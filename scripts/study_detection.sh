@@ -8,12 +8,13 @@
 set -euo pipefail
 out=${1:-runs/study_detection}
 trials=${2:-200}
-mjx=${MJX_RADAR:-mjx-radar}
+mjx=${MJX_RADAR:-mjx-radar}    # e.g. MJX_RADAR=.venv/bin/mjx-radar PYTHON=.venv/bin/python
+py=${PYTHON:-python}
 extra=()
 [[ -n ${STEPS:-} ]] && extra+=(--steps "$STEPS")
 [[ -n ${ROLLOUTS:-} ]] && extra+=(--rollouts "$ROLLOUTS")
 mkdir -p "$out/scenarios"
-src=$(python -c 'from mjx_radar.io.scenario import resolve_path; print(resolve_path("clutter_3r4t"))')
+src=$("$py" -c 'from mjx_radar.io.scenario import resolve_path; print(resolve_path("clutter_3r4t"))')
 cp "$src" "$out/scenarios/clutter_3r4t.toml"
 sed -e 's/^name = "clutter_3r4t"/name = "clutter_3r4t_pd_blind"/' \
     -e 's/^planner = true .*/planner = false/' "$src" > "$out/scenarios/clutter_3r4t_pd_blind.toml"
