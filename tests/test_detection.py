@@ -69,6 +69,7 @@ def test_run_detection_rate_within_binomial_error_of_the_modelled_pd(tiny):
     assert np.all(np.isfinite(res["rmse_pos"]))
 
 
+@pytest.mark.slow  # one more program; the Swerling run above tests the rate already
 def test_fixed_pd_run_rate(tiny):
     s = _with(tiny, model="fixed", fixed_pd=0.6)
     res = runner.run_trials(s, "stationary", 3, TRIALS, STEPS, full=False)
