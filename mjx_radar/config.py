@@ -1,17 +1,15 @@
-"""Typed, immutable configuration of a scenario (SPEC defaults).
+"""Typed, immutable configuration of a scenario (SPEC defaults; ``[detection]``: config_detection).
 
-Every dataclass here is frozen and hashable so a whole :class:`Scenario` can be
-passed as a static argument to ``jax.jit``. Units are SI (m, s, rad, W, Hz).
-Loading and validation of scenario files lives in :mod:`mjx_radar.io.scenario`; each
-field's allowed range is its metadata here (``rule``/``flag``/``choice``/``table``/``rows``
-of :mod:`mjx_radar.io.checks`), so a new parameter is one edit in this module.
-"""
+Frozen, hashable dataclasses (a :class:`Scenario` is static under ``jax.jit``); SI units. Files
+are read by :mod:`mjx_radar.io.scenario`; each field's allowed range is its metadata
+(``rule``/``flag``/``choice``/``table``/``rows`` of :mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
+from mjx_radar.config_detection import DetectionConfig
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
 
@@ -282,6 +280,8 @@ class Scenario:
             RADAR_COLUMNS, count="n_radars", doc="optional fixed radar starts", toml="radars"
         ),
     )
+    detection: DetectionConfig = field(default_factory=DetectionConfig, metadata=table(
+        "detection probability, clutter, association (docs/detection.md)"))  # fmt: skip
 
     @property
     def n_targets(self) -> int:

@@ -18,7 +18,8 @@ from mjx_radar.io.scenario import _read, load_scenario, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 GOOD = {"name": "t", "n_radars": 2, "targets": [[0.0, 0.0, 55.0, 20.0, 10.0, 0.0]]}
-BUNDLED = ["smoke", "paper_3r4t", "paper_4r4t", "paper_6r3t", "city_4r4t", "forest_4r4t"]
+BUNDLED = ["smoke", "paper_3r4t", "paper_4r4t", "paper_6r3t", "city_4r4t", "forest_4r4t",
+           "clutter_3r4t"]
 
 
 def _err(raw, base=Path(".")) -> str:

@@ -21,6 +21,11 @@ The rules (docs/scenarios.md, "Plausibility"):
   its Fisher information are undefined at distance 0); with random placement,
   ``mpc.r2t >= 1 m`` unless every target starts >= 1 m above the ground;
 * MPPI: the cross-entropy weighting keeps at least one elite sample.
+* detection (docs/detection.md): clutter needs ``filter.structure = "per-target"`` (PDA
+  per target; the joint filter has no data association) and a range window
+  ``clutter_range_min < clutter_range_max``; the expected false alarms per scan and
+  radar ``λ = clutter_density · (max − min)`` must fit the per-scan cap:
+  ``P(Poisson(λ) > max_false_alarms) <= 1e-6``.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ def check_scenario(s: Scenario) -> None:
     _check_motion(s)
     _check_noise(s)
     _check_geometry(s)
+    _check_detection(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
             f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "
@@ -156,3 +162,46 @@ def _check_geometry(s: Scenario) -> None:
                 f"{MIN_DISTANCE:g} m of targets[{low}] (z = {z} m); need mpc.r2t >= "
                 f"{MIN_DISTANCE:g} m"
             )
+
+
+CLUTTER_TAIL = 1e-6  # largest allowed probability of more false alarms than the cap
+
+
+def poisson_tail(lam: float, cap: int) -> float:
+    """``P(Poisson(lam) > cap)`` (pure Python, summed in log space)."""
+    if lam <= 0.0:
+        return 0.0
+    cdf = sum(math.exp(k * math.log(lam) - lam - math.lgamma(k + 1)) for k in range(cap + 1))
+    return max(0.0, 1.0 - cdf)
+
+
+def _check_detection(s: Scenario) -> None:
+    d = s.detection
+    if not d.clutter:
+        return
+    if s.filter.structure != "per-target":
+        raise ScenarioError(
+            f"detection.clutter_density = {d.clutter_density}: clutter needs "
+            f'filter.structure = "per-target" (PDA per target); the joint filter has no '
+            f"data association"
+        )
+    width = d.clutter_range_max - d.clutter_range_min
+    if width <= 0.0:
+        raise ScenarioError(
+            f"detection.clutter_range_max = {d.clutter_range_max}: must exceed "
+            f"detection.clutter_range_min = {d.clutter_range_min}"
+        )
+    lam = d.clutter_density * width
+    tail = poisson_tail(lam, d.max_false_alarms)
+    if tail > CLUTTER_TAIL:
+        raise ScenarioError(
+            f"detection.clutter_density = {d.clutter_density}: {lam:.3g} expected false alarms "
+            f"per scan and radar exceed the per-scan cap detection.max_false_alarms = "
+            f"{d.max_false_alarms} (P(more) = {tail:.2g} > {CLUTTER_TAIL:g}); raise the cap "
+            f"or lower the density"
+        )
+    if s.filter.form != "covariance":
+        raise ScenarioError(
+            f'filter.form = "{s.filter.form}": clutter (PDA) runs in the covariance form only; '
+            f'use filter.form = "covariance" or detection.clutter_density = 0'
+        )

@@ -10,7 +10,9 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
                            trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
                            nees [-], crlb_pos [m], obstacle_contacts [-] (radars
                            touching an obstacle), visible_pairs [-] (radar-target
-                           pairs with line of sight), diverged [0/1] (numerical failure;
+                           pairs with line of sight), detections [-] (visible
+                           pairs detected, docs/detection.md), false_alarms [-]
+                           (clutter returns of all radars), diverged [0/1] (numerical failure;
                            values kept finite), lost [0/1] (lost-track flag of
                            that step: simulation.track_health, docs/statistics.md)
     DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
@@ -43,6 +45,8 @@ METRIC_COLUMNS = (
     "crlb_pos",
     "obstacle_contacts",  # radars touching an obstacle (0 without obstacles)
     "visible_pairs",  # radar-target pairs with line of sight (N*M without obstacles)
+    "detections",  # visible pairs detected (= visible_pairs with perfect detection)
+    "false_alarms",  # false alarms of all radars at that scan (0 without clutter)
     "lost",  # 1.0 when the track is lost at that step (simulation.track_health), else 0.0
     "diverged",  # 1.0 when the filter became non-finite / not positive definite, else 0.0
 )

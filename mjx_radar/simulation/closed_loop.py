@@ -19,8 +19,7 @@ so every method sees the same truth, placement and noise draws.
 
 Obstacles (docs/obstacles.md): a radar-target pair whose straight segment is
 blocked yields no measurement -- the CKF update skips it exactly (``mask``) and
-it adds no information to the PCRLB; contacts are counted per step.
-"""
+it adds no information to the PCRLB; contacts are counted per step."""
 
 from __future__ import annotations
 
@@ -34,7 +33,7 @@ from mjx_radar.control import mppi
 from mjx_radar.estimation import ckf_sqrt, filter_bank, fisher, ground_prior, linalg, measurement
 from mjx_radar.physics import kinematics
 from mjx_radar.physics import plant as physics
-from mjx_radar.simulation import placement, track_health
+from mjx_radar.simulation import placement, scan, track_health
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import RadarTask, process_noise
@@ -61,6 +60,8 @@ class StepRecord(NamedTuple):
     crlb_pos: jax.Array  # [] sqrt(mean_m tr[J_m^-1]_pos), PFIM along the truth
     obstacle_contacts: jax.Array  # [] int32 radars in contact with an obstacle
     visible_pairs: jax.Array  # [] int32 radar-target pairs with line of sight (of N*M)
+    detections: jax.Array  # [] int32 visible pairs detected (= visible_pairs: perfect detection)
+    false_alarms: jax.Array  # [] int32 false alarms of all radars (0 without clutter)
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
 
@@ -205,7 +206,9 @@ def advance(
         vis = None  # [N, M] line of sight (truth geometry); blocked pairs are skipped
         if task.occluders is not None:
             vis = occlusion.line_of_sight(task.occluders, radars[:, :3], truth[:, :3])
-        post = update(mean, cov, z, radars[:, :3], vis)
+        obs = scan.observe(sc.detection, params, trial, k, radars[:, :3], truth[:, :3], z, vis)
+        post = (scan.pda_update(sc, params, model, flags.ccr, mean, cov, obs, radars[:, :3], vis)
+                if sc.detection.clutter else update(mean, cov, z, radars[:, :3], obs.seen))
         # A diverged misspecified filter (CCR noise model) can overflow float32 in the
         # update; keep the prediction then (or, if that overflowed too, the last
         # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
@@ -219,17 +222,16 @@ def advance(
         diverged = flags_h.diverged | blown
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
         j3 = measurement.information_dense(
-            model, radars[:, :3], truth[:, :3], noise, jnp.asarray(False), mask=vis
+            model, radars[:, :3], truth[:, :3], noise, jnp.asarray(False), mask=obs.seen
         )
         jd = fisher.data_information(j3)
         pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, task.a6_filter, w6, jd)
         crlb = jnp.sqrt(jnp.mean(jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)))
         rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov_p, m)
-        n_vis = jnp.int32(n * m) if vis is None else jnp.sum(vis).astype(jnp.int32)
         contacts = physics.obstacle_contacts(plant, data)
         rec = StepRecord(
             truth, mean, jnp.diagonal(cov_p), radars, rmse_pos, rmse_state, nees, crlb,
-            contacts, n_vis, flags_h.lost | diverged, diverged,
+            contacts, obs.n_vis, obs.n_det, obs.n_fa, flags_h.lost | diverged, diverged,
         )  # fmt: skip
         return (data, mean, cov, pfim, health), rec
 

@@ -5,7 +5,9 @@ objective (:mod:`mjx_radar.task.objective`) is ``Σ_terms Σ_t γ^t term_t`` and
 every term's discounted value. With t = 0..H-1 indexing the radar state after control
 t+1 and E_p the mean over the CKF cubature points of the target states at that time:
 
-* ``information``: ``−E_p[Σ_m log det J_m(t)]`` with J the SFIM, or the PFIM recursion
+* ``information``: ``−E_p[Σ_m log det J_m(t)]`` with J the SFIM (each pair weighted by its
+  detection probability, and with clutter the PDA reduction, under ``[detection]``:
+  the expected FIM, docs/detection.md), or the PFIM recursion
   started from the filter's information (method flag ``pfim``; only that branch runs;
   a task of program kind ``"sfim"`` / ``"pfim"`` compiles only its branch);
   the measurement model gives the per-pair information (DDR or CCR noise: flag ``ccr``);
@@ -31,7 +33,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import fisher, measurement
+from mjx_radar.estimation import detection, fisher, measurement, pda
 from mjx_radar.world import obstacles, occlusion
 
 
@@ -68,6 +70,11 @@ def information(h: Horizon, task, params) -> jax.Array:
     if task.occluders is not None:
         vis = occlusion.line_of_sight(task.occluders, radar_pos, tgt.mean(1))  # [H, N, M]
         mask = jnp.broadcast_to(vis[:, :, None], (hh, vis.shape[1], p, m)).reshape(hh, -1, p * m)
+    det = task.scenario.detection
+    if (det.detects or det.clutter) and det.planner:  # expected FIM (docs/detection.md)
+        pd = detection.planner_weights(det.model, params.detection, radar_pos, xyz,
+                                       pda.planner_factor(task, params))  # fmt: skip
+        mask = pd if mask is None else pd * mask
     j3 = measurement.information_components(
         task.measurement, radar_pos, xyz, params.noise, params.method.ccr, mask
     )  # 6 x [H, P·M]

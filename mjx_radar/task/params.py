@@ -20,8 +20,8 @@ from typing import Any, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import RadarEquation, Scenario
-from mjx_radar.estimation import measurement
+from mjx_radar.config import DetectionConfig, RadarEquation, Scenario
+from mjx_radar.estimation import detection, measurement
 from mjx_radar.task.method import Method, MethodFlags
 
 
@@ -45,6 +45,7 @@ class TaskParams(NamedTuple):
     r2r: Any  # radar-radar keep-out [m]
     alpha_r2r: Any
     alpha_r2t: Any
+    detection: Any = None  # detection.DetectionParams (issue 23)
 
 
 def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> TaskParams:
@@ -68,6 +69,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         r2r=arr(mpc.r2r),
         alpha_r2r=arr(mpc.alpha_r2r),
         alpha_r2t=arr(mpc.alpha_r2t),
+        detection=detection.detection_params(scenario, dtype),
     )
 
 
@@ -83,6 +85,15 @@ def shape_key(scenario: Scenario) -> Scenario:
     )
     blank_eq = RadarEquation(**{f.name: None for f in dataclasses.fields(RadarEquation)})
     meas = dataclasses.replace(scenario.measurement, beamwidth_deg=None, monopulse_slope=None)
+    det = dataclasses.replace(  # numbers are DetectionParams; switches (fixed_pd < 1) stay
+        scenario.detection, pfa=None, gain_db=None,  # gate_probability: the IRF table
+        clutter_range_min=None, clutter_range_max=None,
+        clutter_density=float(scenario.detection.clutter),
+    )
+    if not (det.detects or det.clutter):  # perfect detection (also fixed_pd = 1): one program
+        det = dataclasses.replace(DetectionConfig(), pfa=None, gain_db=None,
+                                  gate_probability=None, clutter_range_min=None,
+                                  clutter_range_max=None)  # fmt: skip
     return dataclasses.replace(
         scenario,
         name="",
@@ -95,4 +106,5 @@ def shape_key(scenario: Scenario) -> Scenario:
         radar_init=blank_rows(scenario.radar_init),
         mpc=mpc,
         measurement=meas,
+        detection=det,
     )

@@ -1,0 +1,81 @@
+"""PDA update vs a hand-written textbook PDA on a linear case (issue 23)."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from mjx_radar.estimation import pda
+
+
+def textbook_pda(x, P, Z, valid, H, R, pd, lam, pg):
+    """Bar-Shalom, Daum & Huang (2009), eqs. 33-47, written out in numpy float64."""
+    zhat = H @ x
+    S = H @ P @ H.T + R
+    W = P @ H.T @ np.linalg.inv(S)
+    gamma = chi2.ppf(pg, len(zhat))
+    nus, lik = [], []
+    for z, ok in zip(Z, valid, strict=True):
+        nu = z - zhat
+        if ok and nu @ np.linalg.solve(S, nu) < gamma:
+            nus.append(nu)
+            gauss = math.exp(-0.5 * nu @ np.linalg.solve(S, nu)) / math.sqrt(
+                np.linalg.det(2 * math.pi * S)
+            )
+            lik.append(gauss * pd / lam)  # L_i = N(nu; 0, S) P_D / lambda
+    den = 1.0 - pd * pg + sum(lik)
+    beta = [li / den for li in lik]
+    beta0 = (1.0 - pd * pg) / den
+    nu = sum((b * v for b, v in zip(beta, nus, strict=True)), np.zeros_like(zhat))
+    xp = x + W @ nu
+    Pc = P - W @ S @ W.T
+    spread = sum((b * np.outer(v, v) for b, v in zip(beta, nus, strict=True)), 0 * S)
+    Pt = W @ (spread - np.outer(nu, nu)) @ W.T
+    return xp, beta0 * P + (1 - beta0) * Pc + Pt, beta0
+
+
+@pytest.mark.parametrize("lam", [1e-4, 0.05, 2.0])
+@pytest.mark.parametrize("pd", [0.3, 0.9, 1.0])
+def test_pda_update_matches_textbook_on_a_linear_case(lam, pd):
+    rng = np.random.default_rng(int(lam * 1000) + int(pd * 10))
+    n, p, L = 4, 2, 7
+    A = rng.normal(size=(n, n))
+    P = A @ A.T + n * np.eye(n)
+    x = rng.normal(size=n)
+    H = rng.normal(size=(p, n))
+    R = np.diag([0.5, 2.0])
+    S = H @ P @ H.T + R
+    Ls = np.linalg.cholesky(S)
+    Z = H @ x + (Ls @ rng.normal(size=(p, L)) * np.array([0.3, 0.8, 1.5, 2.5, 4.0, 1.0, 0.1])).T
+    valid = np.array([1, 1, 1, 1, 1, 0, 1], bool)  # one empty slot of the buffer
+    pg = 0.99
+    want = textbook_pda(x, P, Z, valid, H, R, pd, lam, pg)
+    with jax.enable_x64(True):  # float64 so the comparison can be tight
+        (xm, Pm), (beta0, beta) = pda.pda_update(
+            jnp.asarray(x), jnp.asarray(P), jnp.asarray(Z), jnp.asarray(valid),
+            lambda v: jnp.asarray(H) @ v, jnp.asarray(R), jnp.float64(pd), jnp.float64(lam),
+            jnp.float64(chi2.ppf(pg, p)), jnp.float64(pg),
+        )  # fmt: skip
+        xm, Pm, beta0, beta = (np.asarray(a) for a in (xm, Pm, beta0, beta))
+    gated = sum(valid[i] and (Z[i] - H @ x) @ np.linalg.solve(S, Z[i] - H @ x) < chi2.ppf(pg, p)
+                for i in range(L))  # fmt: skip
+    assert 2 <= gated < valid.sum()  # some in the gate, some outside: both paths tested
+    np.testing.assert_allclose(np.asarray(xm), want[0], rtol=1e-9, atol=1e-10)
+    np.testing.assert_allclose(np.asarray(Pm), want[1], rtol=1e-9, atol=1e-10)
+    np.testing.assert_allclose(float(beta0), want[2], rtol=1e-9, atol=1e-12)
+    assert abs(float(beta0) + float(np.sum(beta)) - 1.0) < 1e-12
+
+
+def test_no_measurements_or_pd_zero_leave_the_prediction():
+    x, P = jnp.arange(4.0), jnp.eye(4) * 2.0
+    H = jnp.eye(2, 4)
+    z = jnp.ones((3, 2))
+    for valid, pd in ((jnp.zeros(3, bool), 0.9), (jnp.ones(3, bool), 0.0)):
+        (xm, Pm), (b0, _) = pda.pda_update(x, P, z, valid, lambda v: H @ v, jnp.eye(2),
+                                           jnp.float32(pd), 0.1, 9.21, 0.99)  # fmt: skip
+        np.testing.assert_allclose(np.asarray(xm), np.asarray(x), atol=1e-6)
+        np.testing.assert_allclose(np.asarray(Pm), np.asarray(P), atol=1e-6)
+        assert float(b0) == pytest.approx(1.0)
