@@ -23,6 +23,7 @@ from mjx_radar.viz.viewer_traces import frame_traces, layer_styles, static_trace
 
 PAGE = """<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>mjx-radar live: {name}</title>
+<link rel="icon" href="data:,">
 <script src="plotly.min.js"></script>
 <style>body {{font-family: sans-serif; margin: 6px}} #status {{margin-left: 1em}}</style>
 </head><body>
