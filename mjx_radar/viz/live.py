@@ -11,7 +11,7 @@ the segments where needed so the view updates at least once per simulated second
 
 Routes: ``/`` the page (:mod:`mjx_radar.viz.live_page`), ``/plotly.min.js`` the
 plotly.js of the installed ``plotly`` package (offline, no CDN), ``/figure.json`` the
-initial figure (``{"ready": false}`` until the first segment), ``/state.json?trial=J&since=SEQ``
+initial figure (built from the scenario before the run), ``/state.json?trial=J&since=SEQ``
 the layers at the latest step of trial position J (only ``{"seq": SEQ}`` if nothing new).
 """
 
@@ -92,6 +92,8 @@ class LiveView:
         self._seq, self._finished, self._figure, self._box = 0, False, None, None
         self._cache: dict = {}
         self._page = live_page.page(scenario.name, self.trials).encode()
+        self._build_figure()  # before the run: the simulation never waits for it
+        _plotly_js()  # read once, now
         try:
             self._server = ThreadingHTTPServer(("127.0.0.1", int(port)), _handler(self))
         except OSError as err:
@@ -173,38 +175,40 @@ class LiveView:
                      sample_weight=weight[j][None], every=timing.control_every,
                      dt=float(timing.dt_filter))  # fmt: skip
 
+    def _initial_box(self) -> tuple:
+        """Scene box ``(lo, hi, ztop)`` before any data: the drones' constant-velocity paths
+        over the run and the radars' placement square (or fixed starts) with their R2T
+        discs."""
+        s = self.scenario
+        init = np.asarray(s.target_init, float)
+        t = np.linspace(0.0, self.steps * s.timing.dt_filter, 11)[:, None, None]
+        path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
+        w = float(s.placement_half_width)
+        radars = (np.asarray(s.radar_init, float)[:, :2] if s.radar_init
+                  else np.array([[-w, -w], [w, w]]))  # fmt: skip
+        xy = np.concatenate([path[:, :2], radars - s.mpc.r2t, radars + s.mpc.r2t])
+        return xy.min(0), xy.max(0), max(1.15 * float(path[:, 2].max()), 1.0)
+
     def _grow_box(self, tr: Trial) -> tuple:
-        """Scene box ``(lo, hi, ztop)``: what was seen and the drones' constant-velocity paths
-        to the end of the run; it only grows (the page relayouts when it does)."""
-        init = np.asarray(self.scenario.target_init, float)
-        t_end = self.steps * self.scenario.timing.dt_filter
-        ahead = init[:, :3] + t_end * init[:, 3:]
+        """The scene box grown to what was seen; it never shrinks (the page relayouts)."""
         lo, hi = tr.bounds()
-        lo, hi = np.minimum(lo, ahead[:, :2].min(0)), np.maximum(hi, ahead[:, :2].max(0))
-        ztop = max(1.15 * float(max(tr.target[..., 2].max(), ahead[:, 2].max())), 1.0)
-        if self._box is not None:
-            lo, hi = np.minimum(lo, self._box[0]), np.maximum(hi, self._box[1])
-            ztop = max(ztop, self._box[2])
-        self._box = (lo, hi, ztop)
+        box = self._box
+        self._box = (np.minimum(lo, box[0]), np.maximum(hi, box[1]),
+                     max(box[2], 1.15 * float(tr.target[..., 2].max())))  # fmt: skip
         return self._box
 
+    def _build_figure(self) -> None:
+        self._box = self._initial_box()
+        title = f"{self.scenario.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
+        fig, self._anim, self._metrics = live_page.figure_json(self.scenario, *self._box, title)
+        d = json.loads(fig)
+        d["ready"] = True
+        self._figure = json.dumps(d).encode()
+
     def figure_bytes(self) -> bytes:
-        a, control, _, _ = self._snapshot()
-        if a is None:
-            return b'{"ready": false}'
-        if self._figure is None:
-            tr = self._trial(a, control, 0)
-            title = f"{self.scenario.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
-            fig, self._anim, self._metrics = live_page.figure_json(tr, self.scenario,
-                                                                   *self._grow_box(tr), title)
-            d = json.loads(fig)
-            d["ready"] = True
-            self._figure = json.dumps(d).encode()
         return self._figure
 
     def state_bytes(self, j: int, since: int) -> bytes:
-        if self._figure is None:
-            self.figure_bytes()  # the layers' trace indices
         a, control, seq, finished = self._snapshot()
         if a is None or since == seq:
             return json.dumps({"seq": seq if a is not None else -1}).encode()

@@ -101,12 +101,15 @@ def page(name: str, trials) -> str:
     return PAGE.format(name=name, options=options)
 
 
-def figure_json(tr, scenario, lo, hi, ztop: float, title: str) -> tuple[str, list, list]:
-    """The live figure at the latest step of ``tr``; ``(json, layer indices, metrics indices)``.
+def figure_json(scenario, lo, hi, ztop: float, title: str) -> tuple[str, list, list]:
+    """The live figure before any data; ``(json, layer indices, metrics indices)``.
+
+    Built from the scenario alone (before the simulation starts, so it costs the run
+    nothing): the layers of :data:`~mjx_radar.viz.viewer_traces.LAYERS` are empty until
+    the first ``/state.json``.
 
     Args:
-        tr: a :class:`~mjx_radar.viz.run_dir.Trial` of the steps received so far.
-        scenario: the scenario (obstacles).
+        scenario: the scenario (radar and drone counts, obstacles).
         lo, hi: ``[2]`` xy corners of the ground extent.
         ztop: top of the z axis [m].
         title: figure title.
@@ -118,13 +121,10 @@ def figure_json(tr, scenario, lo, hi, ztop: float, title: str) -> tuple[str, lis
                         specs=[[{"type": "scene"}, {"type": "xy"}]])  # fmt: skip
     for trace in static_traces(scenario, lo, hi):
         fig.add_trace(trace)
-    n, m = tr.radar.shape[1], tr.target.shape[1]
     first = len(fig.data)
-    layers = frame_traces(tr, tr.steps - 1, 1, None)
-    for style, data in zip(layer_styles(n, m), layers, strict=True):
-        fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
+    for style in layer_styles(scenario.n_radars, len(scenario.target_init)):
+        fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
-    fig.data[first + 6].line.color = layers[6]["line"]["color"]
     for name, colour in (("RMSE", "rgb(0,90,200)"), ("PCRLB", "rgb(220,0,0)")):
         fig.add_trace(go.Scatter(x=[], y=[], mode="lines", name=name, legendgroup="metrics",
                                  line={"color": colour}), row=1, col=2)  # fmt: skip
