@@ -164,3 +164,44 @@ def test_cli_busy_port_is_one_line_before_compiling(tmp_path, capsys):
     assert code == 2 and err[-1].startswith(f"error: --view-port = {busy.port}: cannot serve")
     assert not (tmp_path / "r").exists()  # the directory it made is removed
     assert cli_main.main(["run", "smoke", "--view-port", "-1"]) == 2
+
+
+@pytest.mark.slow
+def test_cli_run_with_view(tmp_path, capsys, monkeypatch):
+    """``mjx-radar run smoke --view-port 0``: URL printed, segments fed to the view, the
+    server stopped at the end (stdin is not a terminal under pytest), exit 0."""
+    import importlib
+
+    cli_main = importlib.import_module("mjx_radar.cli.main")
+    views = []
+    start = live_mod.start
+    monkeypatch.setattr(live_mod, "start", lambda *a, **k: views.append(start(*a, **k))
+                        or views[-1])  # fmt: skip
+    out = tmp_path / "r"
+    assert cli_main.main(["run", "smoke", "--steps", "8", "--rollouts", "analytic", "--out",
+                          str(out), "--view-port", "0"]) == 0  # fmt: skip
+    err = capsys.readouterr().err
+    assert f"live view: {views[0].url}" in err and (out / "run.json").is_file()
+    assert views[0]._seq == 2 + 1 and views[0]._finished  # 2 segments, then finish()
+    with pytest.raises(urllib.error.URLError):
+        get(views[0].url)
+
+
+def test_view_leaves_the_numbers_alone(live_run, tiny):
+    """The view's callback changes nothing: a plain run of the same program (same
+    segments: no compilation) gives identical arrays."""
+    _, _, res = live_run
+    plain = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS)
+    assert plain["compile_s"] == 0.0
+    for k in ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "sample_xy"):
+        np.testing.assert_array_equal(plain[k], res[k], err_msg=k)
+
+
+@pytest.mark.slow
+def test_shorter_segments_give_the_same_numbers(live_run, tiny):
+    """Where ``--view`` shortens the segments (runs longer than 20 simulated seconds), the
+    run is the same: 1 period per segment (the view's) vs 5 (another program)."""
+    _, _, res = live_run
+    other = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, periods=5)
+    for k in ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "sample_xy"):
+        np.testing.assert_array_equal(other[k], res[k], err_msg=k)
