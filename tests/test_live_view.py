@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import re
+import threading
 import urllib.error
 import urllib.request
 
@@ -205,3 +206,24 @@ def test_shorter_segments_give_the_same_numbers(live_run, tiny):
     other = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, periods=5)
     for k in ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "sample_xy"):
         np.testing.assert_array_equal(other[k], res[k], err_msg=k)
+
+
+def test_interactive_linger_serves_until_ctrl_c(tiny, capsys):
+    import os
+    import signal
+
+    view = live_mod.LiveView(tiny, [0], STEPS, port=0)
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+
+    def check_then_interrupt():  # still serving, finished, while linger waits
+        state = get_json(view.url + "state.json?trial=0")
+        seen.append(state["seq"])
+        timer.start()
+
+    seen: list = []
+    threading.Timer(0.3, check_then_interrupt).start()
+    view.linger(True)  # returns on Ctrl-C
+    assert seen == [-1]  # the server answered while linger waited (no segment was fed)
+    assert "until Ctrl-C" in capsys.readouterr().err
+    with pytest.raises(urllib.error.URLError):
+        get(view.url)
