@@ -175,32 +175,34 @@ class LiveView:
                      sample_weight=weight[j][None], every=timing.control_every,
                      dt=float(timing.dt_filter))  # fmt: skip
 
-    def _initial_box(self) -> tuple:
-        """Scene box ``(lo, hi, ztop)`` before any data: the drones' constant-velocity paths
-        over the run and the radars' placement square (or fixed starts) with their R2T
-        discs."""
-        s = self.scenario
-        init = np.asarray(s.target_init, float)
-        t = np.linspace(0.0, self.steps * s.timing.dt_filter, 11)[:, None, None]
+    def _paths_box(self) -> tuple:
+        """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run."""
+        init = np.asarray(self.scenario.target_init, float)
+        t = np.linspace(0.0, self.steps * self.scenario.timing.dt_filter, 11)[:, None, None]
         path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
-        w = float(s.placement_half_width)
-        radars = (np.asarray(s.radar_init, float)[:, :2] if s.radar_init
-                  else np.array([[-w, -w], [w, w]]))  # fmt: skip
-        xy = np.concatenate([path[:, :2], radars - s.mpc.r2t, radars + s.mpc.r2t])
-        return xy.min(0), xy.max(0), max(1.15 * float(path[:, 2].max()), 1.0)
+        return path[:, :2].min(0), path[:, :2].max(0), max(1.15 * float(path[:, 2].max()), 1.0)
 
     def _grow_box(self, tr: Trial) -> tuple:
-        """The scene box grown to what was seen; it never shrinks (the page relayouts)."""
+        """Scene box ``(lo, hi, ztop)``: the drones' paths and what was seen (radars with
+        their R2T discs); it never shrinks (the page relayouts and redraws the ground)."""
         lo, hi = tr.bounds()
-        box = self._box
+        box = self._box or self._paths_box()
         self._box = (np.minimum(lo, box[0]), np.maximum(hi, box[1]),
                      max(box[2], 1.15 * float(tr.target[..., 2].max())))  # fmt: skip
         return self._box
 
     def _build_figure(self) -> None:
-        self._box = self._initial_box()
-        title = f"{self.scenario.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
-        fig, self._anim, self._metrics = live_page.figure_json(self.scenario, *self._box, title)
+        """The figure before any data: the ground extent holds the drones' paths and the
+        radars' placement square (or fixed starts) with their R2T discs."""
+        s = self.scenario
+        lo, hi, ztop = self._paths_box()
+        w = float(s.placement_half_width)
+        radars = (np.asarray(s.radar_init, float)[:, :2] if s.radar_init
+                  else np.array([[-w, -w], [w, w]]))  # fmt: skip
+        lo = np.minimum(lo, (radars - s.mpc.r2t).min(0))
+        hi = np.maximum(hi, (radars + s.mpc.r2t).max(0))
+        title = f"{s.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
+        fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title)
         d = json.loads(fig)
         d["ready"] = True
         self._figure = json.dumps(d).encode()

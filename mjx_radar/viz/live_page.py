@@ -3,9 +3,10 @@
 The page (:data:`PAGE`) loads plotly.js from the live server itself (``/plotly.min.js``,
 the copy inside the installed ``plotly`` package: no CDN, works offline), fetches the
 figure once (``/figure.json``: :func:`figure_json`) and then polls ``/state.json``
-(:func:`state_json`) every 250 ms, restyling the animated layers of
-:data:`mjx_radar.viz.viewer_traces.LAYERS` and the metrics curves in place (the camera
-and the legend's layer toggles stay as the user left them).
+(:func:`state_json`) every 250 ms; a new state replaces the data of the animated layers
+of :data:`mjx_radar.viz.viewer_traces.LAYERS` and of the metrics curves in one
+``Plotly.react`` (one redraw; ``uirevision`` keeps the camera and the legend's layer
+toggles as the user left them).
 
 The layers are those of the offline viewer (:func:`~mjx_radar.viz.viewer_traces.frame_traces`)
 at the latest filter step received: radars with trails and R2T rings, drones, estimates
@@ -38,20 +39,28 @@ document.getElementById('trial').onchange = function (e) {{
   trial = Number(e.target.value); seq = -1;
 }};
 function sleep(ms) {{ return new Promise(function (r) {{ setTimeout(r, ms); }}); }}
-function apply(s) {{
-  var L = s.layers;
-  var upd = {{x: L.map(function (l) {{ return l.x; }}), y: L.map(function (l) {{ return l.y; }}),
-             z: L.map(function (l) {{ return l.z; }})}};
-  Plotly.restyle(gd, upd, s.anim);
-  Plotly.restyle(gd, {{'line.color': [s.sample_w]}}, [s.anim[6]]);
-  Plotly.restyle(gd, {{x: [s.time, s.time, [s.t, s.t]], y: [s.rmse, s.crlb, s.now]}},
-                 s.metrics);
+function apply(s) {{  // one Plotly.react: one redraw of the scene per state
+  var d = gd.data, lay = gd.layout;
+  s.anim.forEach(function (i, n) {{
+    d[i] = Object.assign({{}}, d[i], {{x: s.layers[n].x, y: s.layers[n].y, z: s.layers[n].z}});
+  }});
+  var w = s.anim[6];
+  d[w] = Object.assign({{}}, d[w], {{line: Object.assign({{}}, d[w].line, {{color: s.sample_w}})}});
+  var xs = [s.time, s.time, [s.t, s.t]], ys = [s.rmse, s.crlb, s.now];
+  s.metrics.forEach(function (i, n) {{
+    d[i] = Object.assign({{}}, d[i], {{x: xs[n], y: ys[n]}});
+  }});
   var r = JSON.stringify(s.ranges);
   if (r !== ranges) {{
     ranges = r;
-    Plotly.relayout(gd, {{'scene.xaxis.range': s.ranges[0], 'scene.yaxis.range': s.ranges[1],
-                         'scene.zaxis.range': s.ranges[2]}});
+    d[0] = Object.assign({{}}, d[0], {{x: s.ground[0], y: s.ground[1], z: s.ground[2]}});
+    var sc = Object.assign({{}}, lay.scene);
+    ['xaxis', 'yaxis', 'zaxis'].forEach(function (a, n) {{
+      sc[a] = Object.assign({{}}, sc[a], {{range: s.ranges[n]}});
+    }});
+    lay = Object.assign({{}}, lay, {{scene: sc}});
   }}
+  return Plotly.react(gd, d.slice(), lay);
 }}
 async function run() {{
   for (;;) {{
@@ -74,7 +83,7 @@ async function run() {{
       return;
     }}
     if (s.seq !== seq && s.layers) {{
-      apply(s);
+      await apply(s);
       seq = s.seq;
       window.liveState = {{seq: s.seq, step: s.step, finished: s.finished, ended: false,
                           trial: trial}};
@@ -149,6 +158,13 @@ def ranges(lo, hi, ztop: float) -> list[list[float]]:
             [0.0, float(ztop)]]  # fmt: skip
 
 
+def _ground(lo, hi) -> list[list[float]]:
+    """The ground extent's rectangle at z = 0 (trace 0 of the figure), as x, y, z lists."""
+    x = [lo[0], hi[0], hi[0], lo[0], lo[0]]
+    y = [lo[1], lo[1], hi[1], hi[1], lo[1]]
+    return [[float(v) for v in x], [float(v) for v in y], [0.0] * 5]
+
+
 def _scene(lo, hi, ztop: float) -> dict:
     r = ranges(lo, hi, ztop)
     span = max(r[0][1] - r[0][0], 1.0)
@@ -180,6 +196,6 @@ def state_json(tr, plan_xy, samples: int, curves, seq: int, steps: int, finished
         "layers": [{c: _num(d[c]) for c in "xyz"} for d in layers],
         "sample_w": _num(layers[6]["line"]["color"]), "time": _num(time), "rmse": _num(rmse),
         "crlb": _num(crlb), "now": [_num(rmse[k:k + 1])[0], _num(crlb[k:k + 1])[0]],
-        "anim": anim, "metrics": metrics, "ranges": ranges(*box),
+        "anim": anim, "metrics": metrics, "ranges": ranges(*box), "ground": _ground(*box[:2]),
     }  # fmt: skip
     return json.dumps(out)
