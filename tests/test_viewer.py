@@ -189,3 +189,12 @@ def test_headless_browser_draws_the_scene(smoke2, tmp_path):
 
     assert near((0, 115, 255)) > 10, "no radar-blue pixels"  # radar 0 marker and legend
     assert near((217, 13, 13)) + near((230, 25, 25)) > 10, "no drone / ring red pixels"
+
+
+def test_zero_samples_draws_none(smoke2):
+    """``--samples 0`` draws no MPPI sample (``argsort(w)[-0:]`` had kept them all)."""
+    from mjx_radar.viz.viewer_traces import frame_traces
+
+    tr = viewer.load_trial(viewer.load_run(smoke2), 0)
+    assert frame_traces(tr, 10, 0, None)[6]["x"].size == 0
+    assert np.isfinite(frame_traces(tr, 10, 3, None)[6]["x"]).sum() == 3 * 2 * 8  # S * N * H
