@@ -27,8 +27,9 @@ cli_main = importlib.import_module("mjx_radar.cli.main")
 CHROMIUM = Path("/usr/bin/chromium")
 
 
-def synthetic_run(out, scenario, trials=1, steps=None, seed=0) -> Path:
-    """A run directory of synthetic arrays (schema of io.results) for ``scenario``."""
+def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0) -> Path:
+    """A run directory of synthetic arrays (schema of io.results) for ``scenario``
+    (position and velocity variances ``var``)."""
     s = scenario
     rng = np.random.default_rng(seed)
     steps = steps or s.timing.steps
@@ -41,7 +42,7 @@ def synthetic_run(out, scenario, trials=1, steps=None, seed=0) -> Path:
     target[..., :3] += init[None, None, :, 3:] * t[None, :, None, None]
     target[..., 0] += 5.0 * np.arange(trials)[:, None, None]
     mean = (target + rng.normal(0, 1, target.shape)).reshape(trials, steps, 6 * m)
-    cov = np.full((trials, steps, 6 * m), 4.0, np.float32)
+    cov = np.full((trials, steps, 6 * m), var, np.float32)
     radar = np.zeros((trials, steps, n, 6), np.float32)
     radar[..., 0] = 100.0 * np.arange(n) - 50.0 + 0.5 * t[None, :, None]
     radar[..., 1] = -80.0 + 0.2 * t[None, :, None] + 3.0 * np.arange(trials)[:, None, None]
@@ -188,3 +189,12 @@ def test_headless_browser_draws_the_scene(smoke2, tmp_path):
 
     assert near((0, 115, 255)) > 10, "no radar-blue pixels"  # radar 0 marker and legend
     assert near((217, 13, 13)) + near((230, 25, 25)) > 10, "no drone / ring red pixels"
+
+
+def test_zero_samples_draws_none(smoke2):
+    """``--samples 0`` draws no MPPI sample (``argsort(w)[-0:]`` had kept them all)."""
+    from mjx_radar.viz.viewer_traces import frame_traces
+
+    tr = viewer.load_trial(viewer.load_run(smoke2), 0)
+    assert frame_traces(tr, 10, 0, None)[6]["x"].size == 0
+    assert np.isfinite(frame_traces(tr, 10, 3, None)[6]["x"]).sum() == 3 * 2 * 8  # S * N * H

@@ -201,8 +201,8 @@ def _trial_ids(trials) -> np.ndarray:
 
 
 def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = None,
-             seed: int | None = None, progress: bool = True,
-             cache: bool = True) -> Run:  # fmt: skip
+             seed: int | None = None, progress: bool = True, cache: bool = True,
+             view: bool = False, view_port: int | None = None) -> Run:  # fmt: skip
     """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
 
     Args:
@@ -216,6 +216,9 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
         seed: base seed (default the scenario's).
         progress: show a progress bar on stderr.
         cache: use the persistent compilation cache (as the command line does).
+        view: a live 3-D view while it simulates (``run --view``, docs/viewer.md): URL on
+            stderr; the server stops when this returns (the page keeps the last state).
+        view_port: its port on 127.0.0.1 (default 8765; 0: any free one; implies ``view``).
 
     Returns:
         The run (not saved; :meth:`Run.save` writes it).
@@ -224,7 +227,8 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
         ScenarioError: an invalid scenario, method, trial list, step count or seed (one
             line, the same message a TOML file or the command line gives); nothing is
             compiled.
-        InputError: the radars cannot be placed, or the run does not fit in memory.
+        InputError: the radars cannot be placed, the run does not fit in memory, or a bad
+            or busy ``view_port``.
 
     Example:
         >>> import mjx_radar
@@ -251,11 +255,12 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
     seed = s.seed if seed is None else seed
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
         raise ScenarioError(f"seed = {seed!r}: must be an integer in [0, 2^31 - 1]")
-    return _simulate(s, name, ids, int(steps), int(seed), progress, cache)
+    view = (view or view_port is not None, view_port)
+    return _simulate(s, name, ids, int(steps), int(seed), progress, cache, view)
 
 
 def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: bool,
-              cache: bool) -> Run:  # fmt: skip
+              cache: bool, view=(False, None)) -> Run:  # fmt: skip
     _import_mjx_quietly()
     import jax
 
@@ -273,10 +278,18 @@ def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: 
         raise InputError(str(err)) from None
     from tqdm import tqdm
 
-    with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr,
-              disable=not progress) as bar:  # fmt: skip
-        res = runner.run_trials(s, method, seed, ids, steps, progress=bar.update,
-                                phase=bar.set_description_str)  # fmt: skip
+    from mjx_radar.viz import live as live_view
+
+    live = live_view.start(s, ids, steps, view[1], "view_port") if view[0] else None
+    try:
+        with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr,
+                  disable=not progress) as bar:  # fmt: skip
+            res = runner.run_trials(s, method, seed, ids, steps, progress=bar.update,
+                                    phase=bar.set_description_str,
+                                    **({} if live is None else live.runner_options()))  # fmt: skip
+    finally:
+        if live is not None:
+            live.linger(False)
     time_s = s.timing.dt_filter * np.arange(1, steps + 1)
     frame = results.metrics_frame(s.name, method, ids, time_s, res)
     arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}

@@ -66,3 +66,14 @@ def check_placement(scenario, seed: int, trials: int) -> None:
         check_placeable(scenario, seed, trials)
     except ValueError as err:
         raise InputError(str(err)) from None
+
+
+def port(text: str) -> int:
+    """``--view-port``: a TCP port in [0, 65535] (0: any free port)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--view-port = {text!r}: must be an integer") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"--view-port = {value}: must be in [0, 65535]")
+    return value

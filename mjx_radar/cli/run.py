@@ -12,7 +12,9 @@ written atomically, ``run.json`` last; an interrupted write removes what it wrot
 ``--force`` discards the old run's ``run.json`` before the simulation starts, so an
 interrupted overwrite never leaves a directory that looks complete. Trials whose
 filter diverged (``res["diverged"]``) make the command exit 1 after writing the
-results, unless ``--keep-diverged``.
+results, unless ``--keep-diverged``. ``--view`` serves a live view of the run
+(:mod:`mjx_radar.viz.live`) at the URL it prints; in a terminal it keeps serving the
+final state after the results are written, until Ctrl-C.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from mjx_radar.cli.args import (
     check_placement,
     load_with_overrides,
     method_name,
+    port,
     positive_int,
     seed,
 )
@@ -69,6 +72,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
     )
     p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
+    p.add_argument("--view", action="store_true",
+                   help="live 3-D view in a web browser while it simulates (URL printed; "
+                   "docs/viewer.md)")  # fmt: skip
+    p.add_argument("--view-port", type=port, default=None, metavar="PORT",
+                   help="port of the live view on 127.0.0.1 (default 8765, 0: any free "
+                   "port; implies --view)")  # fmt: skip
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
     p.add_argument(
         "--keep-diverged",
@@ -188,23 +197,38 @@ def main(args) -> int:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _terminate)  # kill PID: the same clean exit as Ctrl-C
     trials = np.arange(args.trials)
+    live = None
     try:
+        live = _live_view(args, s, trials, steps)
         simulate(lambda: check_placement(s, seed_, args.trials))  # compiles too: interruptible
         if args.force:
             (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
         print(est.compile_line(), file=sys.stderr, flush=True)
-        res = simulate(lambda: _run(s, args.method, seed_, trials, steps))
+        res = simulate(lambda: _run(s, args.method, seed_, trials, steps, live))
     except KeyboardInterrupt:
         drop()
         print("\ninterrupted: no results written", file=sys.stderr, flush=True)
         os._exit(EXIT_INTERRUPTED)  # the worker may be inside XLA; do not wait for it
     except BaseException:
         drop()
+        if live is not None:
+            live.close()
         raise
     try:
         return _finish(out, args, s, seed_, trials, steps, res)
     finally:
         lock.release()
+        if live is not None:
+            live.linger(sys.stdin.isatty() and sys.stdout.isatty())
+
+
+def _live_view(args, s, trials, steps):
+    """The live server of ``--view`` (``None`` without it)."""
+    if not (args.view or args.view_port is not None):
+        return None
+    from mjx_radar.viz.live import start
+
+    return start(s, trials, steps, args.view_port)
 
 
 def _finish(out: Path, args, s, seed_, trials, steps, res) -> int:
@@ -229,14 +253,16 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt
 
 
-def _run(s, method, seed_, trials, steps):
+def _run(s, method, seed_, trials, steps, live=None):
     from tqdm import tqdm
 
     from mjx_radar.simulation import runner
 
+    view = {} if live is None else live.runner_options()
     with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
         return runner.run_trials(
-            s, method, seed_, trials, steps, progress=bar.update, phase=bar.set_description_str
+            s, method, seed_, trials, steps, progress=bar.update, phase=bar.set_description_str,
+            **view,
         )
 
 

@@ -85,6 +85,7 @@ def run_trials(
     periods: int | None = None,
     mesh: Mesh | None = None,
     phase: Callable[[str], None] | None = None,
+    on_segment: Callable[[int, tuple], None] | None = None,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
@@ -100,6 +101,11 @@ def run_trials(
         mesh: devices to spread the trials over (:func:`device_mesh`); ``T`` must be a
             multiple of their number. ``None``: the default device.
         phase: called with ``"compiling"`` and ``"simulating"`` as the run moves on.
+        on_segment: called after each segment, in this thread, with the filter steps
+            done and the segment's records, already on the host: ``(StepRecord,
+            ControlRecord)`` of numpy arrays ``[T, steps or control steps of the
+            segment, ...]`` (if ``full``; else the metrics dict and ``None``). The next
+            segment waits for it: keep it cheap (e.g. :meth:`mjx_radar.viz.live.LiveView.update`).
 
     Returns:
         dict of numpy arrays: the metrics (:data:`mjx_radar.io.results.METRIC_COLUMNS`)
@@ -154,6 +160,8 @@ def run_trials(
         chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
         if progress is not None:
             progress(periods * every)
+        if on_segment is not None:
+            on_segment((start + periods) * every, chunks[-1])
     res: dict = {}
     steps_t, controls_t = template
     for k in steps_t._fields if full else steps_t:

@@ -149,7 +149,7 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
     target, mean = tr.target[k, :, :3], tr.mean[k]
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
-    keep = np.argsort(w, kind="stable")[-samples:]  # ascending: the best drawn last
+    keep = np.argsort(w, kind="stable")[max(len(w) - samples, 0):]  # the best drawn last
     paths = np.moveaxis(tr.sample_xy[c][keep], 2, 1)  # [S, N, H, 2]
     z = np.broadcast_to(radar[None, :, None, 2:3], (*paths.shape[:-1], 1))
     sample_pts = polylines(np.concatenate([paths, z], -1).reshape(-1, paths.shape[2], 3))

@@ -1,0 +1,262 @@
+"""Live view of a run while it simulates (``mjx-radar run --view``, ``simulate(view=True)``).
+
+A :class:`LiveView` is a small HTTP server (standard library ``http.server`` in a
+daemon thread, bound to ``127.0.0.1`` only) and the runner's per-segment callback
+(:func:`mjx_radar.simulation.runner.run_trials`'s ``on_segment``). Between two
+segments of control periods the runner hands the segment's records, already on the
+host, to :meth:`LiveView.update`, which only keeps references (no copy, no host round
+trip inside the compiled loop); the server thread turns the latest state into JSON
+when a browser asks for it, once per segment and trial. :func:`live_periods` shortens
+the segments where needed so the view updates at least once per simulated second.
+
+Routes: ``/`` the page (:mod:`mjx_radar.viz.live_page`), ``/plotly.min.js`` the
+plotly.js of the installed ``plotly`` package (offline, no CDN), ``/figure.json`` the
+initial figure (built from the scenario before the run), ``/state.json?trial=J&since=SEQ``
+the layers at the latest step of trial position J (only ``{"seq": SEQ}`` if nothing new).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import sys
+import threading
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from urllib.parse import parse_qs, urlsplit
+
+import numpy as np
+
+from mjx_radar.errors import InputError
+from mjx_radar.viz import live_page
+from mjx_radar.viz.run_dir import Trial
+
+DEFAULT_PORT = 8765
+SAMPLES = 16  # MPPI samples drawn per state (the highest weights)
+STEP_KEYS = ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos")
+
+
+def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> int:
+    """Control periods per segment for a live view: ``<= default``, ``<= every_s`` simulated
+    seconds, and a divisor of the run's control periods (the runner's contract)."""
+    total = steps // scenario.timing.control_every
+    limit = max(1, math.floor(every_s / scenario.timing.dt_control + 1e-9))
+    for p in range(max(1, min(default, limit)), 0, -1):
+        if total % p == 0:
+            return p
+    return 1
+
+
+def start(scenario, trials, steps: int, port: int | None = None,
+          name: str = "--view-port") -> LiveView:  # fmt: skip
+    """A :class:`LiveView` serving now; prints ``live view: URL`` on stderr."""
+    live = LiveView(scenario, trials, steps, port, name=name)
+    print(f"live view: {live.url}  (updates once per segment)", file=sys.stderr, flush=True)
+    return live
+
+
+@functools.cache
+def _plotly_js() -> bytes:
+    from plotly.offline import get_plotlyjs
+
+    return get_plotlyjs().encode()
+
+
+class LiveView:
+    """The live server of one run; call :meth:`update` after each segment, :meth:`close` at the end.
+
+    Args:
+        scenario: the run's scenario.
+        trials: ``[T]`` trial indices of the batch (the page's trial menu).
+        steps: filter steps K of the run.
+        port: TCP port on 127.0.0.1 (``None``: :data:`DEFAULT_PORT`; 0: any free port;
+            :attr:`url` tells which).
+        samples: MPPI samples drawn per state.
+        name: the option's name in error messages.
+
+    Raises:
+        InputError: a bad port, or one that cannot be bound (in use, or not allowed).
+    """
+
+    def __init__(self, scenario, trials, steps: int, port: int | None = None,
+                 samples: int = SAMPLES, name: str = "--view-port"):  # fmt: skip
+        port = DEFAULT_PORT if port is None else port
+        if isinstance(port, bool) or not isinstance(port, int | np.integer) or not (
+                0 <= port <= 65535):  # fmt: skip
+            raise InputError(f"{name} = {port!r}: must be an integer in [0, 65535]")
+        self.scenario, self.trials, self.steps = scenario, list(trials), steps
+        self.samples = samples
+        self._lock = threading.Lock()
+        self._parts: list[dict] = []  # per segment: STEP_KEYS -> [T, steps of the segment, ...]
+        self._control = None  # acting control step: plan_xy, sample_xy, sample_weight [T, ...]
+        self._seq, self._finished, self._figure, self._box = 0, False, None, None
+        self._cache: dict = {}
+        self._page = live_page.page(scenario.name, self.trials).encode()
+        self._build_figure()  # before the run: the simulation never waits for it
+        _plotly_js()  # read once, now
+        try:
+            self._server = ThreadingHTTPServer(("127.0.0.1", int(port)), _handler(self))
+        except OSError as err:
+            raise InputError(f"{name} = {port}: cannot serve on 127.0.0.1:{port} "
+                             f"({err.strerror or err}); pass another port, or 0 for any free one"
+                             ) from None  # fmt: skip
+        self._server.daemon_threads = True
+        self.port = self._server.server_address[1]
+        self._thread = threading.Thread(target=self._server.serve_forever, name="live-view",
+                                        daemon=True)  # fmt: skip
+        self._thread.start()
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}/"
+
+    def update(self, done: int, records) -> None:
+        """The runner's ``on_segment``: keeps the segment's records (``(StepRecord,
+        ControlRecord)`` of numpy arrays ``[T, ...]``); ``done`` filter steps so far."""
+        steps_rec, controls = records
+        part = {k: getattr(steps_rec, k) for k in STEP_KEYS}
+        control = tuple(getattr(controls, k)[:, -1] for k in ("plan_xy", "sample_xy",
+                                                               "sample_weight"))  # fmt: skip
+        with self._lock:
+            self._parts.append(part)
+            self._control = control
+            self._seq += 1
+
+    def runner_options(self) -> dict:
+        """``periods`` and ``on_segment`` for :func:`~mjx_radar.simulation.runner.run_trials`."""
+        from mjx_radar.simulation.runner import segment_periods
+
+        default = segment_periods(self.scenario, self.steps)
+        return {"periods": live_periods(self.scenario, self.steps, default),
+                "on_segment": self.update}  # fmt: skip
+
+    def linger(self, interactive: bool) -> None:
+        """At the end of the run: marks it finished; if ``interactive`` serves the final
+        state until Ctrl-C (a line on stderr says so); then stops the server."""
+        self.finish()
+        if interactive:
+            print(f"live view: the final state stays at {self.url} until Ctrl-C",
+                  file=sys.stderr, flush=True)  # fmt: skip
+            try:
+                threading.Event().wait()
+            except KeyboardInterrupt:
+                pass
+        self.close()
+
+    def finish(self) -> None:
+        """Marks the run as ended (the page says so); the server keeps answering."""
+        with self._lock:
+            self._finished = True
+            self._seq += 1
+
+    def close(self) -> None:
+        """Stops the server (the page then says the run has ended)."""
+        self._server.shutdown()
+        self._server.server_close()
+        self._thread.join(5.0)
+
+    # -- the server thread's side ------------------------------------------------------
+
+    def _snapshot(self):
+        with self._lock:
+            if len(self._parts) > 1:  # concatenate once, keep the result
+                self._parts = [{k: np.concatenate([p[k] for p in self._parts], axis=1)
+                                for k in STEP_KEYS}]  # fmt: skip
+            return (self._parts[0] if self._parts else None, self._control, self._seq,
+                    self._finished)  # fmt: skip
+
+    def _trial(self, a: dict, control, j: int) -> Trial:
+        m, timing = a["target"].shape[2], self.scenario.timing
+        plan, sample_xy, weight = control
+        return Trial(meta={"r2t": float(self.scenario.mpc.r2t)}, scenario=self.scenario,
+                     target=a["target"][j], mean=a["mean"][j].reshape(-1, m, 6)[..., :3],
+                     sigma=np.sqrt(np.maximum(a["cov_diag"][j].reshape(-1, m, 6)[..., :3], 0)),
+                     radar=a["radar"][j], sample_xy=sample_xy[j][None],
+                     sample_weight=weight[j][None], every=timing.control_every,
+                     dt=float(timing.dt_filter))  # fmt: skip
+
+    def _paths_box(self) -> tuple:
+        """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run."""
+        init = np.asarray(self.scenario.target_init, float)
+        t = np.linspace(0.0, self.steps * self.scenario.timing.dt_filter, 11)[:, None, None]
+        path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
+        return path[:, :2].min(0), path[:, :2].max(0), max(1.15 * float(path[:, 2].max()), 1.0)
+
+    def _grow_box(self, tr: Trial) -> tuple:
+        """Scene box ``(lo, hi, ztop)``: the drones' paths and what was seen (radars with
+        their R2T discs); it never shrinks (the page relayouts and redraws the ground)."""
+        lo, hi = tr.bounds()
+        box = self._box or self._paths_box()
+        self._box = (np.minimum(lo, box[0]), np.maximum(hi, box[1]),
+                     max(box[2], 1.15 * float(tr.target[..., 2].max())))  # fmt: skip
+        return self._box
+
+    def _build_figure(self) -> None:
+        """The figure before any data: the ground extent holds the drones' paths and the
+        radars' placement square (or fixed starts) with their R2T discs."""
+        s = self.scenario
+        lo, hi, ztop = self._paths_box()
+        w = float(s.placement_half_width)
+        radars = (np.asarray(s.radar_init, float)[:, :2] if s.radar_init
+                  else np.array([[-w, -w], [w, w]]))  # fmt: skip
+        lo = np.minimum(lo, (radars - s.mpc.r2t).min(0))
+        hi = np.maximum(hi, (radars + s.mpc.r2t).max(0))
+        title = f"{s.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
+        fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title)
+        d = json.loads(fig)
+        d["ready"] = True
+        self._figure = json.dumps(d).encode()
+
+    def figure_bytes(self) -> bytes:
+        return self._figure
+
+    def state_bytes(self, j: int, since: int) -> bytes:
+        a, control, seq, finished = self._snapshot()
+        if a is None or since == seq:
+            return json.dumps({"seq": seq if a is not None else -1}).encode()
+        key = (seq, j)
+        if key not in self._cache:
+            tr = self._trial(a, control, j)
+            dt = self.scenario.timing.dt_filter
+            curves = (dt * np.arange(1, tr.steps + 1), a["rmse_pos"][j], a["crlb_pos"][j])
+            body = live_page.state_json(tr, control[0][j][None], self.samples, curves, seq,
+                                        self.steps, finished, self._anim, self._metrics,
+                                        self._grow_box(tr))  # fmt: skip
+            self._cache = {key: body.encode()}  # only the newest is asked for again
+        return self._cache[key]
+
+
+def _handler(live: LiveView):
+    class Handler(BaseHTTPRequestHandler):
+        def do_GET(self):  # noqa: N802 (http.server's name)
+            url = urlsplit(self.path)
+            q = parse_qs(url.query)
+            try:
+                if url.path in ("/", "/index.html"):
+                    body, kind = live._page, "text/html; charset=utf-8"
+                elif url.path == "/plotly.min.js":
+                    body, kind = _plotly_js(), "application/javascript"
+                elif url.path == "/figure.json":
+                    body, kind = live.figure_bytes(), "application/json"
+                elif url.path == "/state.json":
+                    j, since = int(q.get("trial", ["0"])[0]), int(q.get("since", ["-1"])[0])
+                    if not 0 <= j < len(live.trials):
+                        raise ValueError(j)
+                    body, kind = live.state_bytes(j, since), "application/json"
+                else:
+                    self.send_error(404)
+                    return
+            except ValueError:
+                self.send_error(400)
+                return
+            self.send_response(200)
+            self.send_header("Content-Type", kind)
+            self.send_header("Content-Length", str(len(body)))
+            self.send_header("Cache-Control", "no-store")
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, *args):  # quiet: the progress bar owns stderr
+            pass
+
+    return Handler
