@@ -49,6 +49,7 @@ EXTRA_KEYS = {
     ),
     "obstacles": ("[]", "`[[obstacles]]` tables (docs/obstacles.md)"),
     "forest": ("none", "`[forest]` table of generated trees (docs/obstacles.md)"),
+    "target_motion": ("[]", "`[[target_motion]]` tables: per-target motion and presence (below)"),
 }
 
 
@@ -158,7 +159,21 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         )
         if "forest" in raw:
             kwargs["obstacles"] += so.forest(raw["forest"], kwargs.get("radar_init", ()))
+    motions = raw.get("target_motion", [])
+    if not isinstance(motions, list) or len(motions) > MAX_ROWS:
+        raise ScenarioError(f"target_motion: must be an array of tables (at most {MAX_ROWS})")
+    if motions:
+        from mjx_radar.io import scenario_motion as sm
+
+        m = len(kwargs.get("target_init", ()))
+        kwargs["target_motion"] = tuple(
+            sm.target_motion(i, t, base, external, m) for i, t in enumerate(motions)
+        )
     scenario = Scenario(**kwargs)
+    if scenario.target_motion:
+        from mjx_radar.io import scenario_motion
+
+        scenario_motion.check_motions(scenario)
     from mjx_radar.io import plausibility
 
     plausibility.check_scenario(scenario)
