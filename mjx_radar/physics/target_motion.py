@@ -22,8 +22,10 @@ Nominal paths:
 * ``turn`` (rate ω): the horizontal velocity rotates at ω, the vertical one is held:
   ``v_h(t) = R(ωt) v_h(0)``, ``p_h(t) = p_h(0) + ω⁻¹ [[sin ωt, cos ωt − 1], [1 − cos ωt,
   sin ωt]] v_h(0)`` -- a circle of radius ``|v_h| / |ω|`` (closed form at every step).
-* ``waypoints``: pure pursuit with bounded acceleration on the plant's Euler map,
-  ``a = clip_|a|≤a_max((s·(w_i − p)/|w_i − p| − v) / dt)``; waypoint i is passed when
+* ``waypoints``: pure pursuit with bounded acceleration on the plant's Euler map: each
+  step the heading turns toward waypoint ``w_i`` by at most ``a_max dt / |v|`` and the
+  speed moves toward ``speed`` within what is left of ``|Δv| <= a_max dt``
+  (turning has priority, :func:`_pursue`); waypoint i is passed when
   ``|w_i − p| <= capture`` (default ``2 s² / a_max``: twice the turn radius at full
   acceleration, so a waypoint inside the turning circle, which pursuit would orbit, is
   already within it); after the last, the list starts again (``loop``) or the target
@@ -37,6 +39,7 @@ cost and no error in the metrics (:mod:`mjx_radar.simulation.closed_loop`).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import jax
@@ -101,17 +104,35 @@ def waypoint_path(
             i += 1
             if i == len(wps):
                 i, done = (0, False) if tm.loop else (i - 1, True)
-        a = np.zeros(3)
-        if not done:
-            d = wps[i] - p
-            a = (tm.speed * d / max(np.linalg.norm(d), 1e-9) - v) / dt
-            norm = np.linalg.norm(a)
-            if norm > amax:
-                a *= amax / norm
+        a = np.zeros(3) if done else (_pursue(v, wps[i] - p, tm.speed, amax, dt) - v) / dt
         p = p + (v + 0.5 * dt * a) * dt
         v = v + a * dt
         pos[step], vel[step] = p, v
     return pos, vel
+
+
+def _pursue(v: np.ndarray, d: np.ndarray, speed: float, amax: float, dt: float) -> np.ndarray:
+    """The velocity after one step turning ``v`` toward direction ``d``, ``|Δv| <= amax dt``.
+
+    Turning first: the heading rotates toward ``d`` (in their plane) by at most
+    ``amax dt / |v|``; the speed then moves toward ``speed`` as far as the bound allows
+    (``|s' ŵ − v| <= amax dt`` <=> ``s'`` in ``|v| cos Δ ± sqrt((amax dt)² − |v|² sin² Δ)``).
+    """
+    u = d / max(np.linalg.norm(d), 1e-12)
+    vn, step = np.linalg.norm(v), amax * dt
+    if vn < 1e-9:  # from rest: straight toward the waypoint
+        return u * min(speed, step)
+    t = v / vn
+    theta = math.acos(float(np.clip(t @ u, -1.0, 1.0)))
+    perp = u - (t @ u) * t
+    if np.linalg.norm(perp) < 1e-12:  # straight ahead, or straight behind: any normal
+        perp = np.cross(t, [0.0, 0.0, 1.0] if abs(t[2]) < 0.9 else [1.0, 0.0, 0.0])
+    n = perp / np.linalg.norm(perp)
+    turn = min(theta, step / vn)
+    w = math.cos(turn) * t + math.sin(turn) * n
+    root = math.sqrt(max(step**2 - (vn * math.sin(turn)) ** 2, 0.0))
+    lo, hi = vn * math.cos(turn) - root, vn * math.cos(turn) + root
+    return w * float(np.clip(speed, max(lo, 0.0), hi))
 
 
 def track_path(rows, dt: float, k: int) -> tuple[np.ndarray, np.ndarray]:
