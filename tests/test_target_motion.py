@@ -78,7 +78,7 @@ def test_waypoints_pass_within_capture_in_order_with_bounded_acceleration():
     wps = [[200.0, 0.0, 60.0], [200.0, 200.0, 90.0], [0.0, 200.0, 60.0]]
     tm = TargetMotion(target=0, model="waypoints", waypoints=tuple(map(tuple, wps)), speed=20.0,
                       accel_max=8.0, loop=True)  # fmt: skip
-    s = _scenario([[0, 0, 55, 0, 0, 0], [0, 50, 55, 20, 10, 0]], [tm], 2400)  # 60 s
+    s = _scenario([[0, 0, 55, 0, 0, 0], [0, 50, 55, 20, 10, 0]], [tm], 1800)  # 45 s
     traj = _fly(s)[:, 0]
     cap = target_motion.capture_radius(tm)
     assert cap == pytest.approx(2 * 20.0**2 / 8.0)  # the documented default: 100 m
