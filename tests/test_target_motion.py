@@ -162,3 +162,34 @@ def test_presence_and_appearance_times():
     assert np.asarray(target_motion.present(mp, 3.0)).tolist() == [True, False]
     assert np.asarray(target_motion.appears_between(mp, 1.99, 2.0)).tolist() == [False, True]
     assert not np.asarray(target_motion.appears_between(mp, 0.0, 0.025)).any()
+
+
+def test_track_csv_is_bundled_and_scenarios_round_trip(tmp_path):
+    from mjx_radar.io.bundle import bundle_scenario
+
+    (tmp_path / "tracks").mkdir()
+    (tmp_path / "tracks" / "d.csv").write_text("0,0,0,50\n2,40,0,50\n")
+    src = tmp_path / "s.toml"
+    src.write_text(
+        'name = "trk"\nn_radars = 2\ntargets = [[1, 1, 50, 0, 0, 0], [0, 50, 55, 20, 10, 0]]\n'
+        '[[target_motion]]\ntarget = 0\nmodel = "track"\npath = "tracks/d.csv"  # recorded\n'
+        "[[target_motion]]\ntarget = 1\nmodel = \"waypoints\"\nwaypoints = [[0, 0, 60], "
+        "[100, 0, 60]]\nloop = true\nappear = 1.5\n"
+    )
+    s = load_scenario(src)
+    out = tmp_path / "run"
+    written = bundle_scenario(src, out)
+    assert (out / "tracks" / "d.csv").read_text() == "0,0,0,50\n2,40,0,50\n"
+    assert out / "tracks" / "d.csv" in written
+    src.unlink()
+    (tmp_path / "tracks" / "d.csv").unlink()  # the run directory stands alone
+    again = load_scenario(out / "scenario.toml")
+    assert again.target_motion[0].track == s.target_motion[0].track
+    assert again.target_motion[0].path == str((out / "tracks" / "d.csv").resolve())
+    assert again.target_motion[1] == s.target_motion[1]
+    # Python: to_toml / replace keep every field (absolute track path)
+    text = again.to_toml(tmp_path / "copy.toml")
+    assert "allow_external_paths = true" in text
+    assert load_scenario(tmp_path / "copy.toml") == again
+    moved = again.replace(target_motion=(TargetMotion(target=1, model="turn", rate=0.1),))
+    assert moved.target_motion[0].model == "turn" and moved.target_motion[0].sigma_w2 == -1.0

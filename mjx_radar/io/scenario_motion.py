@@ -92,8 +92,8 @@ def target_motion(i: int, raw: Any, base: Path, allow_external: bool, m: int) ->
 
 def _waypoints(field: str, raw: Any) -> tuple[tuple[float, ...], ...]:
     spec: Rows = _FIELDS["waypoints"].metadata["rule"]
-    if not isinstance(raw, list) or len(raw) < 2 or len(raw) > 10_000:
-        raise ScenarioError(f"{field}: must be a list of at least 2 (at most 10000) [x, y, z] rows")
+    if not isinstance(raw, list) or len(raw) < 2 or len(raw) > 1000:
+        raise ScenarioError(f"{field}: must be a list of at least 2 (at most 1000) [x, y, z] rows")
     out = []
     for j, row in enumerate(raw):
         if not isinstance(row, list) or len(row) != 3:
