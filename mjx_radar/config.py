@@ -1,10 +1,8 @@
-"""Typed, immutable configuration of a scenario (SPEC defaults).
-
-Every dataclass here is frozen and hashable so a whole :class:`Scenario` can be
-passed as a static argument to ``jax.jit``. Units are SI (m, s, rad, W, Hz).
-Loading and validation of scenario files lives in :mod:`mjx_radar.io.scenario`; each
-field's allowed range is its metadata here (``rule``/``flag``/``choice``/``table``/``rows``
-of :mod:`mjx_radar.io.checks`), so a new parameter is one edit in this module.
+"""Typed, immutable configuration of a scenario (SPEC defaults): frozen, hashable dataclasses
+(a whole :class:`Scenario` is a static argument to ``jax.jit``). Units are SI (m, s, rad, W, Hz).
+Loading and validation lives in :mod:`mjx_radar.io.scenario`; each field's allowed range
+is its metadata here (``rule``/``flag``/``choice``/``table``/``rows`` of
+:mod:`mjx_radar.io.checks`), so a new parameter is one edit in this module.
 """
 
 from __future__ import annotations
@@ -12,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from mjx_radar.config_motion import TargetMotion
+from mjx_radar.config_world import RadarOverride, TargetMotion
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
 
@@ -276,6 +274,7 @@ class Scenario:
     )
     obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] and [forest]: io.scenario_obstacles
     target_motion: tuple[TargetMotion, ...] = ()  # [[target_motion]]: io.scenario_motion
+    radar_override: tuple[RadarOverride, ...] = ()  # [[radar_override]]: io.scenario_fleet
     radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
         default=(),
         metadata=rows(

@@ -90,6 +90,13 @@ def scenario_to_dict(s: Scenario) -> dict:
         raw["target_motion"] = [scenario_motion.to_dict(t) for t in motions]
         if any(getattr(t, "model", "") == "track" for t in motions):
             raw["allow_external_paths"] = True  # track paths are absolute in a Scenario
+    fleet = s.radar_override
+    if not isinstance(fleet, tuple | list):
+        raise ScenarioError(f"radar_override = {show(fleet)}: must be a tuple of RadarOverride")
+    if fleet:
+        from mjx_radar.io import scenario_fleet
+
+        raw["radar_override"] = [scenario_fleet.to_dict(o) for o in fleet]
     return raw
 
 
@@ -142,7 +149,7 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
         current = getattr(obj, f.name)
         if isinstance(value, dict) and dataclasses.is_dataclass(current):
             value = _merge(current, value, f"{prefix}{key}.")
-        elif f.name in ("obstacles", "target_motion"):
+        elif f.name in ("obstacles", "target_motion", "radar_override"):
             value = tuple(value)
         kwargs[f.name] = value
     return dataclasses.replace(obj, **kwargs)

@@ -1,8 +1,10 @@
-"""Configuration of per-target motion (``[[target_motion]]``): one frozen dataclass.
+"""Configuration beyond the paper's world: per-target motion and per-radar overrides.
 
-Split from :mod:`mjx_radar.config` (which re-exports :class:`TargetMotion`); each
-field's allowed range is its metadata (:mod:`mjx_radar.io.checks`), read by
-:mod:`mjx_radar.io.scenario_motion` and listed in docs/scenarios.md.
+:class:`TargetMotion` is one ``[[target_motion]]`` table, :class:`RadarOverride` one
+``[[radar_override]]`` table. Split from :mod:`mjx_radar.config` (which re-exports
+both); each field's allowed range is its metadata (:mod:`mjx_radar.io.checks`), read by
+:mod:`mjx_radar.io.scenario_motion` / :mod:`mjx_radar.io.scenario_fleet` and listed in
+docs/scenarios.md.
 """
 
 from __future__ import annotations
@@ -76,3 +78,18 @@ class TargetMotion:
         metadata=rule(float, 0.0, 1e7, lo_open=True, doc="time the target leaves "
                       "(omitted: never)", unit="s"),
     )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RadarOverride:
+    """One radar's departures from the fleet's tables (``[[radar_override]]``).
+
+    ``radar_eq`` / ``limits``: ``((field, value), ...)`` replacing those fields of the
+    scenario's ``[radar_equation]`` / ``[limits]`` for this radar (the rest are the
+    fleet's). ``mobile = false``: a fixed site (the planner never moves it).
+    """
+
+    radar: int = field(metadata=rule(int, 0, 999, doc="index of the radar (0-based)"))
+    mobile: bool = field(default=True, metadata=flag("false: a fixed site that never moves"))
+    radar_eq: tuple[tuple[str, float], ...] = ()  # [radar_override.radar_equation]
+    limits: tuple[tuple[str, float], ...] = ()  # [radar_override.limits] (accel, alpha)
