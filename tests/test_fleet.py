@@ -86,3 +86,37 @@ def test_fixed_sites_never_move_and_bounds_hold():
     assert np.abs(control[:, :, 2, 0]).max() <= 5.0 + 1e-5  # radar 2's own |a| bound
     assert np.abs(control[:, :, 1, 0]).max() > 5.0  # the fleet's bound (35 m/s²) elsewhere
     assert len(run.meta["noise_constants"]) == 3
+
+
+def test_overlay_draws_fixed_sites_waypoints_and_leaves_out_absent_drones():
+    import types
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjx_radar.config import TargetMotion
+    from mjx_radar.viz import overlays
+
+    s = scenario_from_dict(BASE).replace(target_motion=(
+        TargetMotion(target=0, model="waypoints", waypoints=((0.0, 0.0, 50.0), (100.0, 0, 60))),
+        TargetMotion(target=1, appear=5.0)))  # fmt: skip
+    tr = types.SimpleNamespace(scenario=s, meta={"dt_filter": 0.025}, radar=np.zeros((4, 3, 6)))
+    fixed, routes, present = overlays._world(tr, 3, 2)  # t = 0.1 s: target 1 not there yet
+    assert fixed.tolist() == [True, False, False] and present.tolist() == [True, False]
+    assert len(routes) == 1 and routes[0][1].shape == (2, 3)
+    ov = overlays.StepOverlay(
+        radar=np.array([[0.0, 0, 0, 0, 0, 0], [50.0, 0, 0, 0, 0, 0], [0, 50.0, 0, 0, 0, 0]]),
+        radar_rgb=overlays.RADAR_RGB[:3], target=np.array([[0.0, 0, 50], [10.0, 0, 50]]),
+        target_rgb=overlays.TARGET_RGB[:2], mean=np.zeros((2, 3)), sigma=np.ones((2, 3)),
+        r2t=125.0, r2r=10.0, trail=np.zeros((2, 3, 3)), samples=np.zeros((1, 2, 3, 2)),
+        weight=np.ones(1), fixed=fixed, waypoints=routes, present=present,
+    )  # fmt: skip
+    fig, ax = plt.subplots()
+    overlays.draw_matplotlib(ax, ov)
+    markers = [(line.get_marker(), line.get_label()) for line in ax.get_lines()]
+    plt.close(fig)
+    assert ("^", "fixed site") in markers and ("s", "radar") in markers
+    assert ("D", "waypoints") in markers
+    assert sum(m == "x" for m, _ in markers) == 1  # the absent drone is not drawn
