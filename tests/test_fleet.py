@@ -120,3 +120,12 @@ def test_overlay_draws_fixed_sites_waypoints_and_leaves_out_absent_drones():
     assert ("^", "fixed site") in markers and ("s", "radar") in markers
     assert ("D", "waypoints") in markers
     assert sum(m == "x" for m, _ in markers) == 1  # the absent drone is not drawn
+    # the video's MuJoCo overlay: a box per fixed site and per waypoint, no absent drone
+    import mujoco
+
+    scene = mujoco.MjvScene(mujoco.MjModel.from_xml_string("<mujoco/>"), maxgeom=2000)
+    overlays.draw_mujoco(scene, ov, 1.0)
+    types_ = [scene.geoms[i].type for i in range(scene.ngeom)]
+    assert types_.count(mujoco.mjtGeom.mjGEOM_BOX) == 1 + 2  # one site, two waypoints
+    assert types_.count(mujoco.mjtGeom.mjGEOM_CYLINDER) == 2  # the mobile radars
+    assert types_.count(mujoco.mjtGeom.mjGEOM_ELLIPSOID) == 1  # the present drone only
