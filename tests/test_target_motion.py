@@ -146,13 +146,16 @@ def test_cv_table_is_the_papers_cv_step():
     radars = jnp.zeros((2, 6)).at[:, 0].set(jnp.array([300.0, -300.0]))
     x0 = jnp.asarray(s.target_init, jnp.float32)
     key = jax.random.PRNGKey(5)
-    d_motion = target_motion.step_plant(plant, physics.init_data(plant, radars, x0),
-                                        jnp.zeros((2, 2)), mp, key, 1, s.sigma_w2)  # fmt: skip
-    w = kinematics.sample_white_accel(key, 2, s.sigma_w2)
-    d_cv = physics.step(plant, physics.init_data(plant, radars, x0), jnp.zeros((2, 2)), w)
-    np.testing.assert_array_equal(
-        physics.target_state(plant, d_motion), physics.target_state(plant, d_cv)
-    )
+    u0 = jnp.zeros((2, 2))
+
+    @jax.jit
+    def both(key):  # one step each way, from the same state and key
+        d0 = physics.init_data(plant, radars, x0)
+        d_motion = target_motion.step_plant(plant, d0, u0, mp, key, 1, s.sigma_w2)
+        d_cv = physics.step(plant, d0, u0, kinematics.sample_white_accel(key, 2, s.sigma_w2))
+        return physics.target_state(plant, d_motion), physics.target_state(plant, d_cv)
+
+    np.testing.assert_array_equal(*both(key))
 
 
 def test_presence_and_appearance_times():
