@@ -6,7 +6,9 @@ from mjx_radar.config import (
     Obstacle,
     RadarEquation,
     RadarLimits,
+    RadarOverride,
     Scenario,
+    TargetMotion,
     Timing,
 )
 from mjx_radar.io.scenario import ScenarioError, bundled_scenarios, load_scenario
@@ -45,7 +47,9 @@ __all__ = [
     "Run",
     "Study",
     "RadarLimits",
+    "RadarOverride",
     "Scenario",
+    "TargetMotion",
     "ScenarioError",
     "Timing",
     "bundled_scenarios",

@@ -1,7 +1,6 @@
-"""Typed, immutable configuration of a scenario (SPEC defaults; ``[detection]``: config_detection).
-
-Frozen, hashable dataclasses (a :class:`Scenario` is static under ``jax.jit``); SI units. Files
-are read by :mod:`mjx_radar.io.scenario`; each field's allowed range is its metadata
+"""Typed, immutable scenario configuration (SPEC defaults; more tables: config_detection,
+config_world): frozen, hashable dataclasses (static under ``jax.jit``); SI units. Files are
+read by :mod:`mjx_radar.io.scenario`; each field's allowed range is its metadata
 (``rule``/``flag``/``choice``/``table``/``rows`` of :mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
@@ -10,6 +9,7 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.config_detection import DetectionConfig
+from mjx_radar.config_world import RadarOverride, TargetMotion
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
 
@@ -254,9 +254,8 @@ class Scenario:
         default=50.0,
         metadata=rule(float, 1e-6, 1e6, doc="initial CKF covariance P0 = p0 * I", unit="m^2"),
     )
-    placement_half_width: float = field(
-        default=400.0, metadata=positive("radars placed in [-w, w]^2", "m", hi=1e5)
-    )
+    placement_half_width: float = field(default=400.0,
+                                        metadata=positive("radars placed in [-w, w]^2", "m", 1e5))
     radar_eq: RadarEquation = field(
         default_factory=RadarEquation,
         metadata=table("radar equation (SPEC 1)", toml="radar_equation"),
@@ -267,13 +266,14 @@ class Scenario:
     timing: Timing = field(default_factory=Timing, metadata=table("filter and control clocks"))
     mpc: MPCConfig = field(default_factory=MPCConfig, metadata=table("MPC objective and horizon"))
     mppi: MPPIConfig = field(default_factory=MPPIConfig, metadata=table("MPPI sampler"))
-    filter: FilterConfig = field(
-        default_factory=FilterConfig, metadata=table("state estimator (docs/statistics.md)")
-    )
+    filter: FilterConfig = field(default_factory=FilterConfig,
+                                 metadata=table("state estimator (docs/statistics.md)"))
     measurement: MeasurementConfig = field(
         default_factory=MeasurementConfig, metadata=table("measurement model (docs/measurement.md)")
     )
     obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] and [forest]: io.scenario_obstacles
+    target_motion: tuple[TargetMotion, ...] = ()  # [[target_motion]]: io.scenario_motion
+    radar_override: tuple[RadarOverride, ...] = ()  # [[radar_override]]: io.scenario_fleet
     radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
         default=(),
         metadata=rows(

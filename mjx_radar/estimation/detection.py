@@ -30,11 +30,11 @@ every pair and the filter sees exactly the paper's measurements.
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 __all__ = [
     "DetectionParams",
@@ -51,7 +51,7 @@ __all__ = [
 class DetectionParams(NamedTuple):
     """Runtime numbers of the detection and clutter models (scalars, may be traced)."""
 
-    k_snr: jax.Array  # SNR(d) = k_snr / d⁴ [m⁴]
+    k_snr: jax.Array  # SNR(d) = k_snr / d⁴ [m⁴]; [] or [N, 1] per radar (a mixed fleet)
     pfa: jax.Array  # false-alarm probability per resolution cell of the detector
     fixed_pd: jax.Array  # Pd of model "fixed"
     clutter_rate: jax.Array  # expected false alarms per scan per radar (λ_c·(r_max − r_min))
@@ -94,12 +94,17 @@ def detection_params(scenario, dtype=None) -> DetectionParams:
     det = scenario.detection
     dt = dtype or jnp.result_type(float)
     k = snr_constant(scenario.radar_eq, scenario.n_targets, det.gain_db)
+    if any(ov.radar_eq for ov in scenario.radar_override):  # a mixed fleet: k_snr [N, 1]
+        from mjx_radar.io.scenario_fleet import radar_equation
+
+        k = np.array([[snr_constant(radar_equation(scenario, i), scenario.n_targets,
+                                    det.gain_db)] for i in range(scenario.n_radars)])  # fmt: skip
     width = max(det.clutter_range_max - det.clutter_range_min, 0.0)
     dim = 1 if scenario.measurement.model == "range" else 2
     vals = (k, det.pfa, det.fixed_pd, det.clutter_density * width, det.clutter_range_min,
             det.clutter_range_max, chi2_quantile(det.gate_probability, dim),
             det.gate_probability)  # fmt: skip
-    if not all(math.isfinite(v) for v in vals):
+    if not all(np.all(np.isfinite(v)) for v in vals):
         raise ValueError("detection parameters must be finite")
     return DetectionParams(*(jnp.asarray(v, dt) for v in vals))
 

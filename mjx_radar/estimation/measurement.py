@@ -40,7 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import fisher, sensing
-from mjx_radar.estimation.noise import NoiseParams, noise_params
+from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair, per_row
 
 __all__ = [  # noqa: RUF022
     "RHO2_EPS", "NoiseParams", "MeasurementModel", "RangeModel", "RangeAzimuthModel", "MODELS",
@@ -134,12 +134,14 @@ class RangeModel(MeasurementModel):
         d = _diff(radar_pos, target_pos)
         return (2.0 * jnp.sqrt(jnp.sum(d**2, axis=-1)))[..., None]
 
-    def variance(self, z_hat, params, ccr):
+    def variance(self, z_hat, params, ccr):  # constants scalars or per row [R, 1]
         z_hat = jnp.asarray(z_hat)
-        return _select(ccr, params.c * (z_hat / 2.0) ** 4, jnp.full_like(z_hat, params.sigma_r2))
+        ccr_var = jnp.broadcast_to(jnp.asarray(params.sigma_r2, z_hat.dtype), z_hat.shape)
+        return _select(ccr, params.c * (z_hat / 2.0) ** 4, ccr_var)
 
     def sample(self, key, radar_pos, target_pos, params):
-        z = sensing.sample_ranges(key, radar_pos, target_pos, params.c)
+        c = per_pair(params.c, jnp.shape(target_pos)[0])
+        z = sensing.sample_ranges(key, radar_pos, target_pos, c)
         return z.reshape(jnp.shape(radar_pos)[0], jnp.shape(target_pos)[0], 1)
 
     def residual(self, a, b):
@@ -162,11 +164,12 @@ class RangeAzimuthModel(MeasurementModel):
         rng = 2.0 * jnp.sqrt(jnp.sum(d**2, axis=-1))
         return jnp.stack([rng, jnp.arctan2(d[..., 1], d[..., 0])], axis=-1)
 
-    def variance(self, z_hat, params, ccr):
-        q = (jnp.asarray(z_hat)[..., 0] / 2.0) ** 4
-        ddr = jnp.stack([params.c * q, params.c_az * q], axis=-1)
-        const = [jnp.full_like(q, params.sigma_r2), jnp.full_like(q, params.sigma_az2)]
-        return _select(ccr, ddr, jnp.stack(const, axis=-1))
+    def variance(self, z_hat, params, ccr):  # constants scalars or per row [R, 1]
+        q = (jnp.asarray(z_hat)[..., :1] / 2.0) ** 4
+        ddr = jnp.concatenate([params.c * q, params.c_az * q], axis=-1)
+        const = [jnp.broadcast_to(jnp.asarray(v, q.dtype), q.shape)
+                 for v in (params.sigma_r2, params.sigma_az2)]  # fmt: skip
+        return _select(ccr, ddr, jnp.concatenate(const, axis=-1))
 
     def sample(self, key, radar_pos, target_pos, params):
         """Range draws use ``key`` as :func:`sensing.sample_ranges`; azimuth ``fold_in(key, 1)``."""
@@ -174,7 +177,9 @@ class RangeAzimuthModel(MeasurementModel):
         d = z[..., 0] / 2.0
         rng = RangeModel().sample(key, radar_pos, target_pos, params)[..., 0]
         eps = jax.random.normal(jax.random.fold_in(key, 1), d.shape, dtype=d.dtype)
-        az = wrap_angle(z[..., 1] + jnp.sqrt(jnp.asarray(params.c_az, d.dtype)) * d**2 * eps)
+        c_az = jnp.asarray(params.c_az, d.dtype)
+        c_az = c_az if c_az.ndim == 0 else c_az[:, None]  # per radar: [N, 1]
+        az = wrap_angle(z[..., 1] + jnp.sqrt(c_az) * d**2 * eps)
         return jnp.stack([rng, az], axis=-1)
 
     def residual(self, a, b):
@@ -229,7 +234,7 @@ def information_components(model: MeasurementModel, radar_pos, target_xyz, param
     for n in range(radar_pos.shape[-2]):
         r = radar_pos[..., n, :]
         term = model.pair_information(
-            tx - r[..., 0:1], ty - r[..., 1:2], tz - r[..., 2:3], params, ccr
+            tx - r[..., 0:1], ty - r[..., 1:2], tz - r[..., 2:3], at_radar(params, n), ccr
         )
         if mask is not None:
             keep = jnp.asarray(mask)[..., n, :]
@@ -277,8 +282,9 @@ def measurement_function(model: MeasurementModel, radar_pos):
 def noise_cov_fn(model: MeasurementModel, params: NoiseParams, ccr):
     """``R(ẑ[p]) -> [p, p]`` diagonal, ``p = N·M·dim``, for :func:`ckf.update`."""
 
-    def R(z_hat):
-        return jnp.diag(model.variance(z_hat.reshape(-1, model.dim), params, ccr).reshape(-1))
+    def R(z_hat):  # rows radar-major: a mixed fleet's constants per row
+        z = z_hat.reshape(-1, model.dim)
+        return jnp.diag(model.variance(z, per_row(params, z.shape[0]), ccr).reshape(-1))
 
     return R
 

@@ -4,6 +4,12 @@
 constant C, its CCR variance at R2T, and the azimuth constant
 ``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, see :mod:`mjx_radar.estimation.measurement`)
 and returns them as the :class:`NoiseParams` pytree the programs take at run time.
+
+A mixed fleet (``[[radar_override]]`` with a ``radar_equation``) has one set of constants
+per radar: every field is then an ``[N]`` array, and the models take radar ``n``'s
+(:func:`at_radar`, :func:`per_row`, :func:`per_pair`) wherever C is used -- the CKF noise,
+the SFIM / PFIM costs, the PCRLB and the truth sampler; CCR's variances are each
+radar's own ``C_n R2T⁴``.
 """
 
 from __future__ import annotations
@@ -13,13 +19,14 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar.config import MeasurementConfig, RadarEquation, Scenario
 from mjx_radar.estimation import sensing
 
 
 class NoiseParams(NamedTuple):
-    """Runtime noise constants (scalars, may be traced)."""
+    """Runtime noise constants (scalars, or ``[N]`` per radar; may be traced)."""
 
     c: jax.Array  # DDR range constant C: var(2d) = C d⁴ [1/m²]
     sigma_r2: jax.Array  # CCR range variance C·R2T⁴ [m²]
@@ -42,6 +49,15 @@ def noise_params(source, n_targets=None, r2t=None, measurement=None, dtype=None)
         ``NoiseParams(C, C·R2T⁴, c_az, c_az·R2T⁴)`` with
         ``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, ``SNR_ref = 10^(snr_db/10) / M``.
     """
+    if isinstance(source, Scenario) and any(ov.radar_eq for ov in source.radar_override):
+        from mjx_radar.io.scenario_fleet import radar_equation
+
+        each = [noise_params(radar_equation(source, i), source.n_targets, source.mpc.r2t,
+                             source.measurement, dtype)
+                for i in range(source.n_radars)]  # fmt: skip
+        dt = dtype or jnp.result_type(float)
+        return NoiseParams(*(jnp.asarray(np.stack([np.asarray(e[k]) for e in each]), dt)
+                             for k in range(4)))  # fmt: skip
     if isinstance(source, Scenario):
         n_targets = source.n_targets if n_targets is None else n_targets
         r2t = source.mpc.r2t if r2t is None else r2t
@@ -61,3 +77,21 @@ def noise_params(source, n_targets=None, r2t=None, measurement=None, dtype=None)
     r4 = float(r2t) ** 4
     dt = dtype or jnp.result_type(float)
     return NoiseParams(*(jnp.asarray(v, dt) for v in (c, c * r4, c_az, c_az * r4)))
+
+
+def at_radar(params: NoiseParams, n: int) -> NoiseParams:
+    """Radar ``n``'s constants (unchanged when they are shared scalars)."""
+    return NoiseParams(*(a if jnp.ndim(a) == 0 else a[n] for a in params))
+
+
+def per_row(params: NoiseParams, rows: int) -> NoiseParams:
+    """Constants per measurement row ``[rows, 1]`` (rows radar-major, ``rows = N·k``)."""
+    if jnp.ndim(params.c) == 0:
+        return params
+    reps = rows // params.c.shape[0]
+    return NoiseParams(*(jnp.repeat(a, reps)[:, None] for a in params))
+
+
+def per_pair(a, m: int):
+    """A constant per radar-target pair, ``[N·M]`` row-major (a scalar stays one)."""
+    return a if jnp.ndim(a) == 0 else jnp.repeat(a, m)

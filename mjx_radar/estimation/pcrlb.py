@@ -42,7 +42,7 @@ def sfim_np(radar_pos, target_pos, C, vis=None) -> np.ndarray:
     Args:
         radar_pos: ``[..., N, 3]`` radar positions [m].
         target_pos: ``[..., M, 3]`` target positions [m].
-        C: range-noise constant (variance ``C d⁴``).
+        C: range-noise constant (variance ``C d⁴``): scalar, or ``[N, 1]`` per radar.
         vis: optional ``[..., N, M]`` line-of-sight mask (False: no information).
     """
     d = target_pos[..., None, :, :] - radar_pos[..., :, None, :]  # [..., N, M, 3]

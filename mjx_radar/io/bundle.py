@@ -1,13 +1,13 @@
-"""A self-contained copy of a scenario file: the TOML plus its mesh and map files.
+"""A self-contained copy of a scenario file: the TOML plus its mesh, map and track files.
 
 ``mjx-radar run --out DIR`` writes ``DIR/scenario.toml`` and copies every mesh the
 scenario names into ``DIR/meshes/``, rewriting the mesh paths of the copy relative
 to ``DIR`` (mesh paths are resolved relative to the scenario file's folder), so the
 run directory can be moved or archived and ``load_scenario(DIR/scenario.toml)``
 still finds its meshes. Map files (``[buildings]``, ``[occupancy]``, docs/maps.md)
-are copied into ``DIR/maps/`` the same way. A scenario without meshes is copied verbatim (comments
-kept); with meshes the ``path = ...`` lines are rewritten in place when that
-reproduces the intended table, else the copy is re-serialised (comments lost).
+and track CSVs (``[[target_motion]]``) go to ``DIR/maps/`` and ``DIR/tracks/`` the same
+way. A scenario without meshes is copied verbatim (comments kept); with meshes the
+``path = ...`` lines are rewritten in place when that reproduces the intended table, else the copy is re-serialised (comments lost).
 """
 
 from __future__ import annotations
@@ -39,6 +39,8 @@ def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
     raw = tomllib.loads(text)
     obstacles = raw.get("obstacles", [])
     meshes = [o for o in obstacles if isinstance(o, dict) and o.get("kind") == "mesh"]
+    motions = raw.get("target_motion", [])  # track CSVs travel like meshes (into tracks/)
+    meshes += [t for t in motions if isinstance(t, dict) and t.get("model") == "track"]
     written: list[Path] = []
     if meshes:
         mapping: dict[str, str] = {}  # path as written in src -> path relative to out_dir
@@ -47,7 +49,8 @@ def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
             given = str(o["path"])
             source = (src.parent / given).resolve()
             if source not in copied:
-                rel = _free_name(out_dir, source.name, set(copied.values()))
+                folder = "tracks" if o.get("model") == "track" else "meshes"
+                rel = _free_name(out_dir, source.name, set(copied.values()), folder)
                 dest = out_dir / rel
                 results.atomic_write(dest, lambda tmp, s=source: shutil.copyfile(s, tmp))
                 written.append(dest)
@@ -91,11 +94,11 @@ def _bundle_maps(src: Path, out_dir: Path, raw: dict, mapping: dict[str, str]) -
     return written
 
 
-def _free_name(out_dir: Path, name: str, taken: set[str]) -> str:
+def _free_name(out_dir: Path, name: str, taken: set[str], folder: str = "meshes") -> str:
     stem, suffix = Path(name).stem, Path(name).suffix
-    rel, i = f"meshes/{name}", 1
+    rel, i = f"{folder}/{name}", 1
     while rel in taken:
-        rel, i = f"meshes/{stem}_{i}{suffix}", i + 1
+        rel, i = f"{folder}/{stem}_{i}{suffix}", i + 1
     return rel
 
 

@@ -14,7 +14,9 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
                            pairs detected, docs/detection.md), false_alarms [-]
                            (clutter returns of all radars), diverged [0/1] (numerical failure;
                            values kept finite), lost [0/1] (lost-track flag of
-                           that step: simulation.track_health, docs/statistics.md)
+                           that step: simulation.track_health, docs/statistics.md),
+                           targets_present [-] (targets present at that step:
+                           M, fewer with [[target_motion]] appear / leave)
     DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
                            control steps, S kept MPPI samples, H horizon):
                              time_s [K], target [T,K,M,6], mean [T,K,6M],
@@ -49,6 +51,7 @@ METRIC_COLUMNS = (
     "false_alarms",  # false alarms of all radars at that scan (0 without clutter)
     "lost",  # 1.0 when the track is lost at that step (simulation.track_health), else 0.0
     "diverged",  # 1.0 when the filter became non-finite / not positive definite, else 0.0
+    "targets_present",  # targets present at that step (M unless [[target_motion]] appear/leave)
 )
 
 

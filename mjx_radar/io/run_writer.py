@@ -53,6 +53,11 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
         "lost_trials": int(np.asarray(res["lost"]).any(axis=-1).sum()),
         "lost_steps": int(np.asarray(res["lost"]).sum()),
     }
+    if any(ov.radar_eq for ov in s.radar_override):  # a mixed fleet: C of each radar
+        from mjx_radar.io.scenario_fleet import radar_equation
+
+        meta["noise_constants"] = [noise_constant(radar_equation(s, i), s.n_targets)
+                                   for i in range(s.n_radars)]  # fmt: skip
     div = res.get("diverged")
     if div is not None:
         meta["diverged_trials"] = [int(t) for t in trials[np.asarray(div).any(axis=-1)]]
@@ -106,9 +111,10 @@ def write_run(out: Path, scenario, method: str, seed: int, trials, steps: int, r
     except BaseException:
         for path in reversed(written):
             path.unlink(missing_ok=True)
-        try:
-            (out / "meshes").rmdir()
-        except OSError:
-            pass
+        for folder in ("meshes", "tracks"):
+            try:
+                (out / folder).rmdir()
+            except OSError:
+                pass
         raise
     return out

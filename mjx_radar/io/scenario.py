@@ -51,6 +51,9 @@ EXTRA_KEYS = {
     "forest": ("none", "`[forest]` table of generated trees (docs/obstacles.md)"),
     "buildings": ("none", "`[buildings]` GeoJSON footprints, extruded (docs/maps.md)"),
     "occupancy": ("none", "`[occupancy]` ROS map_server occupancy grid (docs/maps.md)"),
+    "target_motion": ("[]", "`[[target_motion]]` tables: per-target motion and presence (below)"),
+    "radar_override": ("[]", "`[[radar_override]]` tables: per-radar radar equation, limits, "
+                       "fixed sites (below)"),
 }
 
 
@@ -169,7 +172,33 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         if "occupancy" in raw:
             found += sm.occupancy(raw["occupancy"], base, external)
         kwargs["obstacles"] = found
+    motions = raw.get("target_motion", [])
+    if not isinstance(motions, list) or len(motions) > MAX_ROWS:
+        raise ScenarioError(f"target_motion: must be an array of tables (at most {MAX_ROWS})")
+    if motions:
+        from mjx_radar.io import scenario_motion as sm
+
+        m = len(kwargs.get("target_init", ()))
+        kwargs["target_motion"] = tuple(
+            sm.target_motion(i, t, base, external, m) for i, t in enumerate(motions)
+        )
+    fleet = raw.get("radar_override", [])
+    if not isinstance(fleet, list) or len(fleet) > MAX_ROWS:
+        raise ScenarioError(f"radar_override: must be an array of tables (at most {MAX_ROWS})")
+    if fleet:
+        from mjx_radar.io import scenario_fleet as sf
+
+        n = kwargs.get("n_radars", 0)
+        kwargs["radar_override"] = tuple(sf.radar_override(i, t, n) for i, t in enumerate(fleet))
     scenario = Scenario(**kwargs)
+    if scenario.radar_override:
+        from mjx_radar.io import scenario_fleet
+
+        scenario_fleet.check_fleet(scenario)
+    if scenario.target_motion:
+        from mjx_radar.io import scenario_motion
+
+        scenario_motion.check_motions(scenario)
     from mjx_radar.io import plausibility
 
     plausibility.check_scenario(scenario)

@@ -11,7 +11,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from mjx_radar.config import Scenario
+from mjx_radar.config import RadarOverride, Scenario, TargetMotion
 from mjx_radar.io.checks import Rows, Rule
 from mjx_radar.io.scenario import EXTRA_KEYS, config_fields, toml_name
 
@@ -64,6 +64,11 @@ def fields_markdown() -> str:
     lines = ["### Top level", "", *_HEAD]
     lines += [f"| `{k}` | {d} | - | - | {doc} |" for k, (d, doc) in EXTRA_KEYS.items()]
     lines += _table(Scenario, "")
+    lines += ["", "### `[[target_motion]]` — per-target motion and presence (one table per "
+              "target; `path`: a CSV of `t, x, y, z`)", "", *_HEAD, *_table(TargetMotion, "")]
+    lines += ["", "### `[[radar_override]]` — one radar of a mixed fleet (sub-tables "
+              "`radar_equation`: any `[radar_equation]` field; `limits`: `accel`, `alpha`)", "",
+              *_HEAD, *_table(RadarOverride, "")]
     return "\n".join([BEGIN, *lines, END]) + "\n"
 
 

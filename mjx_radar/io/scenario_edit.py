@@ -81,6 +81,22 @@ def scenario_to_dict(s: Scenario) -> dict:
         raw["obstacles"] = [_obstacle(o) for o in obstacles]
         if any(isinstance(o, Obstacle) and o.kind == "mesh" for o in obstacles):
             raw["allow_external_paths"] = True  # mesh paths are absolute in a Scenario
+    motions = s.target_motion
+    if not isinstance(motions, tuple | list):
+        raise ScenarioError(f"target_motion = {show(motions)}: must be a tuple of TargetMotion")
+    if motions:
+        from mjx_radar.io import scenario_motion
+
+        raw["target_motion"] = [scenario_motion.to_dict(t) for t in motions]
+        if any(getattr(t, "model", "") == "track" for t in motions):
+            raw["allow_external_paths"] = True  # track paths are absolute in a Scenario
+    fleet = s.radar_override
+    if not isinstance(fleet, tuple | list):
+        raise ScenarioError(f"radar_override = {show(fleet)}: must be a tuple of RadarOverride")
+    if fleet:
+        from mjx_radar.io import scenario_fleet
+
+        raw["radar_override"] = [scenario_fleet.to_dict(o) for o in fleet]
     return raw
 
 
@@ -133,7 +149,7 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
         current = getattr(obj, f.name)
         if isinstance(value, dict) and dataclasses.is_dataclass(current):
             value = _merge(current, value, f"{prefix}{key}.")
-        elif f.name == "obstacles":
+        elif f.name in ("obstacles", "target_motion", "radar_override"):
             value = tuple(value)
         kwargs[f.name] = value
     return dataclasses.replace(obj, **kwargs)

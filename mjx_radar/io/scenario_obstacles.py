@@ -73,6 +73,21 @@ def _mesh_path(field: str, given: Any, base: Path, allow_external: bool) -> str:
     name = f"{field}.path = {show(given)}"
     if not isinstance(given, str) or not given or "\x00" in given:
         raise ScenarioError(f"{name}: must be an existing mesh file ({', '.join(_MESH_SUFFIXES)})")
+    path = Path(resolve_file(f"{field}.path", given, base, allow_external, "mesh file"))
+    if path.suffix.lower() not in _MESH_SUFFIXES:
+        raise ScenarioError(f"{name}: unsupported mesh type; must be {' or '.join(_MESH_SUFFIXES)}")
+    _check_mesh(field, given, str(path))
+    return str(path)
+
+
+def resolve_file(field: str, given: Any, base: Path, allow_external: bool, what: str) -> str:
+    """The absolute path of an existing file ``given`` relative to ``base`` (the path policy).
+
+    Shared by mesh obstacles and track CSVs (:mod:`mjx_radar.io.scenario_motion`).
+    """
+    name = f"{field} = {show(given)}"
+    if not isinstance(given, str) or not given or "\x00" in given:
+        raise ScenarioError(f"{name}: must be the path of an existing {what}")
     try:
         path = (base / given).resolve()
         inside = path.is_relative_to(base.resolve())
@@ -85,10 +100,7 @@ def _mesh_path(field: str, given: Any, base: Path, allow_external: bool) -> str:
             "allow_external_paths = true at the top level to allow it"
         )
     if not is_file:
-        raise ScenarioError(f"{name}: must be an existing mesh file")
-    if path.suffix.lower() not in _MESH_SUFFIXES:
-        raise ScenarioError(f"{name}: unsupported mesh type; must be {' or '.join(_MESH_SUFFIXES)}")
-    _check_mesh(field, given, str(path))
+        raise ScenarioError(f"{name}: must be an existing {what}")
     return str(path)
 
 

@@ -183,7 +183,13 @@ def target_state(plant: Plant, data) -> jax.Array:
     )
 
 
-def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None = None):
+def step(
+    plant: Plant,
+    data,
+    radar_u: jax.Array,
+    drone_accel: jax.Array | None = None,
+    drone_mean_v: jax.Array | None = None,
+):
     """One physics step.
 
     Args:
@@ -191,6 +197,9 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
         data: MJX data.
         radar_u: [N, 2] radar controls ``[a, alpha]``, clipped to the limits.
         drone_accel: [M, 3] drone accelerations held over the step (white noise).
+        drone_mean_v: [M, 3] the drones' mean velocity over the step (the position
+            servo's set-point); default ``v + drone_accel dt / 2``, the CV map
+            (:mod:`mjx_radar.physics.target_motion` sets it for nominal paths).
 
     Returns:
         The next MJX data.
@@ -204,7 +213,8 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     ctrl = data.ctrl.at[idx.radar_ctrl].set(radar_ctrl.astype(data.ctrl.dtype))
     if plant.n_drones:
         w = jnp.zeros((plant.n_drones, 3)) if drone_accel is None else drone_accel
-        drone_ctrl = jnp.concatenate([w, data.act[idx.drone_act] + 0.5 * dt * w], axis=-1)
+        mean_w = data.act[idx.drone_act] + 0.5 * dt * w if drone_mean_v is None else drone_mean_v
+        drone_ctrl = jnp.concatenate([w, mean_w], axis=-1)
         ctrl = ctrl.at[idx.drone_ctrl].set(drone_ctrl.astype(data.ctrl.dtype))
     data = data.replace(ctrl=ctrl)
     if plant.fast:

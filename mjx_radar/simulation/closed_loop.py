@@ -19,7 +19,9 @@ so every method sees the same truth, placement and noise draws.
 
 Obstacles (docs/obstacles.md): a radar-target pair whose straight segment is
 blocked yields no measurement -- the CKF update skips it exactly (``mask``) and
-it adds no information to the PCRLB; contacts are counted per step."""
+it adds no information to the PCRLB; contacts are counted per step. Missed detections
+and clutter: :mod:`~mjx_radar.simulation.scan`; targets that appear / leave are masked out
+of measurements, planner cost and metrics: :mod:`~mjx_radar.simulation.presence`."""
 
 from __future__ import annotations
 
@@ -31,9 +33,9 @@ import jax.numpy as jnp
 from mjx_radar import precision
 from mjx_radar.control import mppi
 from mjx_radar.estimation import ckf_sqrt, filter_bank, fisher, ground_prior, linalg, measurement
-from mjx_radar.physics import kinematics
 from mjx_radar.physics import plant as physics
-from mjx_radar.simulation import placement, scan, track_health
+from mjx_radar.physics import target_motion
+from mjx_radar.simulation import placement, presence, scan, track_health
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import RadarTask, process_noise
@@ -64,6 +66,7 @@ class StepRecord(NamedTuple):
     false_alarms: jax.Array  # [] int32 false alarms of all radars (0 without clutter)
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
+    targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
 
 
 class ControlRecord(NamedTuple):
@@ -80,15 +83,6 @@ class TrialResult(NamedTuple):
     steps: StepRecord
     controls: ControlRecord
     placement_ok: jax.Array  # [] bool: the radars could be placed
-
-
-def _error_metrics(truth, mean, cov, m):
-    err = mean - truth.reshape(-1)
-    e = err.reshape(m, 6)
-    rmse_pos = jnp.sqrt(jnp.mean(jnp.sum(e[:, :3] ** 2, -1)))
-    rmse_state = jnp.sqrt(jnp.mean(jnp.sum(e**2, -1)))
-    nees = err @ linalg.psd_solve(cov, err)
-    return rmse_pos, rmse_state, nees
 
 
 class LoopCarry(NamedTuple):
@@ -124,13 +118,9 @@ def _idle_plan(task: RadarTask, u_plan):
     sc = task.scenario
     n, h = sc.n_radars, sc.mpc.horizon
     zeros = jnp.zeros((n, 2))
-    rec = ControlRecord(
-        zeros,
-        jnp.zeros((h, n, 2)),
-        jnp.zeros((kept_samples(sc), h, n, 2)),
-        jnp.zeros(kept_samples(sc)),
-        jnp.zeros(kept_samples(sc)),
-    )
+    s = kept_samples(sc)
+    rec = ControlRecord(zeros, jnp.zeros((h, n, 2)), jnp.zeros((s, h, n, 2)), jnp.zeros(s),
+                        jnp.zeros(s))  # fmt: skip
     return zeros, u_plan, rec
 
 
@@ -154,7 +144,7 @@ def advance(
     """
     sc = task.scenario
     every = sc.timing.control_every
-    n, m = sc.n_radars, sc.n_targets
+    n = sc.n_radars
     model, noise, flags = task.measurement, params.noise, params.method
     plant = task.truth
     a_f, q_f = task.a_filter, process_noise(task, params)
@@ -167,6 +157,8 @@ def advance(
     form = sc.filter.form  # "sqrt": the carried cov is the factor S of P = S Sᵀ
     filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it (once per segment)
     q_f, q6 = filt.noise(q_f), filt.noise(params.sigma_w2 * task.w6_filter_unit)
+    motion = params.motion  # None without [[target_motion]] (the paper's CV drones)
+    dt = sc.timing.dt_filter
 
     def predict(mean, cov):
         if per_target:  # M independent 6-D CKFs (block-diagonal covariance)
@@ -197,8 +189,7 @@ def advance(
         data, mean0, cov0, pfim, health = carry
         mean, cov = predict(mean0, cov0)
         accel_key = jax.random.fold_in(streams.drones, k)
-        w = kinematics.sample_white_accel(accel_key, m, params.sigma_w2)
-        data = physics.step(plant, data, u, w)
+        data = target_motion.step_plant(plant, data, u, motion, accel_key, k, params.sigma_w2)
         radars = physics.radar_state(plant, data)
         truth = physics.target_state(plant, data)
         key = jax.random.fold_in(streams.measurement, k)
@@ -206,6 +197,10 @@ def advance(
         vis = None  # [N, M] line of sight (truth geometry); blocked pairs are skipped
         if task.occluders is not None:
             vis = occlusion.line_of_sight(task.occluders, radars[:, :3], truth[:, :3])
+        # [M] present targets (absent: not measured); tracks start as targets appear
+        here, vis, (mean, cov, pfim) = presence.begin_step(
+            motion, k, dt, vis, (mean, cov, pfim), truth, filt, streams.estimate, params.p0, n
+        )
         obs = scan.observe(sc.detection, params, trial, k, radars[:, :3], truth[:, :3], z, vis)
         post = (scan.pda_update(sc, params, model, flags.ccr, mean, cov, obs, radars[:, :3], vis)
                 if sc.detection.clutter else update(mean, cov, z, radars[:, :3], obs.seen))
@@ -218,7 +213,8 @@ def advance(
         mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
         cov_p = filt.cov(cov)  # P for the detector, metrics and records (S Sᵀ for "sqrt")
-        health, flags_h = track_health.step_health(health, truth, mean, cov_p, sc.timing.dt_filter)
+        truth_h = presence.health_truth(truth, mean, here)  # absent targets: no error
+        health, flags_h = track_health.step_health(health, truth_h, mean, cov_p, dt)
         diverged = flags_h.diverged | blown
         # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
         j3 = measurement.information_dense(
@@ -226,12 +222,14 @@ def advance(
         )
         jd = fisher.data_information(j3)
         pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, task.a6_filter, w6, jd)
-        crlb = jnp.sqrt(jnp.mean(jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)))
-        rmse_pos, rmse_state, nees = _error_metrics(truth, mean, cov_p, m)
+        bound = jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)  # [M]
+        everyone = None if motion is None else here
+        crlb, rmse_pos, rmse_state, nees = presence.metrics(bound, truth, mean, cov_p, everyone)
         contacts = physics.obstacle_contacts(plant, data)
         rec = StepRecord(
             truth, mean, jnp.diagonal(cov_p), radars, rmse_pos, rmse_state, nees, crlb,
             contacts, obs.n_vis, obs.n_det, obs.n_fa, flags_h.lost | diverged, diverged,
+            jnp.sum(here).astype(jnp.int32),
         )  # fmt: skip
         return (data, mean, cov, pfim, health), rec
 
@@ -242,7 +240,8 @@ def advance(
         pm, pc = (mean, cov) if sc.mpc.aligned else predict(mean, cov)
         pc = filt.cov(pc)  # the planner takes P
         key = jax.random.fold_in(streams.planner, j)
-        res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, params)
+        p_plan = params if motion is None else presence.plan_params(params, j * every * dt)
+        res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, p_plan)
         keep = slice(0, kept_samples(sc))
         rec = ControlRecord(
             res.mean[0].reshape(n, 2),

@@ -83,12 +83,14 @@ def information(h: Horizon, task, params) -> jax.Array:
         # E_p Σ_m log det J as a product with a weight vector: XLA's CPU backend does
         # not vectorise a reduction fused onto this elementwise body (~8x slower).
         ld = fisher.logdet_components(j3)  # [H, P·M]
-        return ld @ jnp.full((p * m,), 1.0 / p, ld.dtype)
+        return ld @ _point_weights(params, p, m, ld.dtype)
 
     def pfim(j3):
         wp = jnp.full((p,), 1.0 / p, j3[0].dtype)
         jd = tuple(jnp.einsum("hpm,p->hm", c.reshape(hh, p, m), wp) for c in j3)  # 6 x [H, M]
         ld = fisher.pfim_logdets(h.info0, task.a6, task.w6_unit, params.sigma_w2, jd)
+        if params.target_weight is not None:  # absent targets cost nothing
+            return ld @ params.target_weight.astype(ld.dtype)
         return ld.sum(-1)
 
     kind = getattr(task, "kind", "all")  # a program of one information kind compiles only it
@@ -115,7 +117,16 @@ def radar_target(h: Horizon, task, params) -> jax.Array:
         (sum((xyz[c] - pos[:, n, c : c + 1]) ** 2 for c in range(3)) < r2t2).astype(pos.dtype)
         for n in range(pos.shape[1])
     )  # [H, P·M]: radars within R2T of each point
-    return params.alpha_r2t * (close @ jnp.full((p * m,), 1.0 / p, pos.dtype))
+    return params.alpha_r2t * (close @ _point_weights(params, p, m, pos.dtype))
+
+
+def _point_weights(params, p: int, m: int, dtype) -> jax.Array:
+    """``[P·M]`` weights of the cubature points (point-major): ``1/P``, times the target's
+    presence weight ``params.target_weight [M]`` when set (absent targets: 0)."""
+    w = jnp.full((p * m,), 1.0 / p, dtype)
+    if params.target_weight is None:
+        return w
+    return w * jnp.tile(params.target_weight.astype(dtype), p)
 
 
 def obstacle(h: Horizon, task, params) -> jax.Array:

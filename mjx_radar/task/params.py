@@ -29,7 +29,10 @@ class TaskParams(NamedTuple):
     """Runtime numbers of a scenario and method (all arrays; unbatched over trials).
 
     Shapes: ``target_init [M, 6]``, ``radar_init [N, 3]`` (zeros without fixed starts),
-    the rest scalars.
+    the rest scalars; ``motion`` (per-target motion and presence,
+    :class:`~mjx_radar.physics.target_motion.MotionParams`) and ``target_weight``
+    (the planner's ``[M]`` presence weights, set per control step by the closed loop)
+    are None unless the scenario has ``[[target_motion]]`` tables.
     """
 
     method: MethodFlags
@@ -46,6 +49,8 @@ class TaskParams(NamedTuple):
     alpha_r2r: Any
     alpha_r2t: Any
     detection: Any = None  # detection.DetectionParams (issue 23)
+    motion: Any = None  # physics.target_motion.MotionParams with [[target_motion]], else None
+    target_weight: Any = None  # [M] planner weight of each target (presence), None: all 1
 
 
 def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> TaskParams:
@@ -55,6 +60,12 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     arr = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     n = scenario.n_radars
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
+    target_init, motion = scenario.target_init, None
+    if scenario.target_motion:  # per-target motion (a track starts at its CSV's start)
+        from mjx_radar.physics import target_motion
+
+        target_init = target_motion.initial_states(scenario)
+        motion = target_motion.motion_params(scenario, dtype)
     return TaskParams(
         method=method.flags(),
         noise=measurement.noise_params(scenario, dtype=dtype),
@@ -62,7 +73,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         sigma_w2=arr(scenario.sigma_w2),
         p0=arr(scenario.p0),
         placement_half_width=arr(scenario.placement_half_width),
-        target_init=arr(scenario.target_init),
+        target_init=arr(target_init),
         radar_init=arr(radar_init),
         gamma=arr(mpc.gamma),
         r2t=arr(mpc.r2t),
@@ -70,6 +81,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         alpha_r2r=arr(mpc.alpha_r2r),
         alpha_r2t=arr(mpc.alpha_r2t),
         detection=detection.detection_params(scenario, dtype),
+        motion=motion,
     )
 
 

@@ -38,6 +38,11 @@ def make_planner(task) -> Callable:
     lower, upper = kinematics.control_bounds(sc.limits)
     lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
     init_std = jnp.tile(jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), n)
+    if sc.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
+        from mjx_radar.io.scenario_fleet import control_bounds
+
+        upper = jnp.asarray(control_bounds(sc), lower.dtype).T.reshape(-1)  # [a0, al0, a1, ..]
+        lower, init_std = -upper, jnp.where(upper > 0, init_std, 0.0)
 
     @precision.pinned
     def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key, params):

@@ -2,7 +2,9 @@
 
 :func:`step_overlay` gathers what both draw at filter step ``k`` — radar markers
 with their trails and R2T / R2R rings, true drones, CKF estimates with 2-sigma
-extents, and the MPPI samples of the acting plan ordered by weight — in one place;
+extents, and the MPPI samples of the acting plan ordered by weight; fixed radar sites
+(``mobile = false``) as tall boxes / triangles, waypoint missions as dotted routes with
+diamond markers, absent drones (appear / leave) left out — in one place;
 :func:`draw_mujoco` appends it to an ``MjvScene`` as user geoms and
 :func:`draw_matplotlib` to a top-down axes. Colours: :data:`RADAR_RGB` per radar,
 :data:`TARGET_RGB` per drone, samples by relative weight ``w / max w``.
@@ -33,6 +35,25 @@ class StepOverlay:
     trail: np.ndarray  # [L, N, 3] past radar positions, newest first
     samples: np.ndarray  # [S, H, N, 2] MPPI sampled paths, lowest weight first
     weight: np.ndarray  # [S] relative weights in [0, 1], ascending
+    fixed: np.ndarray | None = None  # [N] bool: fixed sites ([[radar_override]] mobile = false)
+    waypoints: tuple = ()  # ((rgb [3], [W, 3] waypoints), ...) of waypoint missions
+    present: np.ndarray | None = None  # [M] bool: drones present at this step
+
+
+def _world(tr, k: int, m: int):
+    """Fixed sites [N], waypoint routes and presence [M] of a trial's scenario at step k."""
+    sc, n = tr.scenario, tr.radar.shape[1]
+    fixed = np.zeros(n, bool)
+    for ov in getattr(sc, "radar_override", ()):
+        fixed[ov.radar] = not ov.mobile
+    t = (k + 1) * float(tr.meta["dt_filter"])
+    present, routes = np.ones(m, bool), []
+    for tm in getattr(sc, "target_motion", ()):
+        present[tm.target] = tm.appear <= t < tm.leave
+        if tm.model == "waypoints":
+            rgb = TARGET_RGB[tm.target % len(TARGET_RGB)]
+            routes.append((rgb, np.asarray(tm.waypoints, float)))
+    return fixed, tuple(routes), present
 
 
 def step_overlay(tr, k: int) -> StepOverlay:
@@ -41,6 +62,7 @@ def step_overlay(tr, k: int) -> StepOverlay:
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
     order = np.argsort(w, kind="stable")  # the best drawn last, on top
+    fixed, routes, present = _world(tr, k, m)
     return StepOverlay(
         radar=tr.radar[k],
         radar_rgb=RADAR_RGB[np.arange(n) % len(RADAR_RGB)],
@@ -53,6 +75,9 @@ def step_overlay(tr, k: int) -> StepOverlay:
         trail=tr.trail(k),
         samples=tr.sample_xy[c][order],
         weight=w[order],
+        fixed=fixed,
+        waypoints=routes,
+        present=present,
     )
 
 
@@ -108,9 +133,23 @@ def draw_mujoco(scene, ov: StepOverlay, scale: float) -> None:
     import mujoco
 
     gt, g, s = mujoco.mjtGeom, _Geoms(scene), scale
-    for (x, y, *_rest), rgb in zip(ov.radar, ov.radar_rgb, strict=True):
-        g.add(gt.mjGEOM_CYLINDER, [s, 0.3 * s, 0], [x, y, 0.3 * s + 5.0], [*rgb, 1.0], emission=0.6)
-    for target, mean, sigma, rgb in zip(ov.target, ov.mean, ov.sigma, ov.target_rgb, strict=True):
+    fixed = np.zeros(len(ov.radar), bool) if ov.fixed is None else ov.fixed
+    here = np.ones(len(ov.target), bool) if ov.present is None else ov.present
+    for (x, y, *_rest), rgb, site in zip(ov.radar, ov.radar_rgb, fixed, strict=True):
+        if site:  # a fixed site: a tall box
+            g.add(gt.mjGEOM_BOX, [0.8 * s, 0.8 * s, 1.5 * s], [x, y, 1.5 * s + 5.0], [*rgb, 1.0],
+                  emission=0.6)  # fmt: skip
+        else:
+            g.add(gt.mjGEOM_CYLINDER, [s, 0.3 * s, 0], [x, y, 0.3 * s + 5.0], [*rgb, 1.0],
+                  emission=0.6)  # fmt: skip
+    for rgb, wps in ov.waypoints:  # waypoint missions: small boxes joined by thin lines
+        for p in wps:
+            g.add(gt.mjGEOM_BOX, [0.35 * s] * 3, p, [*rgb, 0.7])
+        g.polyline(wps, [*rgb, 0.5], 1.0)
+    for target, mean, sigma, rgb, on in zip(ov.target, ov.mean, ov.sigma, ov.target_rgb, here,
+                                            strict=True):  # fmt: skip
+        if not on:  # absent (appear / leave): not drawn
+            continue
         g.add(gt.mjGEOM_SPHERE, [0.7 * s] * 3, target, [*rgb, 1.0])
         g.add(gt.mjGEOM_SPHERE, [0.35 * s] * 3, mean, [1.0, 1.0, 1.0, 1.0])
         size = np.maximum(2.0 * sigma, 0.05 * s)  # 2-sigma semi-axes
@@ -137,6 +176,7 @@ def draw_matplotlib(ax, ov: StepOverlay):
     from matplotlib.patches import Circle, Ellipse
 
     n_radars = ov.radar.shape[0]
+    fixed = np.zeros(n_radars, bool) if ov.fixed is None else np.asarray(ov.fixed, bool)
     segs = [ov.samples[j, :, n] for j in range(len(ov.weight)) for n in range(n_radars)]
     lines = LineCollection(
         segs,
@@ -151,8 +191,16 @@ def draw_matplotlib(ax, ov: StepOverlay):
         ax.add_patch(Circle((x, y), ov.r2t, fill=False, ec="tab:red", lw=0.8, ls="--"))
         ax.add_patch(Circle((x, y), ov.r2r, fill=False, ec="k", lw=0.8))
         ax.plot(ov.trail[:, n, 0], ov.trail[:, n, 1], color=rgb, lw=1.5, zorder=3)
-        ax.plot(x, y, "s", color=rgb, ms=8, mec="k", zorder=4, label="radar" if n == 0 else None)
+        site = bool(fixed[n])
+        label = None if n != int(np.argmax(fixed == site)) else ("fixed site" if site else "radar")
+        ax.plot(x, y, "^" if site else "s", color=rgb, ms=11 if site else 8, mec="k", zorder=4,
+                label=label)  # fmt: skip
+    for j, (rgb, wps) in enumerate(ov.waypoints):
+        ax.plot(wps[:, 0], wps[:, 1], ":", color=rgb, lw=1.0, marker="D", ms=4, zorder=3,
+                label="waypoints" if j == 0 else None)  # fmt: skip
     for m, rgb in enumerate(ov.target_rgb):
+        if ov.present is not None and not ov.present[m]:
+            continue  # absent (appear / leave)
         (ex, ey), (sx, sy) = ov.mean[m, :2], ov.sigma[m, :2]
         first = m == 0
         ax.add_patch(Ellipse((ex, ey), 4 * sx, 4 * sy, fill=False, ec=rgb, lw=1.0, zorder=5))

@@ -37,7 +37,7 @@ def fim_heatmap(radar_pos, xs, ys, z, C):
         xs: ``[G]`` grid x coordinates [m].
         ys: ``[Gy]`` grid y coordinates [m].
         z: target altitude [m] (scalar).
-        C: range-noise constant of the DDR model.
+        C: range-noise constant of the DDR model (scalar, or ``[N, 1]`` per radar).
 
     Returns:
         ``[Gy, G]`` numpy array, entry ``[i, j]`` for the target at ``(xs[j], ys[i], z)``.
@@ -105,7 +105,9 @@ def snapshot_figure(tr: Trial, k: int, grid: int = 120):
     lo, hi = tr.bounds()
     xs, ys = map_grid(lo, hi, grid)
     z = float(tr.target[k, :, 2].mean())
-    heat = fim_heatmap(tr.radar[k, :, :3], xs, ys, z, tr.meta["noise_constant"])
+    c = tr.meta.get("noise_constants")  # a mixed fleet: each radar's C, [N, 1]
+    c = tr.meta["noise_constant"] if c is None else np.asarray(c)[:, None]
+    heat = fim_heatmap(tr.radar[k, :, :3], xs, ys, z, c)
     heat = np.ma.masked_where(obstacle_mask(tr.scenario.obstacles, xs, ys), heat)
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
     _draw_footprints(left, tr, lo, hi)
