@@ -184,9 +184,10 @@ def _records(seg: int, t: int = 2, p: int = 4, m: int = 2, n: int = 2, h: int = 
     radar = np.zeros((t, p, n, 6), np.float32)
     radar[..., 0], radar[..., 2] = -50.0 + 60.0 * np.arange(n) + k / 4, 1.0
     zero = np.zeros((t, p), np.float32)
-    steps = StepRecord(target, target.reshape(t, p, 6 * m), np.full((t, p, 6 * m), 4.0,
-                       np.float32), radar, zero + 2.0, zero, zero, zero + 1.0, zero, zero, zero,
-                       zero)  # fmt: skip
+    steps = StepRecord(**{f: zero for f in StepRecord._fields} | dict(
+        target=target, mean=target.reshape(t, p, 6 * m),
+        cov_diag=np.full((t, p, 6 * m), 4.0, np.float32), radar=radar, rmse_pos=zero + 2.0,
+        crlb_pos=zero + 1.0))  # fmt: skip
     rng = np.random.default_rng(seg)
     controls = ControlRecord(np.zeros((t, 1, n, 2), np.float32),
                              np.zeros((t, 1, h, n, 2), np.float32),

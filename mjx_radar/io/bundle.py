@@ -7,7 +7,8 @@ run directory can be moved or archived and ``load_scenario(DIR/scenario.toml)``
 still finds its meshes. Map files (``[buildings]``, ``[occupancy]``, docs/maps.md)
 and track CSVs (``[[target_motion]]``) go to ``DIR/maps/`` and ``DIR/tracks/`` the same
 way. A scenario without meshes is copied verbatim (comments kept); with meshes the
-``path = ...`` lines are rewritten in place when that reproduces the intended table, else the copy is re-serialised (comments lost).
+``path = ...`` lines are rewritten in place when that reproduces the intended table, else
+the copy is re-serialised (comments lost).
 """
 
 from __future__ import annotations
