@@ -49,6 +49,7 @@ EXTRA_KEYS = {
     ),
     "obstacles": ("[]", "`[[obstacles]]` tables (docs/obstacles.md)"),
     "forest": ("none", "`[forest]` table of generated trees (docs/obstacles.md)"),
+    "terrain": ("none", "`[terrain]` height field (docs/terrain.md; fields below)"),
 }
 
 
@@ -158,6 +159,10 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         )
         if "forest" in raw:
             kwargs["obstacles"] += so.forest(raw["forest"], kwargs.get("radar_init", ()))
+    if "terrain" in raw:
+        from mjx_radar.io import scenario_terrain
+
+        kwargs["terrain"] = scenario_terrain.terrain(raw["terrain"], base, external)
     scenario = Scenario(**kwargs)
     from mjx_radar.io import plausibility
 
@@ -166,6 +171,10 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         from mjx_radar.io import scenario_obstacles
 
         scenario_obstacles.check_radar_clearance(scenario)
+    if scenario.terrain is not None:
+        from mjx_radar.io import scenario_terrain
+
+        scenario_terrain.check_targets(scenario)
     return scenario
 
 

@@ -11,7 +11,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from mjx_radar.config import Scenario
+from mjx_radar.config import Scenario, Terrain
 from mjx_radar.io.checks import Rows, Rule
 from mjx_radar.io.scenario import EXTRA_KEYS, config_fields, toml_name
 
@@ -64,6 +64,10 @@ def fields_markdown() -> str:
     lines = ["### Top level", "", *_HEAD]
     lines += [f"| `{k}` | {d} | - | - | {doc} |" for k, (d, doc) in EXTRA_KEYS.items()]
     lines += _table(Scenario, "")
+    lines += ["", "### `[terrain]` — height field the radars drive on (docs/terrain.md)", "",
+              *_HEAD, "| `path` | required | - | an existing .npy or .png file, relative to "
+              "the scenario file | height field (float/integer array, or grayscale PNG) |",
+              *_table(Terrain, "")]  # fmt: skip
     return "\n".join([BEGIN, *lines, END]) + "\n"
 
 

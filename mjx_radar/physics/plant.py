@@ -3,7 +3,8 @@
 State conventions (arrays, float32 unless x64 is on):
 
 * radar state ``[N, 6]`` = ``[x, y, z, theta, v, omega]``: x, y, theta live in
-  ``qpos``, v and omega in the integrator actuators' activations ``act``; z = 0.
+  ``qpos``, v and omega in the integrator actuators' activations ``act``; z = 0, or on
+  terrain the ground height plus the antenna height (kinematic, see below).
 * target (drone) state ``[M, 6]`` = ``[x, y, z, vx, vy, vz]``: position in
   ``qpos``, velocity in ``act``.
 
@@ -14,12 +15,21 @@ gains of :mod:`mjx_radar.physics.scene` this is exactly the Euler map of SPEC §
 (``qvel`` after a step holds the mean velocity over that step, not the state's
 velocity). Obstacles add contacts that stop a radar (truth plant only; planner rollouts
 stay contact-free); a radar held back has ``v`` reset to the speed it made good.
+
+Terrain (docs/terrain.md) is followed kinematically, not through contacts: MJX does
+collide height fields with spheres (the radar hull), but that needs a z degree of
+freedom, gravity and the constraint solver in every step, which forfeits the
+contact-free fast path (~100x, MJX-NOTES); instead z is the bilinear lookup of the
+grid at (x, y) (:func:`radar_state`), and a step that would end on a slope steeper
+than ``terrain.max_slope_deg`` and steeper than the current one stops the radar
+(``v`` = 0 for that step; it may still turn, and leave steep ground downhill).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 
 import jax
 import jax.numpy as jnp
@@ -57,6 +67,9 @@ class Plant:
     dt: float
     limits: RadarLimits
     fast: bool = False
+    terrain: object = None  # world.terrain.TerrainGrid, or None (flat ground z = 0)
+    antenna: float = 0.0  # antenna height above the ground on terrain [m]
+    max_grade: float = math.inf  # steepest grade a radar drives onto
 
     @property
     def n_radars(self) -> int:
@@ -73,13 +86,18 @@ def make_plant(
     dt: float,
     limits: RadarLimits | None = None,
     obstacles=(),
+    terrain=None,
 ) -> Plant:
-    """Builds the scene and puts it on the device (see :func:`scene.build_scene`)."""
+    """Builds the scene and puts it on the device (see :func:`scene.build_scene`).
+
+    ``terrain`` (a :class:`~mjx_radar.config.Terrain`): the scene's ground becomes its
+    hfield and the radars follow the grid kinematically (module docstring).
+    """
     limits = RadarLimits() if limits is None else limits
     # The most a radar moves in one step: the collision sphere grows by this much so
     # that the physical hull never enters an obstacle on the step of impact.
     margin = contact_envelope(limits, dt) if obstacles else 0.0
-    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin)
+    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin, terrain)
     # Plants are cached and may first be built while a jit trace is running: keep the
     # device model concrete so it never captures a tracer. On this process's own device:
     # MJX's default, jax.devices()[0], belongs to process 0 under jax.distributed.
@@ -87,7 +105,13 @@ def make_plant(
         model = mjx.put_model(mj_model, device=jax.local_devices()[0])
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
-    return Plant(mj_model, model, index, float(dt), limits, fast)
+    if terrain is None:
+        return Plant(mj_model, model, index, float(dt), limits, fast)
+    from mjx_radar.world import terrain as ground
+
+    grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
+    return Plant(mj_model, model, index, float(dt), limits, fast, grid,
+                 float(terrain.antenna_height), grade)  # fmt: skip
 
 
 def _contact_free_step(model: mjx.Model, data):
@@ -133,6 +157,7 @@ def truth_plant(scenario: Scenario) -> Plant:
         scenario.timing.dt_filter,
         scenario.limits,
         scenario.obstacles,
+        scenario.terrain,
     )
 
 
@@ -170,10 +195,31 @@ def init_data(plant: Plant, radar_state: jax.Array, target_state: jax.Array | No
 
 
 def radar_state(plant: Plant, data) -> jax.Array:
-    """[N, 6] radar states ``[x, y, 0, theta, v, omega]`` read from MJX data."""
+    """[N, 6] radar states ``[x, y, z, theta, v, omega]`` read from MJX data (z = 0, or
+    on terrain the ground height at (x, y) plus the antenna height)."""
     q = data.qpos[plant.index.radar_qpos]
     a = data.act[plant.index.radar_act]
-    return jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
+    out = jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
+    if plant.terrain is None:
+        return out
+    from mjx_radar.world.terrain import on_ground
+
+    return on_ground(plant.terrain, out, plant.antenna)
+
+
+def _slope_stop(plant: Plant, data, u):
+    """Stops (``v`` = 0, ``a`` = 0) the radars whose step would end on a slope steeper than
+    the limit and steeper than where they stand; returns ``(data, u)``."""
+    from mjx_radar.world.terrain import slope
+
+    idx, dt = plant.index, plant.dt
+    q, v = data.qpos[idx.radar_qpos], data.act[idx.radar_act[:, 0]]
+    step = dt * (v + 0.5 * dt * u[:, 0])
+    nxt = q[:, :2] + step[:, None] * jnp.stack([jnp.cos(q[:, 2]), jnp.sin(q[:, 2])], -1)
+    s_now, s_next = slope(plant.terrain, q[:, :2]), slope(plant.terrain, nxt)
+    stop = (s_next > plant.max_grade) & (s_next > s_now)
+    act = data.act.at[idx.radar_act[:, 0]].set(jnp.where(stop, 0.0, v).astype(data.act.dtype))
+    return data.replace(act=act), u.at[:, 0].set(jnp.where(stop, 0.0, u[:, 0]))
 
 
 def target_state(plant: Plant, data) -> jax.Array:
@@ -197,6 +243,8 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     """
     idx, dt, lim = plant.index, plant.dt, plant.limits
     u = jnp.clip(radar_u, jnp.array([-lim.accel, -lim.alpha]), jnp.array([lim.accel, lim.alpha]))
+    if plant.terrain is not None:
+        data, u = _slope_stop(plant, data, u)
     va = data.act[idx.radar_act]  # [N, 2] (v, omega)
     mean_v = va + 0.5 * dt * u
     zero = jnp.zeros_like(u[:, :1])

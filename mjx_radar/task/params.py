@@ -54,6 +54,11 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     arr = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     n = scenario.n_radars
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
+    target_init = np.asarray(scenario.target_init, float)
+    if scenario.terrain is not None and scenario.terrain.targets_agl:  # z above the ground
+        from mjx_radar.world.terrain import height_np
+
+        target_init[:, 2] += height_np(scenario.terrain, target_init[:, :2])
     return TaskParams(
         method=method.flags(),
         noise=measurement.noise_params(scenario, dtype=dtype),
@@ -61,7 +66,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         sigma_w2=arr(scenario.sigma_w2),
         p0=arr(scenario.p0),
         placement_half_width=arr(scenario.placement_half_width),
-        target_init=arr(scenario.target_init),
+        target_init=arr(target_init),
         radar_init=arr(radar_init),
         gamma=arr(mpc.gamma),
         r2t=arr(mpc.r2t),
