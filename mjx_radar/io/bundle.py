@@ -1,10 +1,11 @@
-"""A self-contained copy of a scenario file: the TOML plus its mesh files.
+"""A self-contained copy of a scenario file: the TOML plus its mesh and terrain files.
 
 ``mjx-radar run --out DIR`` writes ``DIR/scenario.toml`` and copies every mesh the
 scenario names into ``DIR/meshes/``, rewriting the mesh paths of the copy relative
 to ``DIR`` (mesh paths are resolved relative to the scenario file's folder), so the
 run directory can be moved or archived and ``load_scenario(DIR/scenario.toml)``
-still finds its meshes. A scenario without meshes is copied verbatim (comments
+still finds its meshes. The ``[terrain]`` height field is copied to ``DIR/terrain/``
+the same way. A scenario without meshes is copied verbatim (comments
 kept); with meshes the ``path = ...`` lines are rewritten in place when that
 reproduces the intended table, else the copy is re-serialised (comments lost).
 """
@@ -37,16 +38,19 @@ def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
     text = src.read_text()
     raw = tomllib.loads(text)
     obstacles = raw.get("obstacles", [])
-    meshes = [o for o in obstacles if isinstance(o, dict) and o.get("kind") == "mesh"]
+    meshes = [(o, "meshes") for o in obstacles if isinstance(o, dict) and o.get("kind") == "mesh"]
+    terrain = raw.get("terrain")
+    if isinstance(terrain, dict) and isinstance(terrain.get("path"), str):
+        meshes.append((terrain, "terrain"))  # the height field travels the same way
     written: list[Path] = []
     if meshes:
         mapping: dict[str, str] = {}  # path as written in src -> path relative to out_dir
-        copied: dict[Path, str] = {}  # resolved source mesh -> relative copy
-        for o in meshes:
+        copied: dict[Path, str] = {}  # resolved source file -> relative copy
+        for o, folder in meshes:
             given = str(o["path"])
             source = (src.parent / given).resolve()
             if source not in copied:
-                rel = _free_name(out_dir, source.name, set(copied.values()))
+                rel = _free_name(out_dir, source.name, set(copied.values()), folder)
                 dest = out_dir / rel
                 results.atomic_write(dest, lambda tmp, s=source: shutil.copyfile(s, tmp))
                 written.append(dest)
@@ -59,11 +63,11 @@ def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
     return written + [dest]
 
 
-def _free_name(out_dir: Path, name: str, taken: set[str]) -> str:
+def _free_name(out_dir: Path, name: str, taken: set[str], folder: str = "meshes") -> str:
     stem, suffix = Path(name).stem, Path(name).suffix
-    rel, i = f"meshes/{name}", 1
+    rel, i = f"{folder}/{name}", 1
     while rel in taken:
-        rel, i = f"meshes/{stem}_{i}{suffix}", i + 1
+        rel, i = f"{folder}/{stem}_{i}{suffix}", i + 1
     return rel
 
 

@@ -106,9 +106,10 @@ def write_run(out: Path, scenario, method: str, seed: int, trials, steps: int, r
     except BaseException:
         for path in reversed(written):
             path.unlink(missing_ok=True)
-        try:
-            (out / "meshes").rmdir()
-        except OSError:
-            pass
+        for folder in ("meshes", "terrain"):
+            try:
+                (out / folder).rmdir()
+            except OSError:
+                pass
         raise
     return out
