@@ -1,17 +1,16 @@
 """Typed, immutable configuration of a scenario (SPEC defaults).
 
-Every dataclass here is frozen and hashable so a whole :class:`Scenario` can be
-passed as a static argument to ``jax.jit``. Units are SI (m, s, rad, W, Hz).
-Loading and validation of scenario files lives in :mod:`mjx_radar.io.scenario`; each
-field's allowed range is its metadata here (``rule``/``flag``/``choice``/``table``/``rows``
-of :mod:`mjx_radar.io.checks`), so a new parameter is one edit in this module.
-"""
+Every dataclass here (and ``Terrain``, :mod:`mjx_radar.config_terrain`) is frozen and
+hashable (a :class:`Scenario` can be a static argument of ``jax.jit``); units SI. Each
+field's allowed range is its metadata (``rule``/``flag``/``choice``/``table``/``rows`` of
+:mod:`mjx_radar.io.checks`, read by :mod:`mjx_radar.io.scenario`): one edit per parameter."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
+from mjx_radar.config_terrain import Terrain  # noqa: F401 (the [terrain] table)
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
 
@@ -234,44 +233,6 @@ class Obstacle:
     )
     path: str = ""
     scale: float = field(default=1.0, metadata=positive("uniform mesh scale", hi=1e3))
-
-
-@dataclass(frozen=True)
-class Terrain:
-    """A height field the radars drive on (docs/terrain.md); the ``[terrain]`` table.
-
-    ``path``: a ``.npy`` array ``[ny, nx]`` (float or integer heights h = height_scale *
-    value, row 0 at y = -extent_y / 2, column 0 at x = -extent_x / 2) or a grayscale PNG
-    (8- or 16-bit; h = height_scale * value / max code, the image's top row is north).
-    The grid is centred on the origin; outside it the edge heights continue. Read and
-    checked by :mod:`mjx_radar.io.scenario_terrain`; absent = the flat ground z = 0.
-    """
-
-    path: str = ""
-    extent_x: float = field(default=1000.0, metadata=positive("x side of the grid", "m", hi=2e5))
-    extent_y: float = field(default=1000.0, metadata=positive("y side of the grid", "m", hi=2e5))
-    height_scale: float = field(
-        default=1.0, metadata=positive("metres per unit of the file (PNG: per full code)", "m", 1e4)
-    )
-    max_slope_deg: float = field(
-        default=25.0,
-        metadata=rule(float, 0.0, 90.0, lo_open=True, doc="steepest slope a radar drives on "
-                      "(keep-out beyond; the plant stops a radar there)", unit="deg"),
-    )  # fmt: skip
-    alpha_slope: float = field(
-        default=1000.0,
-        metadata=rule(float, 0.0, 1e9, doc="planner weight of slope beyond the limit "
-                      "(per unit of grade, per radar and step)"),
-    )  # fmt: skip
-    antenna_height: float = field(
-        default=2.0,
-        metadata=rule(float, 0.0, 100.0, doc="radar antenna above the ground point", unit="m"),
-    )
-    targets_agl: bool = field(
-        default=False,
-        metadata=flag("target start z is height above the terrain (false: absolute z; a "
-                      "target starting below the terrain is refused)"),
-    )  # fmt: skip
 
 
 @dataclass(frozen=True)

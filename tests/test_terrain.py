@@ -127,7 +127,6 @@ def test_hfield_in_the_scene_matches_the_grid(tmp_path):
     got = []
     for x, y in pts:
         geomid = np.zeros(1, np.int32)
-        group = np.zeros(6, np.uint8)
         dist = mujoco.mj_ray(model, data, np.array([x, y, 500.0]), np.array([0, 0, -1.0]),
                              None, 1, -1, geomid)  # fmt: skip
         assert geomid[0] == gid
@@ -241,8 +240,8 @@ def test_targets_below_ground_refused_or_lifted(tmp_path):
     with pytest.raises(ScenarioError, match=r"targets\[0\]\[2\] \(z\) = 155.*below the terrain"):
         scenario_from_dict(_raw(tmp_path, path="t.npy"), tmp_path)
     s = scenario_from_dict(_raw(tmp_path, path="t.npy", targets_agl=True), tmp_path)
-    from mjx_radar.task.params import task_params
     from mjx_radar.task.method import METHODS
+    from mjx_radar.task.params import task_params
 
     p = task_params(s, METHODS["stationary"])
     assert float(p.target_init[0, 2]) == pytest.approx(355.0)

@@ -12,22 +12,26 @@ and fixed radar starts on slopes beyond the vehicle limit.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
 from mjx_radar.config import Scenario, Terrain
-from mjx_radar.io.checks import ScenarioError, show
+from mjx_radar.io.checks import ScenarioError, check, key_name, show
 
 SUFFIXES = (".npy", ".png")
 
 
 def terrain(raw: Any, base: Path, allow_external: bool) -> Terrain:
     """Reads and checks the ``[terrain]`` table (``base``: the scenario file's folder)."""
-    from mjx_radar.io.scenario import _read
-
     if not isinstance(raw, dict):
         raise ScenarioError(f"terrain: must be a table, got {type(raw).__name__}")
-    kwargs = _read(Terrain, raw, "terrain.", ("path",))
+    rules = {f.name: f.metadata["rule"] for f in dataclasses.fields(Terrain) if f.metadata}
+    for key in raw:
+        if key not in rules and key != "path":
+            allowed = ", ".join(["path", *rules])
+            raise ScenarioError(f"terrain.{key_name(key)}: unknown field; allowed: {allowed}")
+    kwargs = {k: check(f"terrain.{k}", raw[k], r) for k, r in rules.items() if k in raw}
     if "path" not in raw:
         raise ScenarioError("terrain.path: missing required field (a .npy or .png height field)")
     kwargs["path"] = _path(raw["path"], base, allow_external)

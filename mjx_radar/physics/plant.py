@@ -16,13 +16,8 @@ gains of :mod:`mjx_radar.physics.scene` this is exactly the Euler map of SPEC §
 velocity). Obstacles add contacts that stop a radar (truth plant only; planner rollouts
 stay contact-free); a radar held back has ``v`` reset to the speed it made good.
 
-Terrain (docs/terrain.md) is followed kinematically, not through contacts: MJX does
-collide height fields with spheres (the radar hull), but that needs a z degree of
-freedom, gravity and the constraint solver in every step, which forfeits the
-contact-free fast path (~100x, MJX-NOTES); instead z is the bilinear lookup of the
-grid at (x, y) (:func:`radar_state`), and a step that would end on a slope steeper
-than ``terrain.max_slope_deg`` and steeper than the current one stops the radar
-(``v`` = 0 for that step; it may still turn, and leave steep ground downhill).
+Terrain is followed kinematically, not through contacts (z = the grid's lookup, steep
+ground stops a radar: :mod:`mjx_radar.physics.terrain_follow`, docs/terrain.md).
 """
 
 from __future__ import annotations
@@ -42,6 +37,8 @@ from mjx_radar.physics import contacts
 from mjx_radar.physics.contacts import obstacle_contacts  # noqa: F401 (plant API)
 from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
+from mjx_radar.physics.terrain_follow import slope_stop
+from mjx_radar.world import terrain as ground
 from mjx_radar.world.obstacles import contact_envelope
 
 
@@ -107,8 +104,6 @@ def make_plant(
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
     if terrain is None:
         return Plant(mj_model, model, index, float(dt), limits, fast)
-    from mjx_radar.world import terrain as ground
-
     grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
     return Plant(mj_model, model, index, float(dt), limits, fast, grid,
                  float(terrain.antenna_height), grade)  # fmt: skip
@@ -200,26 +195,7 @@ def radar_state(plant: Plant, data) -> jax.Array:
     q = data.qpos[plant.index.radar_qpos]
     a = data.act[plant.index.radar_act]
     out = jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
-    if plant.terrain is None:
-        return out
-    from mjx_radar.world.terrain import on_ground
-
-    return on_ground(plant.terrain, out, plant.antenna)
-
-
-def _slope_stop(plant: Plant, data, u):
-    """Stops (``v`` = 0, ``a`` = 0) the radars whose step would end on a slope steeper than
-    the limit and steeper than where they stand; returns ``(data, u)``."""
-    from mjx_radar.world.terrain import slope
-
-    idx, dt = plant.index, plant.dt
-    q, v = data.qpos[idx.radar_qpos], data.act[idx.radar_act[:, 0]]
-    step = dt * (v + 0.5 * dt * u[:, 0])
-    nxt = q[:, :2] + step[:, None] * jnp.stack([jnp.cos(q[:, 2]), jnp.sin(q[:, 2])], -1)
-    s_now, s_next = slope(plant.terrain, q[:, :2]), slope(plant.terrain, nxt)
-    stop = (s_next > plant.max_grade) & (s_next > s_now)
-    act = data.act.at[idx.radar_act[:, 0]].set(jnp.where(stop, 0.0, v).astype(data.act.dtype))
-    return data.replace(act=act), u.at[:, 0].set(jnp.where(stop, 0.0, u[:, 0]))
+    return out if plant.terrain is None else ground.on_ground(plant.terrain, out, plant.antenna)
 
 
 def target_state(plant: Plant, data) -> jax.Array:
@@ -244,7 +220,7 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     idx, dt, lim = plant.index, plant.dt, plant.limits
     u = jnp.clip(radar_u, jnp.array([-lim.accel, -lim.alpha]), jnp.array([lim.accel, lim.alpha]))
     if plant.terrain is not None:
-        data, u = _slope_stop(plant, data, u)
+        data, u = slope_stop(plant, data, u)
     va = data.act[idx.radar_act]  # [N, 2] (v, omega)
     mean_v = va + 0.5 * dt * u
     zero = jnp.zeros_like(u[:, :1])
