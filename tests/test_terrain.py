@@ -69,7 +69,7 @@ def test_terrain_los_equals_brute_force_ray_march():
     rng = np.random.default_rng(1)
     h = rng.uniform(0.0, 60.0, (9, 12))
     g, ref = _grid(h, (400.0, 300.0))
-    n = 1500
+    n = 600
     a = np.c_[rng.uniform(-260, 260, (n, 2)), rng.uniform(0, 80, n)]
     b = np.c_[rng.uniform(-260, 260, (n, 2)), rng.uniform(0, 80, n)]
     ts = np.linspace(0.0, 1.0, 20001)

@@ -1,6 +1,10 @@
 """hills_4r4t in the closed loop (docs/terrain.md): radar z follows the terrain along the
 run, the ridge masks radar-target pairs (``visible_pairs``), and the occlusion-aware
-planner (``mpc.los``) compiles with the terrain in its line-of-sight test."""
+planner (``mpc.los``) compiles with the terrain in its line-of-sight test.
+
+Slow (one closed-loop compile with the planner, 60-160 s on 2 CPU cores); the pieces are
+tested fast in tests/test_terrain.py (lookup, LOS, plant z on a known slope).
+"""
 
 from __future__ import annotations
 
@@ -9,6 +13,8 @@ import pytest
 
 from mjx_radar.io.scenario import load_scenario
 from mjx_radar.world import terrain
+
+pytestmark = pytest.mark.slow
 
 Z_TOL = 1e-3  # m: float32 bilinear lookup of heights <= 100 m (docs/terrain.md)
 
