@@ -36,7 +36,7 @@ def terrain(raw: Any, base: Path, allow_external: bool) -> Terrain:
         raise ScenarioError("terrain.path: missing required field (a .npy or .png height field)")
     kwargs["path"] = _path(raw["path"], base, allow_external)
     out = Terrain(**kwargs)
-    from mjx_radar.world.terrain import TerrainFileError, node_heights, read_heights
+    from mjx_radar.io.terrain_file import TerrainFileError, node_heights, read_heights
 
     try:
         read_heights(out.path)
@@ -72,7 +72,7 @@ def check_targets(s: Scenario) -> None:
     """Refuses targets starting below the terrain and fixed radar starts on steep ground."""
     import numpy as np
 
-    from mjx_radar.world.terrain import height_np, max_grade, node_heights
+    from mjx_radar.io.terrain_file import height_np, max_grade, node_heights
 
     t = s.terrain
     if t is None:
@@ -101,7 +101,7 @@ def _grade(t: Terrain, h, xy) -> float:
     """Host grade |∇h| by central differences of the bilinear height (0.01 of a cell)."""
     import numpy as np
 
-    from mjx_radar.world.terrain import grid_geometry, height_np
+    from mjx_radar.io.terrain_file import grid_geometry, height_np
 
     eps = 0.01 * grid_geometry(t, h.shape)[1]
     gx = (height_np(t, xy + [eps[0], 0]) - height_np(t, xy - [eps[0], 0])) / (2 * eps[0])

@@ -56,7 +56,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
     target_init = np.asarray(scenario.target_init, float)
     if scenario.terrain is not None and scenario.terrain.targets_agl:  # z above the ground
-        from mjx_radar.world.terrain import height_np
+        from mjx_radar.io.terrain_file import height_np
 
         target_init[:, 2] += height_np(scenario.terrain, target_init[:, :2])
     return TaskParams(
