@@ -48,3 +48,28 @@ def test_ridge_masks_some_pairs(hills_run):
     n_pairs = s.n_radars * s.n_targets
     assert vis.min() < n_pairs and vis.max() > 0
     assert np.isfinite(run.metrics["rmse_pos"]).all()
+
+
+def test_saved_run_renders_the_terrain(hills_run, tmp_path):
+    """The run directory carries the height field; the render scene has the hfield and
+    puts each radar's body on the ground; the snapshot shades terrain and masked regions."""
+    import matplotlib.pyplot as plt
+    import mujoco
+
+    from mjx_radar.viz import render, snapshot
+    from mjx_radar.viz.run_dir import load_trial
+
+    s, run = hills_run
+    out = run.save(tmp_path / "run")
+    assert (out / "terrain" / "hills.png").is_file()
+    tr = load_trial(out, 0)
+    model, index = render.scene_model(tr)
+    assert model.nhfield == 1
+    data = mujoco.MjData(model)
+    render.set_state(model, data, index, tr, 10)
+    body = [model.body(f"radar{i}/radar").id for i in range(s.n_radars)]
+    np.testing.assert_allclose(data.xpos[body, 2], tr.radar[10, :, 2] - 2.0, atol=1e-5)
+    fig = snapshot.snapshot_figure(tr, 10, grid=40)
+    gids = {a.get_gid() for ax in fig.axes for a in ax.get_children()}
+    plt.close(fig)
+    assert {"terrain", "masked"} <= gids
