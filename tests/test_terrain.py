@@ -278,3 +278,22 @@ def test_bundled_tile_is_what_the_script_makes():
     spec.loader.exec_module(mod)
     s = load_scenario(HILLS)
     np.testing.assert_allclose(terrain.node_heights(s.terrain), mod.heights(), atol=2e-3)
+
+
+def test_planner_rollouts_and_terms_know_the_terrain():
+    """Rollouts put z on the ground (analytic lookup, no contacts), the slope term is in
+    the objective, and the planner masks with the terrain only with mpc.los."""
+    from mjx_radar.task.task import build
+
+    s = load_scenario(HILLS).replace(mpc={"rollout": "analytic", "los": True})
+    task, _ = build(s)
+    assert "terrain_slope" in [t.name for t in task.terms]
+    assert task.plan_occluders is not None and task.plan_occluders.terrain is not None
+    state = jnp.array([[0.0, 0.0, 0.0, 0.0, 10.0, 0.0], [150.0, -200.0, 0.0, 1.0, 5.0, 0.1],
+                       [-300.0, 280.0, 0.0, 2.0, 0.0, 0.0],
+                       [220.0, 0.0, 0.0, -1.0, 3.0, 0.0]])  # fmt: skip
+    traj = np.asarray(task.rollout(state, jnp.ones((5, 4, 2))))
+    z = terrain.height_np(s.terrain, traj[..., :2].astype(float)) + s.terrain.antenna_height
+    np.testing.assert_allclose(traj[..., 2], z, atol=1e-3)
+    off, _ = build(s.replace(mpc={"los": False}))
+    assert off.plan_occluders is None and off.occluders.terrain is not None
