@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue 24, terrain: the 200-trial study of DDR-SFIM on hills_4r4t with and without
 # occlusion-aware planning (mpc.los), for docs/terrain.md ("Study" section).
-# Run on a GPU machine from the repository root (after scripts/gpu_setup.sh if needed):
+# Run on a GPU machine from the repository root (after `source scripts/gpu_setup.sh`):
 #   bash scripts/study_terrain.sh [OUT_DIR]
 # Writes OUT_DIR/los_off and OUT_DIR/los_on (study.json, report.md, figures) and prints
 # the two summaries; same seed and trials in both, so trial i is the same world
@@ -13,22 +13,22 @@ mkdir -p "$OUT"
 # The occlusion-aware variant: hills_4r4t with mpc.los = true, written through the Python
 # API (Scenario.replace + to_toml: the terrain path becomes absolute, so the copy works
 # from any folder).
-python - "$OUT" <<'PY'
+python3 - "$OUT" <<'PY'
 import sys
 from pathlib import Path
 import mjx_radar
 s = mjx_radar.load_scenario("scenarios/hills_4r4t.toml")
 s.replace(name="hills_4r4t_los", mpc={"los": True}).to_toml(Path(sys.argv[1]) / "hills_4r4t_los.toml")
 PY
-mjx-radar study scenarios/hills_4r4t.toml --methods ddr-sfim --trials "$TRIALS" \
+python3 -m mjx_radar study scenarios/hills_4r4t.toml --methods ddr-sfim --trials "$TRIALS" \
   --seed 0 --out "$OUT/los_off"
-mjx-radar study "$OUT/hills_4r4t_los.toml" --methods ddr-sfim --trials "$TRIALS" \
+python3 -m mjx_radar study "$OUT/hills_4r4t_los.toml" --methods ddr-sfim --trials "$TRIALS" \
   --seed 0 --out "$OUT/los_on"
-mjx-radar report "$OUT/los_off" || true
-mjx-radar report "$OUT/los_on" || true
+python3 -m mjx_radar report "$OUT/los_off" || true
+python3 -m mjx_radar report "$OUT/los_on" || true
 # One table for docs/terrain.md: per study, RMSE (mean over trials and steps, and at the
 # last step), lost-track rate at the last step, and mean visible pairs per step.
-python - "$OUT" <<'PY'
+python3 - "$OUT" <<'PY'
 import sys
 from pathlib import Path
 import pandas as pd
