@@ -297,3 +297,22 @@ def test_planner_rollouts_and_terms_know_the_terrain():
     np.testing.assert_allclose(traj[..., 2], z, atol=1e-3)
     off, _ = build(s.replace(mpc={"los": False}))
     assert off.plan_occluders is None and off.occluders.terrain is not None
+
+
+def test_placement_stands_on_gentle_ground():
+    """Random placement on hills_4r4t: z = ground + antenna, no start on a steep flank."""
+    from mjx_radar.simulation.placement import place_radars
+    from mjx_radar.simulation.streams import trial_streams
+    from mjx_radar.task.method import METHODS
+    from mjx_radar.task.params import shape_key, task_params
+
+    s = load_scenario(HILLS)
+    shape, params = shape_key(s), task_params(s, METHODS["stationary"])
+    place = jax.jit(jax.vmap(lambda t: place_radars(shape, params,
+                                                    trial_streams(params.seed, t).placement)))
+    states, ok = (np.asarray(a) for a in place(jnp.arange(32)))
+    assert ok.all()
+    xy = states[..., :2].astype(float)
+    np.testing.assert_allclose(states[..., 2], terrain.height_np(s.terrain, xy) + 2.0, atol=1e-3)
+    grade = np.asarray(terrain.slope(terrain.terrain_grid(s.terrain), jnp.asarray(states[..., :2])))
+    assert grade.max() <= terrain.max_grade(s.terrain)
