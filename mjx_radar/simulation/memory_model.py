@@ -90,14 +90,6 @@ def device_terms(scenario: Scenario, trials: int, platform: str = "cpu") -> dict
     if scenario.obstacles:
         tests = s * h * n * m * occluder_tests(scenario.obstacles)
         terms["line of sight"] = trials * tests * (1 if gpu else 4) * f
-    terrain = getattr(scenario, "terrain", None)
-    if terrain is not None and scenario.mpc.los:  # world/terrain_los: C candidates a segment
-        from mjx_radar.io.terrain_file import node_heights
-
-        ny, nx = node_heights(terrain).shape
-        # CPU, hills_4r4t with mpc.los, 4 trials: +985 MB of temporaries = 7.7 words per
-        # candidate test; the GPU figure is not measured yet (the CPU one is kept).
-        terms["terrain line of sight"] = trials * s * h * n * m * (2 * (nx + ny) + 3) * 8 * f
     if scenario.mpc.rollout == "mjx":
         n_obs = len(scenario.obstacles)
         terms["MJX rollouts"] = trials * s * (400 * (n + 1) + 50 * n_obs) * f

@@ -20,11 +20,13 @@ Every candidate is evaluated with the true lookup, so a candidate that falls
 outside its piece still gives a true clearance (never below the minimum), and the
 minimum over the ``2 (nx + ny) + 3`` candidates equals the minimum over the segment
 (up to the float32 rounding of t at a crossing). No sorting, fixed shapes: jittable
-and vmappable.
+and vmappable; the candidates are visited line by line (``fori_loop``), so memory does
+not grow with the grid.
 """
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 
 from mjx_radar.world.terrain import TerrainGrid, height
@@ -33,52 +35,59 @@ _TINY = 1e-12
 _NUDGE = 1e-4  # grid units past a crossing to pick the cell the next piece runs in
 
 
-def _crossings(grid: TerrainGrid, sa, es):
-    """``[..., nx + ny + 2]`` t of every grid-line crossing (clipped to [0, 1]) and 0, 1."""
+def _vertex_after(grid: TerrainGrid, sa, es, ez, t_start):
+    """``[...]`` t of the vertex of d's quadratic in the cell just after ``t_start``."""
     ny, nx = grid.heights.shape
-    dtype = sa.dtype
-
-    def axis(c, n):
-        lines = jnp.arange(n, dtype=dtype)
-        den = es[..., c : c + 1]
-        flat = jnp.abs(den) < _TINY
-        t = (lines - sa[..., c : c + 1]) / jnp.where(flat, 1.0, den)
-        return jnp.where(flat, 0.0, t)
-
-    ends = jnp.broadcast_to(jnp.array([0.0, 1.0], dtype), sa.shape[:-1] + (2,))
-    return jnp.clip(jnp.concatenate([ends, axis(0, nx), axis(1, ny)], -1), 0.0, 1.0)
-
-
-def _vertices(grid: TerrainGrid, sa, es, ez, t_start):
-    """``[..., C]`` t of the vertex of d's quadratic in the cell just after each ``t_start``."""
-    ny, nx = grid.heights.shape
-    step = _NUDGE / jnp.maximum(jnp.max(jnp.abs(es), -1, keepdims=True), _TINY)
-    s = sa[..., None, :] + (t_start + step)[..., None] * es[..., None, :]  # [..., C, 2]
+    step = _NUDGE / jnp.maximum(jnp.max(jnp.abs(es), -1), _TINY)
+    s = sa + (t_start + step)[..., None] * es  # [..., 2] grid units
     s = jnp.clip(s, 0.0, jnp.array([nx - 1, ny - 1], s.dtype))
     j = jnp.clip(jnp.floor(s[..., 0]), 0, nx - 2).astype(jnp.int32)
     i = jnp.clip(jnp.floor(s[..., 1]), 0, ny - 2).astype(jnp.int32)
     h = grid.heights.astype(sa.dtype)
     h00, h01, h10, h11 = h[i, j], h[i, j + 1], h[i + 1, j], h[i + 1, j + 1]
     a_, b_, tau = h01 - h00, h10 - h00, h11 - h10 - h01 + h00
-    ex, ey = es[..., None, 0], es[..., None, 1]
-    u0, v0 = sa[..., None, 0] - j, sa[..., None, 1] - i
+    ex, ey = es[..., 0], es[..., 1]
+    u0, v0 = sa[..., 0] - j, sa[..., 1] - i
     den = 2.0 * tau * ex * ey
     flat = jnp.abs(den) < _TINY
-    num = ez[..., None] - a_ * ex - b_ * ey - tau * (ex * v0 + ey * u0)
+    num = ez - a_ * ex - b_ * ey - tau * (ex * v0 + ey * u0)
     return jnp.clip(jnp.where(flat, 0.0, num / jnp.where(flat, 1.0, den)), 0.0, 1.0)
 
 
 def min_clearance(grid: TerrainGrid, a, b):
-    """``[...]`` the smallest height of segments ``a -> b`` (``[..., 3]``) above the terrain [m]."""
+    """``[...]`` the smallest height of segments ``a -> b`` (``[..., 3]``) above the terrain [m].
+
+    A ``fori_loop`` over the ``nx + ny`` grid lines keeps a running minimum (memory of a
+    few arrays of the segments' shape, not of every candidate at once).
+    """
     a, b = jnp.broadcast_arrays(jnp.asarray(a), jnp.asarray(b))
     e = b - a
-    sp = grid.spacing.astype(a.dtype)
-    sa = (a[..., :2] - grid.origin.astype(a.dtype)) / sp  # grid units
+    dtype = a.dtype
+    sp = grid.spacing.astype(dtype)
+    sa = (a[..., :2] - grid.origin.astype(dtype)) / sp  # grid units
     es = e[..., :2] / sp
-    tc = _crossings(grid, sa, es)
-    t = jnp.concatenate([tc, _vertices(grid, sa, es, e[..., 2], tc)], -1)  # [..., C]
-    p = a[..., None, :] + t[..., None] * e[..., None, :]
-    return jnp.min(p[..., 2] - height(grid, p[..., :2]), -1)
+    ny, nx = grid.heights.shape
+
+    def clearance(t):  # t [...]: d at t and at the vertex of the piece starting there
+        p = a + t[..., None] * e
+        tv = _vertex_after(grid, sa, es, e[..., 2], t)
+        pv = a + tv[..., None] * e
+        return jnp.minimum(p[..., 2] - height(grid, p[..., :2]),
+                           pv[..., 2] - height(grid, pv[..., :2]))  # fmt: skip
+
+    zero = jnp.zeros(a.shape[:-1], dtype)
+    d = jnp.minimum(clearance(zero), clearance(zero + 1.0))
+
+    def line(k, d):  # grid line k: x = x_k (k < nx), else y = y_(k - nx)
+        on_x = k < nx
+        den = jnp.where(on_x, es[..., 0], es[..., 1])
+        start = jnp.where(on_x, sa[..., 0], sa[..., 1])
+        flat = jnp.abs(den) < _TINY
+        pos = jnp.where(on_x, k, k - nx).astype(dtype)
+        t = jnp.where(flat, 0.0, (pos - start) / jnp.where(flat, 1.0, den))
+        return jnp.minimum(d, clearance(jnp.clip(t, 0.0, 1.0)))
+
+    return jax.lax.fori_loop(0, nx + ny, line, d)
 
 
 def segment_blocked(grid: TerrainGrid, a, b):
