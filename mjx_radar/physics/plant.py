@@ -284,14 +284,16 @@ def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Arr
 
     ``radar_state [N, 6]`` = ``[x, y, z, theta, v, omega]``, ``controls [H, N, 2]`` =
     ``[a, alpha]`` -> ``[H, N, 6]`` states after each control step (the scenario's N,
-    limits and control step; obstacles are ignored).
+    limits and control step; obstacles are ignored, terrain sets z).
     """
     plant = planner_plant(scenario)
     _check_shape("controls", controls, (jnp.shape(controls)[0], scenario.n_radars, 2))
     _check_shape("radar_state", radar_state, (scenario.n_radars, 6))
     _check_finite("controls", controls)
     _check_finite("radar_state", radar_state)
-    return _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
+    out = _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
+    t = scenario.terrain  # z on the ground (the planner's lookup; terrain-free: z = 0)
+    return out if t is None else ground.on_ground(ground.terrain_grid(t), out, t.antenna_height)
 
 
 _jit_radar_rollout = jax.jit(radar_rollout, static_argnums=0)
