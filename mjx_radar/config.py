@@ -1,7 +1,7 @@
 """Typed, immutable scenario configuration (SPEC defaults; more tables: config_detection,
-config_world): frozen, hashable dataclasses (static under ``jax.jit``); SI units. Files are
-read by :mod:`mjx_radar.io.scenario`; each field's allowed range is its metadata
-(``rule``/``flag``/``choice``/``table``/``rows`` of :mod:`mjx_radar.io.checks`)."""
+config_world, config_terrain): frozen, hashable dataclasses (static under ``jax.jit``); SI
+units. Files are read by :mod:`mjx_radar.io.scenario`; each field's allowed range is its
+metadata (``rule``/``flag``/``choice``/``table``/``rows`` of :mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 from mjx_radar.config_detection import DetectionConfig
 from mjx_radar.config_world import RadarOverride, TargetMotion
+from mjx_radar.config_terrain import Terrain  # noqa: F401 (the [terrain] table)
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
 
@@ -274,6 +275,7 @@ class Scenario:
     obstacles: tuple[Obstacle, ...] = ()  # [[obstacles]] and [forest]: io.scenario_obstacles
     target_motion: tuple[TargetMotion, ...] = ()  # [[target_motion]]: io.scenario_motion
     radar_override: tuple[RadarOverride, ...] = ()  # [[radar_override]]: io.scenario_fleet
+    terrain: Terrain | None = None  # [terrain]: io.scenario_terrain (None: flat ground z = 0)
     radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
         default=(),
         metadata=rows(

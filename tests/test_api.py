@@ -179,7 +179,9 @@ def test_simulate_refuses_bad_arguments():
 
 def test_bundled_scenarios_ship_in_the_package():
     names = mjx_radar.bundled_scenarios()
-    assert {"smoke", "paper_3r4t", "paper_4r4t", "paper_6r3t", "city_4r4t"} <= set(names)
+    assert {"smoke", "paper_3r4t", "paper_4r4t", "paper_6r3t", "city_4r4t", "hills_4r4t"} <= set(
+        names
+    )
     import tomllib
 
     text = (ROOT / "pyproject.toml").read_text()
@@ -187,6 +189,7 @@ def test_bundled_scenarios_ship_in_the_package():
     assert data["package-dir"]["mjx_radar.scenarios"] == "scenarios"
     assert "*.toml" in data["package-data"]["mjx_radar.scenarios"]
     assert "meshes/*.obj" in data["package-data"]["mjx_radar.scenarios"]
+    assert "terrain/*.png" in data["package-data"]["mjx_radar.scenarios"]
 
 
 def test_simulate_equals_cli(tmp_path):

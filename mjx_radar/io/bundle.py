@@ -1,14 +1,14 @@
-"""A self-contained copy of a scenario file: the TOML plus its mesh, map and track files.
+"""A self-contained copy of a scenario file: the TOML plus its mesh, map, track and terrain files.
 
 ``mjx-radar run --out DIR`` writes ``DIR/scenario.toml`` and copies every mesh the
 scenario names into ``DIR/meshes/``, rewriting the mesh paths of the copy relative
 to ``DIR`` (mesh paths are resolved relative to the scenario file's folder), so the
 run directory can be moved or archived and ``load_scenario(DIR/scenario.toml)``
-still finds its meshes. Map files (``[buildings]``, ``[occupancy]``, docs/maps.md)
-and track CSVs (``[[target_motion]]``) go to ``DIR/maps/`` and ``DIR/tracks/`` the same
-way. A scenario without meshes is copied verbatim (comments kept); with meshes the
-``path = ...`` lines are rewritten in place when that reproduces the intended table, else
-the copy is re-serialised (comments lost).
+still finds its meshes. Map files (``[buildings]``, ``[occupancy]``, docs/maps.md), track
+CSVs (``[[target_motion]]``) and the ``[terrain]`` height field go to ``DIR/maps/``,
+``DIR/tracks/`` and ``DIR/terrain/`` the same way. A scenario without meshes is copied
+verbatim (comments kept); with meshes the ``path = ...`` lines are rewritten in place when
+that reproduces the intended table, else the copy is re-serialised (comments lost).
 """
 
 from __future__ import annotations
@@ -39,18 +39,20 @@ def bundle_scenario(src: Path, out_dir: Path) -> list[Path]:
     text = src.read_text()
     raw = tomllib.loads(text)
     obstacles = raw.get("obstacles", [])
-    meshes = [o for o in obstacles if isinstance(o, dict) and o.get("kind") == "mesh"]
+    meshes = [(o, "meshes") for o in obstacles if isinstance(o, dict) and o.get("kind") == "mesh"]
     motions = raw.get("target_motion", [])  # track CSVs travel like meshes (into tracks/)
-    meshes += [t for t in motions if isinstance(t, dict) and t.get("model") == "track"]
+    meshes += [(t, "tracks") for t in motions if isinstance(t, dict) and t.get("model") == "track"]
+    terrain = raw.get("terrain")
+    if isinstance(terrain, dict) and isinstance(terrain.get("path"), str):
+        meshes.append((terrain, "terrain"))  # the height field travels the same way
     written: list[Path] = []
     if meshes:
         mapping: dict[str, str] = {}  # path as written in src -> path relative to out_dir
-        copied: dict[Path, str] = {}  # resolved source mesh -> relative copy
-        for o in meshes:
+        copied: dict[Path, str] = {}  # resolved source file -> relative copy
+        for o, folder in meshes:
             given = str(o["path"])
             source = (src.parent / given).resolve()
             if source not in copied:
-                folder = "tracks" if o.get("model") == "track" else "meshes"
                 rel = _free_name(out_dir, source.name, set(copied.values()), folder)
                 dest = out_dir / rel
                 results.atomic_write(dest, lambda tmp, s=source: shutil.copyfile(s, tmp))

@@ -111,7 +111,7 @@ def write_run(out: Path, scenario, method: str, seed: int, trials, steps: int, r
     except BaseException:
         for path in reversed(written):
             path.unlink(missing_ok=True)
-        for folder in ("meshes", "tracks"):
+        for folder in ("meshes", "tracks", "terrain"):
             try:
                 (out / folder).rmdir()
             except OSError:

@@ -54,6 +54,7 @@ EXTRA_KEYS = {
     "target_motion": ("[]", "`[[target_motion]]` tables: per-target motion and presence (below)"),
     "radar_override": ("[]", "`[[radar_override]]` tables: per-radar radar equation, limits, "
                        "fixed sites (below)"),
+    "terrain": ("none", "`[terrain]` height field (docs/terrain.md; fields below)"),
 }
 
 
@@ -190,6 +191,10 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
 
         n = kwargs.get("n_radars", 0)
         kwargs["radar_override"] = tuple(sf.radar_override(i, t, n) for i, t in enumerate(fleet))
+    if "terrain" in raw:
+        from mjx_radar.io import scenario_terrain
+
+        kwargs["terrain"] = scenario_terrain.terrain(raw["terrain"], base, external)
     scenario = Scenario(**kwargs)
     if scenario.radar_override:
         from mjx_radar.io import scenario_fleet
@@ -206,6 +211,10 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         from mjx_radar.io import scenario_obstacles
 
         scenario_obstacles.check_radar_clearance(scenario)
+    if scenario.terrain is not None:
+        from mjx_radar.io import scenario_terrain
+
+        scenario_terrain.check_targets(scenario)
     return scenario
 
 

@@ -11,7 +11,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from mjx_radar.config import RadarOverride, Scenario, TargetMotion
+from mjx_radar.config import RadarOverride, Scenario, TargetMotion, Terrain
 from mjx_radar.io.checks import Rows, Rule
 from mjx_radar.io.scenario import EXTRA_KEYS, config_fields, toml_name
 
@@ -69,6 +69,10 @@ def fields_markdown() -> str:
     lines += ["", "### `[[radar_override]]` — one radar of a mixed fleet (sub-tables "
               "`radar_equation`: any `[radar_equation]` field; `limits`: `accel`, `alpha`)", "",
               *_HEAD, *_table(RadarOverride, "")]
+    lines += ["", "### `[terrain]` — height field the radars drive on (docs/terrain.md)", "",
+              *_HEAD, "| `path` | required | - | an existing .npy or .png file, relative to "
+              "the scenario file | height field (float/integer array, or grayscale PNG) |",
+              *_table(Terrain, "")]  # fmt: skip
     return "\n".join([BEGIN, *lines, END]) + "\n"
 
 

@@ -22,7 +22,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from mjx_radar.config import Obstacle, Scenario
+from mjx_radar.config import Obstacle, Scenario, Terrain
 from mjx_radar.io.checks import ScenarioError, key_name, show
 
 __all__ = ["replace", "scenario_to_dict", "to_toml", "validate"]
@@ -97,6 +97,19 @@ def scenario_to_dict(s: Scenario) -> dict:
         from mjx_radar.io import scenario_fleet
 
         raw["radar_override"] = [scenario_fleet.to_dict(o) for o in fleet]
+    terrain = getattr(s, "terrain", None)
+    if terrain is not None:
+        raw["terrain"] = _terrain(terrain)
+        raw["allow_external_paths"] = True  # the height-field path is absolute
+    return raw
+
+
+def _terrain(t: Any) -> Any:
+    """The ``[terrain]`` table of a :class:`~mjx_radar.config.Terrain` or a dict (path
+    made absolute against the working directory, as Python callers give it)."""
+    raw = {"path": t.path, **_table(t)} if isinstance(t, Terrain) else t
+    if isinstance(raw, dict) and isinstance(raw.get("path"), str) and raw["path"]:
+        raw = {**raw, "path": str(Path(raw["path"]).absolute())}
     return raw
 
 
@@ -149,6 +162,8 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
         current = getattr(obj, f.name)
         if isinstance(value, dict) and dataclasses.is_dataclass(current):
             value = _merge(current, value, f"{prefix}{key}.")
+        elif f.name == "terrain" and isinstance(value, dict):  # a new [terrain] table
+            value = _merge(Terrain(), value, f"{prefix}{key}.")
         elif f.name in ("obstacles", "target_motion", "radar_override"):
             value = tuple(value)
         kwargs[f.name] = value

@@ -3,7 +3,8 @@
 State conventions (arrays, float32 unless x64 is on):
 
 * radar state ``[N, 6]`` = ``[x, y, z, theta, v, omega]``: x, y, theta live in
-  ``qpos``, v and omega in the integrator actuators' activations ``act``; z = 0.
+  ``qpos``, v and omega in the integrator actuators' activations ``act``; z = 0, or on
+  terrain the ground height plus the antenna height (kinematic, see below).
 * target (drone) state ``[M, 6]`` = ``[x, y, z, vx, vy, vz]``: position in
   ``qpos``, velocity in ``act``.
 
@@ -14,12 +15,16 @@ gains of :mod:`mjx_radar.physics.scene` this is exactly the Euler map of SPEC §
 (``qvel`` after a step holds the mean velocity over that step, not the state's
 velocity). Obstacles add contacts that stop a radar (truth plant only; planner rollouts
 stay contact-free); a radar held back has ``v`` reset to the speed it made good.
+
+Terrain is followed kinematically, not through contacts (z = the grid's lookup, steep
+ground stops a radar: :mod:`mjx_radar.physics.terrain_follow`, docs/terrain.md).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 
 import jax
 import jax.numpy as jnp
@@ -32,6 +37,8 @@ from mjx_radar.physics import contacts
 from mjx_radar.physics.contacts import obstacle_contacts  # noqa: F401 (plant API)
 from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
+from mjx_radar.physics.terrain_follow import slope_stop
+from mjx_radar.world import terrain as ground
 from mjx_radar.world.obstacles import contact_envelope
 
 
@@ -57,6 +64,9 @@ class Plant:
     dt: float
     limits: RadarLimits
     fast: bool = False
+    terrain: object = None  # world.terrain.TerrainGrid, or None (flat ground z = 0)
+    antenna: float = 0.0  # antenna height above the ground on terrain [m]
+    max_grade: float = math.inf  # steepest grade a radar drives onto
 
     @property
     def n_radars(self) -> int:
@@ -73,13 +83,18 @@ def make_plant(
     dt: float,
     limits: RadarLimits | None = None,
     obstacles=(),
+    terrain=None,
 ) -> Plant:
-    """Builds the scene and puts it on the device (see :func:`scene.build_scene`)."""
+    """Builds the scene and puts it on the device (see :func:`scene.build_scene`).
+
+    ``terrain`` (a :class:`~mjx_radar.config.Terrain`): the scene's ground becomes its
+    hfield and the radars follow the grid kinematically (module docstring).
+    """
     limits = RadarLimits() if limits is None else limits
     # The most a radar moves in one step: the collision sphere grows by this much so
     # that the physical hull never enters an obstacle on the step of impact.
     margin = contact_envelope(limits, dt) if obstacles else 0.0
-    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin)
+    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin, terrain)
     # Plants are cached and may first be built while a jit trace is running: keep the
     # device model concrete so it never captures a tracer. On this process's own device:
     # MJX's default, jax.devices()[0], belongs to process 0 under jax.distributed.
@@ -87,7 +102,11 @@ def make_plant(
         model = mjx.put_model(mj_model, device=jax.local_devices()[0])
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
-    return Plant(mj_model, model, index, float(dt), limits, fast)
+    if terrain is None:
+        return Plant(mj_model, model, index, float(dt), limits, fast)
+    grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
+    return Plant(mj_model, model, index, float(dt), limits, fast, grid,
+                 float(terrain.antenna_height), grade)  # fmt: skip
 
 
 def _contact_free_step(model: mjx.Model, data):
@@ -133,6 +152,7 @@ def truth_plant(scenario: Scenario) -> Plant:
         scenario.timing.dt_filter,
         scenario.limits,
         scenario.obstacles,
+        scenario.terrain,
     )
 
 
@@ -170,10 +190,12 @@ def init_data(plant: Plant, radar_state: jax.Array, target_state: jax.Array | No
 
 
 def radar_state(plant: Plant, data) -> jax.Array:
-    """[N, 6] radar states ``[x, y, 0, theta, v, omega]`` read from MJX data."""
+    """[N, 6] radar states ``[x, y, z, theta, v, omega]`` read from MJX data (z = 0, or
+    on terrain the ground height at (x, y) plus the antenna height)."""
     q = data.qpos[plant.index.radar_qpos]
     a = data.act[plant.index.radar_act]
-    return jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
+    out = jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
+    return out if plant.terrain is None else ground.on_ground(plant.terrain, out, plant.antenna)
 
 
 def target_state(plant: Plant, data) -> jax.Array:
@@ -206,6 +228,8 @@ def step(
     """
     idx, dt, lim = plant.index, plant.dt, plant.limits
     u = jnp.clip(radar_u, jnp.array([-lim.accel, -lim.alpha]), jnp.array([lim.accel, lim.alpha]))
+    if plant.terrain is not None:
+        data, u = slope_stop(plant, data, u)
     va = data.act[idx.radar_act]  # [N, 2] (v, omega)
     mean_v = va + 0.5 * dt * u
     zero = jnp.zeros_like(u[:, :1])
@@ -270,14 +294,16 @@ def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Arr
 
     ``radar_state [N, 6]`` = ``[x, y, z, theta, v, omega]``, ``controls [H, N, 2]`` =
     ``[a, alpha]`` -> ``[H, N, 6]`` states after each control step (the scenario's N,
-    limits and control step; obstacles are ignored).
+    limits and control step; obstacles are ignored, terrain sets z).
     """
     plant = planner_plant(scenario)
     _check_shape("controls", controls, (jnp.shape(controls)[0], scenario.n_radars, 2))
     _check_shape("radar_state", radar_state, (scenario.n_radars, 6))
     _check_finite("controls", controls)
     _check_finite("radar_state", radar_state)
-    return _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
+    out = _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
+    t = scenario.terrain  # z on the ground (the planner's lookup; terrain-free: z = 0)
+    return out if t is None else ground.on_ground(ground.terrain_grid(t), out, t.antenna_height)
 
 
 _jit_radar_rollout = jax.jit(radar_rollout, static_argnums=0)

@@ -130,6 +130,8 @@ def build_scene(
     dt: float,
     obstacles: Sequence[Obstacle] = (),
     hull_margin: float = 0.0,
+    terrain=None,
+    radar_z_joint: bool = False,
 ) -> tuple[mujoco.MjModel, SceneIndex]:
     """Builds the MuJoCo model of a scene.
 
@@ -139,6 +141,10 @@ def build_scene(
         dt: physics timestep [s] = one Euler step of the unicycle / CV model.
         obstacles: static obstacles; contacts are enabled only if there are any.
         hull_margin: growth of each radar's collision sphere [m] (with obstacles only).
+        terrain: a :class:`~mjx_radar.config.Terrain`: the ground becomes its ``hfield``
+            (no contacts: radars follow it kinematically, :func:`add_terrain`).
+        radar_z_joint: give each radar an unactuated slide-z joint ``z`` (rendering on
+            terrain writes the ground height there; the physics plants never set it).
 
     Returns:
         The compiled ``MjModel`` (servo gains set) and its :class:`SceneIndex`.
@@ -163,14 +169,17 @@ def build_scene(
         spec.option.iterations = SOLVER_ITERATIONS
         spec.option.ls_iterations = SOLVER_ITERATIONS
         spec.add_numeric(name="max_geom_pairs", data=[2 * n_radars])
-    spec.worldbody.add_geom(
-        name="ground",
-        type=mujoco.mjtGeom.mjGEOM_PLANE,
-        size=[0.0, 0.0, 1.0],
-        rgba=[0.82, 0.80, 0.74, 1.0],
-        contype=0,
-        conaffinity=0,
-    )
+    if terrain is None:
+        spec.worldbody.add_geom(
+            name="ground",
+            type=mujoco.mjtGeom.mjGEOM_PLANE,
+            size=[0.0, 0.0, 1.0],
+            rgba=[0.82, 0.80, 0.74, 1.0],
+            contype=0,
+            conaffinity=0,
+        )
+    else:
+        add_terrain(spec, terrain)
     spec.worldbody.add_light(
         pos=[0, 0, 500], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
     )
@@ -181,6 +190,10 @@ def build_scene(
             hull.size[0] += hull_margin
             hull.condim = 1
             hull.solimp = list(CONTACT_SOLIMP)
+        if radar_z_joint:
+            child.body("radar").add_joint(
+                name="z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1], limited=False
+            )
         spec.attach(child, prefix=f"radar{i}/", frame=spec.worldbody.add_frame())
     for j in range(n_drones):
         child = mujoco.MjSpec.from_string(_model_xml("drone.xml"))
@@ -191,6 +204,36 @@ def build_scene(
     index = _index(model, n_radars, n_drones, len(obstacles))
     _set_servo_gains(model, index)
     return model, index
+
+
+def add_terrain(spec: mujoco.MjSpec, terrain) -> None:
+    """Adds the terrain as an ``hfield`` asset and a contact-free world geom named ``terrain``.
+
+    MuJoCo stores normalised elevations ``(H - min H) / (max H - min H)`` (row 0 at
+    -y, column 0 at -x, as :mod:`mjx_radar.world.terrain`) scaled by ``size[2]``; the
+    geom sits at ``z = min H`` so the rendered nodes are at the grid's heights.
+    """
+    from mjx_radar.world.terrain import node_heights
+
+    h = node_heights(terrain)
+    lo, top = float(h.min()), float(h.max() - h.min())
+    data = (h - lo) / top if top > 0 else np.zeros_like(h)
+    spec.add_hfield(
+        name="terrain",
+        size=[0.5 * terrain.extent_x, 0.5 * terrain.extent_y, max(top, 1e-3), 1.0],
+        nrow=h.shape[0],
+        ncol=h.shape[1],
+        userdata=data.ravel().tolist(),
+    )
+    spec.worldbody.add_geom(
+        name="terrain",
+        type=mujoco.mjtGeom.mjGEOM_HFIELD,
+        hfieldname="terrain",
+        pos=[0.0, 0.0, lo],
+        rgba=[0.62, 0.66, 0.50, 1.0],
+        contype=0,
+        conaffinity=0,
+    )
 
 
 def _index(model: mujoco.MjModel, n: int, m: int, k: int) -> SceneIndex:

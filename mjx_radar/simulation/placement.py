@@ -8,6 +8,9 @@ done with a fixed number of candidates per radar (static shapes under jit):
 radar i takes the first admissible of ``CANDIDATES`` draws given radars
 0..i-1. ``ok`` is False if some radar found no admissible candidate; callers
 check it on the host before running (``mjx-radar`` exits with code 2).
+On terrain (docs/terrain.md) a candidate stands at the ground height plus the
+antenna height (the 3-D R2T test uses it) and candidates on slopes steeper than
+``terrain.max_slope_deg`` are not admissible.
 
 The initial estimate is ``x_0 + e``, ``e ~ N(0, P0)``, ``P0 = p0 I`` (a consistent draw).
 """
@@ -49,12 +52,13 @@ def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array,
     targets = params.target_init[:, :3]
     k_xy, k_th = jax.random.split(key)
     cand = jax.random.uniform(k_xy, (n, CANDIDATES, 2), minval=-w, maxval=w)
-    cand3 = jnp.concatenate([cand, jnp.zeros((n, CANDIDATES, 1))], axis=-1)
+    ground, steep = _ground(scenario, cand)
+    cand3 = jnp.concatenate([cand, ground[..., None]], axis=-1)
     d_rt = jnp.linalg.norm(cand3[:, :, None] - targets[None, None], axis=-1).min(-1)
     placed = jnp.zeros((n, 3))
     all_ok = jnp.array(True)
     for i in range(n):  # static loop over radars (N is small and static)
-        ok = d_rt[i] >= params.r2t
+        ok = (d_rt[i] >= params.r2t) & ~steep[i]
         if i:
             d_rr = jnp.linalg.norm(cand3[i][:, None] - placed[None, :i], axis=-1).min(-1)
             ok &= d_rr >= params.r2r
@@ -65,14 +69,27 @@ def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array,
     theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
     if scenario.radar_init:  # fixed start given by the scenario file
         fixed = params.radar_init
-        placed = jnp.concatenate([fixed[:, :2], jnp.zeros((n, 1))], axis=-1)
+        placed = jnp.concatenate([fixed[:, :2], _ground(scenario, fixed[:, :2])[0][:, None]], -1)
         theta = fixed[:, 2]
         d_rt = jnp.linalg.norm(placed[:, None] - targets[None], axis=-1)
         d_rr = jnp.linalg.norm(placed[:, None] - placed[None], axis=-1) + 1e9 * jnp.eye(n)
         all_ok = jnp.all(d_rt >= params.r2t) & jnp.all(d_rr >= params.r2r)
     zeros = jnp.zeros(n)
-    states = jnp.stack([placed[:, 0], placed[:, 1], zeros, theta, zeros, zeros], axis=-1)
+    states = jnp.stack([placed[:, 0], placed[:, 1], placed[:, 2], theta, zeros, zeros], axis=-1)
     return states, all_ok
+
+
+def _ground(scenario: Scenario, xy):
+    """``(z, steep)`` of radars at ``xy [..., 2]``: 0 and False on flat ground; on
+    terrain the ground height plus the antenna height, and grade beyond the limit."""
+    if scenario.terrain is None:
+        return jnp.zeros(xy.shape[:-1], xy.dtype), jnp.zeros(xy.shape[:-1], bool)
+    from mjx_radar.world import terrain
+
+    t = scenario.terrain
+    grid = terrain.terrain_grid(t)
+    z = terrain.height(grid, xy) + t.antenna_height
+    return z, terrain.slope(grid, xy) > terrain.max_grade(t)
 
 
 def initial_conditions(scenario: Scenario, params, streams) -> Init:

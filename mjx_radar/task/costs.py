@@ -15,6 +15,8 @@ t+1 and E_p the mean over the CKF cubature points of the target states at that t
 * ``radar_target``: ``α2 · E_p[#{radar-target pairs closer than R2T}]``;
 * ``obstacle`` (scenes with obstacles): ``α_obs Σ_n relu(margin − φ(p_n(t)))``, φ the
   footprints' signed distance -- metres of intrusion into the keep-out band;
+* ``terrain_slope`` (scenes with terrain, ``terrain.alpha_slope > 0``):
+  ``α_slope Σ_n relu(|∇h(p_n(t))| − tan(max_slope_deg))`` (keep-out of steep ground);
 * ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``.
 
 Adding a term: write ``def my_term(h: Horizon, task, params) -> [H]`` here and list it
@@ -66,9 +68,9 @@ def information(h: Horizon, task, params) -> jax.Array:
     # work below is then contiguous elementwise arithmetic (vectorised by XLA's CPU
     # backend; the [..., 3] layout was ~10x slower), reduced over points by a dot.
     xyz = tuple(tgt[..., c].reshape(hh, p * m) for c in range(3))
-    mask = None  # [H, N, P·M] line of sight to the predicted target means
-    if task.occluders is not None:
-        vis = occlusion.line_of_sight(task.occluders, radar_pos, tgt.mean(1))  # [H, N, M]
+    mask = None  # [H, N, P·M] line of sight to the predicted target means (mpc.los)
+    if task.plan_occluders is not None:
+        vis = occlusion.line_of_sight(task.plan_occluders, radar_pos, tgt.mean(1))  # [H, N, M]
         mask = jnp.broadcast_to(vis[:, :, None], (hh, vis.shape[1], p, m)).reshape(hh, -1, p * m)
     det = task.scenario.detection
     if (det.detects or det.clutter) and det.planner:  # expected FIM (docs/detection.md)
@@ -135,6 +137,15 @@ def obstacle(h: Horizon, task, params) -> jax.Array:
     return mpc.alpha_obs * jnp.sum(depth, axis=-1)
 
 
+def terrain_slope(h: Horizon, task, params) -> jax.Array:
+    """``α_slope Σ_n relu(|∇h(p_n(t))| − tan(max_slope))``: grade beyond the vehicle limit."""
+    from mjx_radar.world.terrain import max_grade, slope, terrain_grid
+
+    t = task.scenario.terrain
+    grade = slope(terrain_grid(t), h.radar[..., :2])  # [H, N]
+    return t.alpha_slope * jnp.sum(jax.nn.relu(grade - max_grade(t)), axis=-1)
+
+
 def control_effort(h: Horizon, task, params) -> jax.Array:
     lim = task.scenario.limits
     scaled = h.controls / jnp.asarray([lim.accel, lim.alpha], h.controls.dtype)
@@ -143,7 +154,8 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
 
 #: terms registered from scripts: name -> (fn, enabled(scenario) -> bool)
 _REGISTERED: dict[str, tuple[Callable, Callable[[Any], bool]]] = {}
-BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "control_effort")
+BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "terrain_slope",
+            "control_effort")  # fmt: skip
 
 
 def register_cost_term(name: str, fn: Callable[[Horizon, Any, Any], jax.Array],
@@ -209,6 +221,9 @@ def cost_terms(scenario) -> tuple[CostTerm, ...]:
     ]
     if scenario.obstacles and scenario.mpc.alpha_obs > 0:
         terms.append(CostTerm("obstacle", obstacle))
+    terrain = getattr(scenario, "terrain", None)
+    if terrain is not None and terrain.alpha_slope > 0:
+        terms.append(CostTerm("terrain_slope", terrain_slope))
     if scenario.mpc.alpha_effort > 0:
         terms.append(CostTerm("control_effort", control_effort))
     terms += [CostTerm(n, fn) for n, (fn, en) in _REGISTERED.items() if en(scenario)]

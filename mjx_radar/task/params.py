@@ -60,12 +60,16 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     arr = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     n = scenario.n_radars
     radar_init = np.zeros((n, 3)) if not scenario.radar_init else np.asarray(scenario.radar_init)
-    target_init, motion = scenario.target_init, None
+    target_init, motion = np.asarray(scenario.target_init, float), None
     if scenario.target_motion:  # per-target motion (a track starts at its CSV's start)
         from mjx_radar.physics import target_motion
 
-        target_init = target_motion.initial_states(scenario)
+        target_init = np.array(target_motion.initial_states(scenario), float)
         motion = target_motion.motion_params(scenario, dtype)
+    if scenario.terrain is not None and scenario.terrain.targets_agl:  # z above the ground
+        from mjx_radar.io.terrain_file import height_np
+
+        target_init[:, 2] += height_np(scenario.terrain, target_init[:, :2])
     return TaskParams(
         method=method.flags(),
         noise=measurement.noise_params(scenario, dtype=dtype),

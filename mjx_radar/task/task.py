@@ -22,7 +22,7 @@ from mjx_radar.estimation import measurement
 from mjx_radar.physics import kinematics, motion
 from mjx_radar.physics import plant as physics
 from mjx_radar.task import costs
-from mjx_radar.world import obstacles, occlusion
+from mjx_radar.world import obstacles, occlusion, terrain
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -81,6 +81,13 @@ def _rollout_backend(scenario: Scenario) -> Callable:
         def integrate(state, u):
             return kinematics.unicycle_rollout(state, u, dt, limits)
 
+    if scenario.terrain is not None:  # z on the ground: the analytic lookup (no contacts)
+        grid, antenna = terrain.terrain_grid(scenario.terrain), scenario.terrain.antenna_height
+        flat = integrate
+
+        def integrate(state, u):
+            return terrain.on_ground(grid, flat(state, u), antenna)
+
     if k == 1:
         return integrate
     return lambda state, u: integrate(state, jnp.repeat(u, k, axis=0))[k - 1 :: k]
@@ -106,6 +113,8 @@ def _task_of_kind(shape: Scenario, registry: tuple, kind: str) -> RadarTask:
 def _make_task(shape: Scenario, registry: tuple) -> RadarTask:
     t, m, mpc = shape.timing, shape.n_targets, shape.mpc
     occ = occlusion.occluders(shape.obstacles) if shape.obstacles else None
+    if shape.terrain is not None:  # the ground masks lines of sight too
+        occ = occlusion.with_terrain(occ, terrain.terrain_grid(shape.terrain))
     grid = None
     if shape.obstacles and mpc.alpha_obs > 0:
         grid = obstacles.sdf_grid(

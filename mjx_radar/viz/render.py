@@ -82,7 +82,10 @@ def scene_model(tr: Trial, camera: str = "top", aspect: float = 4 / 3):
     """
     from mjx_radar.physics.scene import build_scene
 
-    model, index = build_scene(tr.radar.shape[1], tr.target.shape[1], tr.dt, tr.scenario.obstacles)
+    terrain = tr.scenario.terrain  # the hfield ground; radars get a z joint to stand on it
+    model, index = build_scene(tr.radar.shape[1], tr.target.shape[1], tr.dt,
+                               tr.scenario.obstacles, terrain=terrain,
+                               radar_z_joint=terrain is not None)  # fmt: skip
     lo, hi = tr.bounds()
     model.stat.extent = max(float(np.max(hi - lo)), 100.0)  # sets near/far clipping
     model.stat.center[:] = [*(0.5 * (lo + hi)), 0.0]
@@ -99,6 +102,11 @@ def set_state(model, data, index, tr: Trial, k: int) -> None:
 
     data.qpos[index.radar_qpos.reshape(-1)] = tr.radar[k][:, [0, 1, 3]].reshape(-1)
     data.qpos[index.drone_qpos.reshape(-1)] = tr.target[k, :, :3].reshape(-1)
+    terrain = tr.scenario.terrain
+    if terrain is not None:  # body origin on the ground: z minus the antenna height
+        for i in range(tr.radar.shape[1]):
+            adr = model.jnt_qposadr[model.joint(f"radar{i}/z").id]
+            data.qpos[adr] = tr.radar[k, i, 2] - terrain.antenna_height
     mujoco.mj_kinematics(model, data)
 
 

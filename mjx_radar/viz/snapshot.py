@@ -95,6 +95,44 @@ def _draw_footprints(ax, tr: Trial, lo, hi) -> None:
     )
 
 
+def _draw_terrain(ax, tr: Trial, lo, hi) -> None:
+    """Terrain heights as a shaded image (``gid="terrain"``), slopes beyond the vehicle
+    limit hatched (``gid="steep"``)."""
+    t = tr.scenario.terrain
+    if t is None:
+        return
+    from mjx_radar.world import terrain
+
+    xs, ys = map_grid(lo, hi, FOOTPRINT_CELLS // 2)
+    gx, gy = np.meshgrid(xs, ys)
+    xy = np.stack([gx, gy], -1)
+    h = terrain.height_np(t, xy)
+    ext = (xs[0], xs[-1], ys[0], ys[-1])
+    ax.imshow(h, origin="lower", extent=ext, cmap="terrain", alpha=0.55, zorder=0, gid="terrain")
+    grade = np.asarray(terrain.slope(terrain.terrain_grid(t), xy.astype(np.float32)))
+    steep = grade > terrain.max_grade(t)
+    if steep.any():
+        ax.contourf(xs, ys, steep.astype(float), levels=[0.5, 1.5], colors="none",
+                    hatches=["////"], zorder=0.5).set_gid("steep")  # fmt: skip
+
+
+def masked_fraction(tr: Trial, k: int, xs, ys, z: float) -> np.ndarray:
+    """``[ny, nx]`` fraction of the radars whose line of sight to ``(x, y, z)`` is blocked
+    (obstacles and terrain, :mod:`mjx_radar.world.occlusion`) at step ``k``."""
+    sc = tr.scenario
+    if sc.terrain is None and not sc.obstacles:
+        return np.zeros((len(ys), len(xs)))
+    from mjx_radar.world import occlusion, terrain
+
+    occ = occlusion.occluders(tuple(sc.obstacles)) if sc.obstacles else None
+    if sc.terrain is not None:
+        occ = occlusion.with_terrain(occ, terrain.terrain_grid(sc.terrain))
+    gx, gy = np.meshgrid(xs, ys)
+    pts = np.stack([gx, gy, np.full_like(gx, z)], -1).reshape(-1, 3).astype(np.float32)
+    vis = np.asarray(occlusion.line_of_sight(occ, tr.radar[k, :, :3].astype(np.float32), pts))
+    return 1.0 - vis.mean(0).reshape(gx.shape)
+
+
 def snapshot_figure(tr: Trial, k: int, grid: int = 120):
     """The two-panel figure of filter step ``k`` (0-based) of a trial (caller closes it)."""
     import matplotlib
@@ -110,12 +148,18 @@ def snapshot_figure(tr: Trial, k: int, grid: int = 120):
     heat = fim_heatmap(tr.radar[k, :, :3], xs, ys, z, c)
     heat = np.ma.masked_where(obstacle_mask(tr.scenario.obstacles, xs, ys), heat)
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    _draw_terrain(left, tr, lo, hi)
     _draw_footprints(left, tr, lo, hi)
     lines = draw_matplotlib(left, step_overlay(tr, k))
     fig.colorbar(lines, ax=left, label="MPPI sample weight (relative)", shrink=0.8)
     left.legend(loc="upper left", fontsize=7)
     im = right.imshow(heat, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), cmap="viridis")
     fig.colorbar(im, ax=right, label=r"$\log\det J$ (DDR SFIM) [log m$^{-2}$]", shrink=0.8)
+    masked = masked_fraction(tr, k, xs, ys, z)
+    if masked.any():  # darker where more radars are blocked; the heat map ignores masking
+        right.imshow(np.ma.masked_where(masked == 0, masked), origin="lower", cmap="Greys",
+                     vmin=0.0, vmax=1.25, alpha=0.6, extent=(lo[0], hi[0], lo[1], hi[1]),
+                     gid="masked")  # fmt: skip
     right.plot(*tr.radar[k, :, :2].T, "s", color="w", mec="k", ms=7)
     right.plot(*tr.target[k, :, :2].T, "x", color="r", ms=7)
     for ax, title in ((left, "scene"), (right, f"SFIM log det at z = {z:.0f} m")):

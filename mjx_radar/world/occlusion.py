@@ -15,6 +15,9 @@ Obstacles are turned once (host side) into two padded array sets:
 
 Touching (an interval of zero length) does not block. A radar on the ground next
 to a wall sees over it only if the segment clears the wall.
+
+Terrain (``Occluders.terrain``, a height grid): the segment is blocked where it
+passes below the ground (:mod:`mjx_radar.world.terrain_los`, exact per cell).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.config import Obstacle
+from mjx_radar.world import terrain_los
 from mjx_radar.world.obstacles import mesh_vertices, rotation_z
 
 _TINY = 1e-9
@@ -39,10 +43,12 @@ class Occluders(NamedTuple):
     Attributes:
         planes: ``[K1, F, 4]`` half-spaces ``(n_x, n_y, n_z, d)`` of each convex polyhedron.
         cylinders: ``[K2, 5]`` rows ``(c_x, c_y, r, z0, z1)``.
+        terrain: a :class:`~mjx_radar.world.terrain.TerrainGrid`, or None (flat ground).
     """
 
     planes: jnp.ndarray
     cylinders: jnp.ndarray
+    terrain: object = None
 
 
 def _box_planes(obs: Obstacle) -> np.ndarray:
@@ -143,7 +149,17 @@ def segment_blocked(occ: Occluders, a, b):
         out |= jnp.any(_poly_blocked(occ.planes.astype(a.dtype), a, e), axis=-1)
     if occ.cylinders.shape[0]:
         out |= jnp.any(_cyl_blocked(occ.cylinders.astype(a.dtype), a, e), axis=-1)
+    if occ.terrain is not None:
+        out |= terrain_los.segment_blocked(occ.terrain, a, b)
     return out
+
+
+def with_terrain(occ: Occluders | None, grid) -> Occluders:
+    """``occ`` (or no obstacles) with the terrain grid ``grid`` as an occluder too."""
+    if occ is None:
+        with jax.ensure_compile_time_eval():
+            occ = Occluders(jnp.zeros((0, 1, 4), jnp.float32), jnp.zeros((0, 5), jnp.float32))
+    return occ._replace(terrain=grid)
 
 
 def line_of_sight(occ: Occluders, radar_pos, target_pos):
