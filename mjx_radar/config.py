@@ -1,7 +1,6 @@
-"""Typed, immutable scenario configuration (SPEC defaults; more tables: config_detection,
-config_world, config_terrain): frozen, hashable dataclasses (static under ``jax.jit``); SI
-units. Files are read by :mod:`mjx_radar.io.scenario`; each field's allowed range is its
-metadata (``rule``/``flag``/``choice``/``table``/``rows`` of :mod:`mjx_radar.io.checks`)."""
+"""Typed, immutable scenario configuration (SPEC defaults; tables also in config_detection,
+config_world, config_terrain): frozen, hashable dataclasses (static under ``jax.jit``), SI
+units; each field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
@@ -9,8 +8,8 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.config_detection import DetectionConfig
+from mjx_radar.config_terrain import Terrain
 from mjx_radar.config_world import RadarOverride, TargetMotion
-from mjx_radar.config_terrain import Terrain  # noqa: F401 (the [terrain] table)
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
 
 
@@ -261,9 +260,8 @@ class Scenario:
         default_factory=RadarEquation,
         metadata=table("radar equation (SPEC 1)", toml="radar_equation"),
     )
-    limits: RadarLimits = field(
-        default_factory=RadarLimits, metadata=table("radar control and state limits")
-    )
+    limits: RadarLimits = field(default_factory=RadarLimits,
+                                metadata=table("radar control and state limits"))  # fmt: skip
     timing: Timing = field(default_factory=Timing, metadata=table("filter and control clocks"))
     mpc: MPCConfig = field(default_factory=MPCConfig, metadata=table("MPC objective and horizon"))
     mppi: MPPIConfig = field(default_factory=MPPIConfig, metadata=table("MPPI sampler"))

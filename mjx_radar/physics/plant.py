@@ -146,14 +146,9 @@ def truth_plant(scenario: Scenario) -> Plant:
     """Radars and drones at the filter step (the closed-loop truth), cached per scenario."""
     if scenario.n_targets < 1:
         raise ValueError(f"n_targets: {scenario.n_targets} is not allowed; need at least 1")
-    return make_plant(
-        scenario.n_radars,
-        scenario.n_targets,
-        scenario.timing.dt_filter,
-        scenario.limits,
-        scenario.obstacles,
-        scenario.terrain,
-    )
+    sc = scenario
+    return make_plant(sc.n_radars, sc.n_targets, sc.timing.dt_filter, sc.limits, sc.obstacles,
+                      sc.terrain)  # fmt: skip
 
 
 def _check_finite(name: str, x) -> None:
@@ -205,13 +200,8 @@ def target_state(plant: Plant, data) -> jax.Array:
     )
 
 
-def step(
-    plant: Plant,
-    data,
-    radar_u: jax.Array,
-    drone_accel: jax.Array | None = None,
-    drone_mean_v: jax.Array | None = None,
-):
+def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None = None,
+         drone_mean_v: jax.Array | None = None):  # fmt: skip
     """One physics step.
 
     Args:
