@@ -2,7 +2,9 @@
 
 Writes ``OUT/trials.csv`` (scenario, method, trial, mean rmse_pos, mean rmse_pos over the
 last half, ever lost, lost steps, diverged steps) and ``OUT/steps.csv`` (scenario, method,
-step, mean / median / RMS RMSE, RMS PCRLB, trials lost). Usage::
+step, mean / median / RMS RMSE, RMS PCRLB, trials lost) and ``OUT/columns.csv`` (scenario,
+method: the mean over trials and steps of every numeric metric column, e.g. detections,
+false alarms, visible pairs, targets present). Usage::
 
     python scripts/study_digest.py STUDY_DIR OUT_DIR
 """
@@ -44,6 +46,12 @@ def main(study: Path, out: Path) -> None:
         }
     ).reset_index()
     steps.to_csv(out / "steps.csv", index=False)
+    numeric = [
+        c for c in f.columns if c not in ("trial", "step") and pd.api.types.is_numeric_dtype(f[c])
+    ]
+    f.groupby(["scenario", "method"], observed=True)[numeric].mean().reset_index().to_csv(
+        out / "columns.csv", index=False
+    )
 
 
 if __name__ == "__main__":
