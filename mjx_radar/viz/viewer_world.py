@@ -24,6 +24,8 @@ from mjx_radar.viz.overlays import TARGET_RGB
 
 TERRAIN_NODES = 160  # nodes per side of the drawn surface at most
 LIFT = 0.5  # [m] rings, samples and plans drawn this far above the ground
+#: low green to high brown (no white: the scene's background)
+TERRAIN_SCALE = [[0.0, "rgb(70,130,70)"], [0.5, "rgb(175,160,105)"], [1.0, "rgb(120,85,55)"]]
 
 
 def _rgb(c) -> str:
@@ -57,7 +59,7 @@ def terrain_surface(terrain, lo, hi, max_nodes: int = TERRAIN_NODES) -> dict:
     """The terrain as a plotly ``surface`` trace (legend entry "terrain"; :func:`terrain_nodes`)."""
     xs, ys, h, stride = terrain_nodes(terrain, lo, hi, max_nodes)
     return dict(type="surface", name=f"terrain (every {stride} node)" if stride > 1 else "terrain",
-                legendgroup="world", showlegend=True, showscale=False, colorscale="Earth",
+                legendgroup="world", showlegend=True, showscale=False, colorscale=TERRAIN_SCALE,
                 opacity=0.85, hoverinfo="skip", x=xs.astype(np.float32),
                 y=ys.astype(np.float32), z=h.astype(np.float32),
                 lighting={"ambient": 0.7, "diffuse": 0.6},
