@@ -9,7 +9,7 @@ Shared by the offline HTML (:mod:`mjx_radar.viz.viewer`) and the live view
   at most :data:`TERRAIN_NODES` nodes per side by a stride ``s`` (every s-th row and
   column, the last one kept): the drawn surface equals the height grid at those nodes
   (plotly interpolates linearly between them; the simulator's bilinear interpolant agrees
-  at the nodes). Size: ``<= 160 x 160`` float32 heights, about 140 kB in the file, once.
+  at the nodes). Size: ``<= 160 x 160`` float32 heights, at most about 180 kB in the file, once.
 - :func:`ground_z`: the bilinear height (numpy, :func:`mjx_radar.world.terrain.height_np`)
   under xy points, to drape rings, MPPI samples and plans on the ground.
 - :func:`route_lines`: each ``waypoints`` target's route, start -> waypoints (-> the
