@@ -248,7 +248,7 @@ def test_terrain_surface_is_the_height_grid(hills, tmp_path):
     for max_nodes, every in ((160, 1), (7, None)):
         lo, hi = load_trial_bounds(rd)
         xs, ys, h, stride = terrain_nodes(t, lo, hi, max_nodes)
-        assert len(xs) <= max_nodes + 1 and len(ys) <= max_nodes + 1
+        assert len(xs) <= max_nodes and len(ys) <= max_nodes
         assert every is None and stride > 1 or stride == every
         j = np.round((xs + t.extent_x / 2) / dx).astype(int)
         i = np.round((ys + t.extent_y / 2) / dx).astype(int)

@@ -182,7 +182,12 @@ class LiveView:
         init = np.asarray(self.scenario.target_init, float)
         t = np.linspace(0.0, self.steps * self.scenario.timing.dt_filter, 11)[:, None, None]
         path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
-        return path[:, :2].min(0), path[:, :2].max(0), max(1.15 * float(path[:, 2].max()), 1.0)
+        top = 1.15 * float(path[:, 2].max())
+        if self.scenario.terrain is not None:  # the whole grid's top: the surface fits
+            from mjx_radar.world.terrain import node_heights
+
+            top = max(top, 1.1 * float(node_heights(self.scenario.terrain).max()))
+        return path[:, :2].min(0), path[:, :2].max(0), max(top, 1.0)
 
     def _grow_box(self, tr: Trial) -> tuple:
         """Scene box ``(lo, hi, ztop)``: the drones' paths and what was seen (radars with

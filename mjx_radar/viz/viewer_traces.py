@@ -149,7 +149,7 @@ def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
                                   "y": 0.8, "thickness": 12}}),
         dict(mode="lines", line={"color": "rgb(0,160,60)", "width": 5}),
         dict(mode="lines", line={"color": "rgb(150,150,150)", "width": 1}, opacity=0.5),
-        dict(mode="markers+text", marker={"size": 9, "symbol": FIXED_SYMBOL, "color": radar_c},
+        dict(mode="markers+text", marker={"size": 12, "symbol": FIXED_SYMBOL, "color": radar_c},
              text=[f"R{i}" for i in range(n)], textposition="top center",
              showlegend=fixed is not None and bool(np.any(fixed))),
     ]  # fmt: skip
