@@ -47,7 +47,7 @@ def world_state(tr, k: int, m: int):
     fixed = np.zeros(n, bool)
     for ov in getattr(sc, "radar_override", ()):
         fixed[ov.radar] = not ov.mobile
-    t = (k + 1) * float(tr.dt)
+    t = (k + 1) * float(getattr(tr, "dt", None) or tr.meta["dt_filter"])
     present, routes = np.ones(m, bool), []
     for tm in getattr(sc, "target_motion", ()):
         present[tm.target] = tm.appear <= t < tm.leave
