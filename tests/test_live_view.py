@@ -227,3 +227,41 @@ def test_interactive_linger_serves_until_ctrl_c(tiny, capsys):
     assert "until Ctrl-C" in capsys.readouterr().err
     with pytest.raises(urllib.error.URLError):
         get(view.url)
+
+
+def test_live_counts_panel_and_absent_drones():
+    """clutter_3r4t with drone 1 leaving at 0.05 s: the live figure has the counts panel, a
+    state's counts are the records' own, and the absent drone is not drawn (no closed loop:
+    synthetic records, as the runner hands them over)."""
+    from mjx_radar.simulation.closed_loop import ControlRecord, StepRecord
+
+    s = mjx_radar.load_scenario("clutter_3r4t").replace(
+        target_motion=[{"target": 1, "model": "cv", "leave": 0.05}])
+    t, p, n, m, h = 1, 8, 3, 4, 4
+    rng = np.random.default_rng(0)
+    count = {c: rng.integers(0, 12, (t, p)).astype(np.int32)
+             for c in ("detections", "visible_pairs", "false_alarms", "targets_present")}
+    zero = np.zeros((t, p), np.float32)
+    target = rng.normal(0, 50, (t, p, m, 6)).astype(np.float32)
+    steps = StepRecord(**{f: zero for f in StepRecord._fields} | count | dict(
+        target=target, mean=target.reshape(t, p, 6 * m), radar=np.zeros((t, p, n, 6), np.float32),
+        cov_diag=np.ones((t, p, 6 * m), np.float32)))  # fmt: skip
+    controls = ControlRecord(np.zeros((t, 1, n, 2), np.float32), np.zeros((t, 1, h, n, 2),
+                             np.float32), np.zeros((t, 1, 2, h, n, 2), np.float32),
+                             np.ones((t, 1, 2), np.float32), np.zeros((t, 1, 2), np.float32))
+    view = live_mod.LiveView(s, [0], 80, port=0)
+    try:
+        fig = get_json(view.url + "figure.json")
+        view.update(p, (steps, controls))
+        state = get_json(view.url + "state.json?trial=0")
+    finally:
+        view.close()
+    names = [fig["data"][i].get("name") for i in state["metrics"]]
+    assert names[3:] == ["detections", "visible pairs", "false alarms", "targets present",
+                         "current step (counts)"]  # fmt: skip
+    cols = ("detections", "visible_pairs", "false_alarms", "targets_present")
+    np.testing.assert_array_equal(state["counts"], [count[c][0] for c in cols])
+    assert state["counts_now"] == [int(count[c][0, -1]) for c in cols]
+    drones = layer(state, "drones (truth)")  # t = 8 * 0.025 s = 0.2 s: drone 1 has left
+    assert np.isnan(drones[1]).all() and np.isfinite(drones[[0, 2, 3]]).all()
+    np.testing.assert_allclose(drones[[0, 2, 3]], target[0, -1, [0, 2, 3], :3], atol=1e-3)

@@ -27,9 +27,10 @@ cli_main = importlib.import_module("mjx_radar.cli.main")
 CHROMIUM = Path("/usr/bin/chromium")
 
 
-def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0) -> Path:
+def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0, radar_z=None) -> Path:
     """A run directory of synthetic arrays (schema of io.results) for ``scenario``
-    (position and velocity variances ``var``)."""
+    (position and velocity variances ``var``; radar z 1 m, or ``radar_z(xy [..., 2])``);
+    the count metrics are random integers, ``targets_present`` the scenario's presence."""
     s = scenario
     rng = np.random.default_rng(seed)
     steps = steps or s.timing.steps
@@ -46,11 +47,14 @@ def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0) -> Path:
     radar = np.zeros((trials, steps, n, 6), np.float32)
     radar[..., 0] = 100.0 * np.arange(n) - 50.0 + 0.5 * t[None, :, None]
     radar[..., 1] = -80.0 + 0.2 * t[None, :, None] + 3.0 * np.arange(trials)[:, None, None]
-    radar[..., 2] = 1.0
+    radar[..., 2] = 1.0 if radar_z is None else radar_z(radar[..., :2])
     base = radar[:, ::every, None, None, :, :2]  # [T, C, 1, 1, N, 2]
     steps_h = np.arange(1, h + 1)[None, None, None, :, None, None]
     sample_xy = (base + steps_h * rng.normal(0, 1, (trials, c, k_s, 1, n, 2))).astype(np.float32)
     res = {name: rng.uniform(1, 5, (trials, steps)) for name in METRIC_COLUMNS}
+    for name in ("visible_pairs", "detections", "false_alarms"):
+        res[name] = rng.integers(0, n * m, (trials, steps))
+    res["targets_present"] = np.tile(_present(s, t).sum(-1), (trials, 1))
     res.update(
         lost=np.zeros((trials, steps)),
         diverged=np.zeros((trials, steps)),
@@ -69,6 +73,14 @@ def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0) -> Path:
         control_hz=10.0,
     )
     return write_run(out, s, "ddr-sfim", s.seed, np.arange(trials), steps, res)
+
+
+def _present(s, t) -> np.ndarray:
+    """``[K, M]`` bool: target m present at time t[k] (``appear <= t < leave``, the spec)."""
+    here = np.ones((len(t), s.n_targets), bool)
+    for tm in s.target_motion:
+        here[:, tm.target] = (tm.appear <= t) & (t < tm.leave)
+    return here
 
 
 @pytest.fixture(scope="module")
@@ -198,3 +210,160 @@ def test_zero_samples_draws_none(smoke2):
     tr = viewer.load_trial(viewer.load_run(smoke2), 0)
     assert frame_traces(tr, 10, 0, None)[6]["x"].size == 0
     assert np.isfinite(frame_traces(tr, 10, 3, None)[6]["x"]).sum() == 3 * 2 * 8  # S * N * H
+
+
+def _frame(fig, name: str):
+    """``{layer name: trace}`` of frame ``name``."""
+    f = {f.name: f for f in fig.frames}[name]
+    return {fig.data[i].name: d for i, d in zip(f.traces, f.data, strict=True)}
+
+
+def _xyz(trace) -> np.ndarray:
+    return np.column_stack([np.asarray(trace.x, float), np.asarray(trace.y, float),
+                            np.asarray(trace.z, float)])  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def hills(tmp_path_factory):
+    """hills_4r4t, 200 steps, radars on the ground (z = terrain + antenna height)."""
+    from mjx_radar.world.terrain import height_np
+
+    s = mjx_radar.load_scenario("hills_4r4t")
+    z = lambda xy: height_np(s.terrain, xy.reshape(-1, 2)).reshape(xy.shape[:-1]) + 2.0  # noqa: E731
+    return synthetic_run(tmp_path_factory.mktemp("view") / "hills", s, steps=200, radar_z=z)
+
+
+def test_terrain_surface_is_the_height_grid(hills, tmp_path):
+    """The surface's nodes are grid nodes of the PNG's heights (read here with imageio, not
+    the simulator's reader) and the radars stand on it at their recorded z."""
+    import imageio.v3 as iio
+
+    from mjx_radar.viz.viewer_world import terrain_nodes
+
+    rd = viewer.load_run(hills)
+    t = rd.scenario.terrain
+    png = iio.imread(Path(mjx_radar.__file__).parent.parent / "scenarios" / t.path)
+    grid = t.height_scale * np.flipud(png.astype(float)) / np.iinfo(png.dtype).max  # row 0 south
+    dx = t.extent_x / (grid.shape[1] - 1)
+    for max_nodes, every in ((160, 1), (7, None)):
+        lo, hi = load_trial_bounds(rd)
+        xs, ys, h, stride = terrain_nodes(t, lo, hi, max_nodes)
+        assert len(xs) <= max_nodes and len(ys) <= max_nodes
+        assert every is None and stride > 1 or stride == every
+        j = np.round((xs + t.extent_x / 2) / dx).astype(int)
+        i = np.round((ys + t.extent_y / 2) / dx).astype(int)
+        np.testing.assert_allclose(xs, -t.extent_x / 2 + j * dx, atol=1e-9)  # on nodes
+        np.testing.assert_allclose(h, grid[np.ix_(i, j)], atol=1e-9)
+        assert xs[0] <= lo[0] and xs[-1] >= hi[0] and ys[0] <= lo[1] and ys[-1] >= hi[1]
+    fig, info = viewer.build_figure(rd, max_frames=10, samples=2)
+    surf = [d for d in fig.data if d.type == "surface"]
+    assert len(surf) == 1 and surf[0].name == "terrain" and "terrain" in info.dropped()
+    xs, ys, h, _ = terrain_nodes(t, lo, hi)
+    np.testing.assert_allclose(np.asarray(surf[0].z, float), h, rtol=1e-6, atol=1e-4)
+    np.testing.assert_allclose(np.asarray(surf[0].x, float), xs, atol=1e-3)
+    radar = _xyz(_frame(fig, "t0:9")["radars"])
+    np.testing.assert_allclose(radar, rd.arrays["radar"][0, -1, :, :3], atol=1e-3)
+    rings = _xyz(_frame(fig, "t0:9")["R2T rings"])  # draped: 0.5 m above the ground
+    ok = np.isfinite(rings[:, 0])
+    from mjx_radar.world.terrain import height_np
+
+    np.testing.assert_allclose(rings[ok, 2], height_np(t, rings[ok, :2]) + 0.5, atol=1e-3)
+    assert fig.layout.scene.zaxis.range[1] > h.max()
+
+
+def load_trial_bounds(rd):
+    return viewer.load_trial(rd, 0).bounds()
+
+
+def test_fixed_sites_drawn_apart(tmp_path):
+    s = mjx_radar.load_scenario("mixed_6r4t")
+    rd = viewer.load_run(synthetic_run(tmp_path / "mixed", s, steps=80))
+    fig, _ = viewer.build_figure(rd, max_frames=5, samples=2)
+    fixed = np.array([0, 1])  # mobile = false in the scenario file
+    for i, k in enumerate(viewer.frame_steps(80, 5)):
+        f = _frame(fig, f"t0:{i}")
+        want = rd.arrays["radar"][0, k, :, :3]
+        sites, mobile = _xyz(f["fixed sites"]), _xyz(f["radars"])
+        np.testing.assert_allclose(sites[fixed], want[fixed], atol=1e-3)
+        np.testing.assert_allclose(mobile[2:], want[2:], atol=1e-3)
+        assert np.isnan(sites[2:]).all() and np.isnan(mobile[fixed]).all()
+    traces = {d.name: d for d in fig.data}
+    assert traces["fixed sites"].marker.symbol == "cross" != traces["radars"].marker.symbol
+    assert traces["fixed sites"].showlegend is not False
+    smoke_fig, _ = viewer.build_figure(viewer.load_run(synthetic_run(
+        tmp_path / "smoke", mjx_radar.load_scenario("smoke"), steps=40)), max_frames=3)
+    assert {d.name: d for d in smoke_fig.data}["fixed sites"].showlegend is False
+
+
+def test_absent_drones_hidden_and_counts_panel(tmp_path):
+    """raid_4r8t: drones 0-3 leave at 36 s, 4-7 appear at 15 s; each frame hides exactly the
+    absent ones (truth, estimate, axes, lines of sight); the present count is plotted."""
+    s = mjx_radar.load_scenario("raid_4r8t").replace(timing={"steps": 1600})
+    d = synthetic_run(tmp_path / "raid", s, steps=1600)
+    rd = viewer.load_run(d)
+    fig, _ = viewer.build_figure(rd, max_frames=40, samples=0)
+    ks = viewer.frame_steps(1600, 40)
+    t = s.timing.dt_filter * (ks + 1)
+    here = _present(s, t)
+    assert here.all(1).sum() < len(ks) and here[:, :4].any() and here[:, 4:].any()
+    assert {tuple(h) for h in here} >= {(True,) * 4 + (False,) * 4, (True,) * 8,
+                                        (False,) * 4 + (True,) * 4}  # fmt: skip
+    for i, k in enumerate(ks):
+        f = _frame(fig, f"t0:{i}")
+        truth, est = _xyz(f["drones (truth)"]), _xyz(f["estimates"])
+        np.testing.assert_array_equal(np.isfinite(truth).all(1), here[i])
+        np.testing.assert_array_equal(np.isfinite(est).all(1), here[i])
+        np.testing.assert_allclose(truth[here[i]], rd.arrays["target"][0, k, here[i], :3],
+                                   atol=1e-3)  # fmt: skip
+        los = _xyz(f["lines of sight"]).reshape(s.n_radars, s.n_targets, 3, 3)
+        np.testing.assert_array_equal(np.isfinite(los[:, :, 1]).all(-1),
+                                      np.broadcast_to(here[i], (s.n_radars, s.n_targets)))
+        assert np.isfinite(_xyz(f["2-sigma axes"])).all(1).sum() == 3 * 2 * here[i].sum()
+    import pandas as pd
+
+    metrics = pd.read_parquet(d / "metrics.parquet")
+    present = {t.name: t for t in fig.data}["targets present"]
+    np.testing.assert_array_equal(present.y, metrics.sort_values("step")["targets_present"])
+    assert "detections" not in {t.name for t in fig.data}  # detection off in raid
+
+
+def test_detection_counts_equal_the_metrics(tmp_path):
+    import pandas as pd
+
+    s = mjx_radar.load_scenario("clutter_3r4t")
+    d = synthetic_run(tmp_path / "clutter", s, trials=2, steps=120)
+    metrics = pd.read_parquet(d / "metrics.parquet")
+    fig, _ = viewer.build_figure(d, max_frames=12, samples=2)
+    ks = viewer.frame_steps(120, 12)
+    traces = [t for t in fig.data if t.legendgroup == "counts" and t.name != "current step "
+              "(counts)"]  # fmt: skip
+    names = ["detections", "visible pairs", "false alarms"]
+    assert [t.name for t in traces] == names * 2  # per trial; no targets present (constant)
+    for j in (0, 1):
+        rows = metrics[metrics.trial == j].sort_values("step")
+        for tr, col in zip(traces[3 * j:3 * j + 3], ("detections", "visible_pairs",
+                                                       "false_alarms"), strict=True):  # fmt: skip
+            np.testing.assert_array_equal(tr.y, rows[col].to_numpy(np.float32))
+            np.testing.assert_allclose(tr.x, rows["time_s"], rtol=1e-6)
+            assert tr.xaxis == "x2" and tr.yaxis == "y2" and tr.visible == (j == 0)
+        for i, k in enumerate(ks):
+            cursor = _frame(fig, f"t{j}:{i}")["current step (counts)"]
+            np.testing.assert_array_equal(cursor.y, rows[["detections", "visible_pairs",
+                                                          "false_alarms"]].to_numpy()[k])
+    menu = [m for m in fig.layout.updatemenus if m.name == "trial"][0]
+    shown = dict(zip(menu.buttons[1].args[1], menu.buttons[1].args[0]["visible"], strict=True))
+    idx = [i for i, t in enumerate(fig.data) if t.name in names]
+    assert [shown[i] for i in idx] == [False] * 3 + [True] * 3  # trial 1 shows its own
+    assert "xaxis2" not in viewer.build_figure(viewer.load_run(synthetic_run(
+        tmp_path / "smoke", mjx_radar.load_scenario("smoke"), steps=40)), max_frames=3)[0].layout
+
+
+def test_waypoint_routes(tmp_path):
+    s = mjx_radar.load_scenario("waypoints_3r4t")
+    fig, _ = viewer.build_figure(synthetic_run(tmp_path / "wp", s, steps=80), max_frames=3)
+    route = _xyz({t.name: t for t in fig.data}["waypoint routes"])
+    pieces = np.split(route, np.flatnonzero(np.isnan(route[:, 0])) + 1)[:-1]
+    assert len(pieces) == 4 and {t.name: t for t in fig.data}["waypoint routes"].line.dash == "dot"
+    for tm, piece in zip(s.target_motion, pieces, strict=True):
+        want = [s.target_init[tm.target][:3], *tm.waypoints, *tm.waypoints[:1] * tm.loop]
+        np.testing.assert_allclose(piece[:-1], want, atol=1e-3)

@@ -229,3 +229,45 @@ def test_live_page_redraws_the_scene(browser):
         view.close()
     assert not errors, errors
     assert requests and all(u.startswith(view.url) for u in requests), requests
+
+
+def test_terrain_surface_renders(browser, tmp_path):
+    """hills_4r4t: plotly's own scene data of the "terrain" surface equals the height grid at
+    the drawn nodes, and its pixels (every other layer hidden) are drawn where plotly's
+    camera projects interior nodes, in colours of the surface, not the white background."""
+    import imageio.v3 as iio
+
+    from mjx_radar.viz.viewer_world import terrain_nodes
+
+    s = mjx_radar.load_scenario("hills_4r4t")
+    rd = viewer.load_run(synthetic_run(tmp_path / "hills", s, steps=40))
+    html = viewer.view(rd, tmp_path / "h.html", max_frames=4, samples=0).path
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.set_default_timeout(15_000)
+    try:
+        page.goto(html.resolve().as_uri())
+        page.wait_for_function("() => { var g = document.querySelector('.js-plotly-plot');"
+                               " return g && g._fullLayout && g._fullLayout.scene._scene; }")
+        page.evaluate("() => { var g = document.querySelector('.js-plotly-plot');"
+                      " return Plotly.restyle(g, {visible: false}, g.data.map((d, i) => "
+                      "d.type === 'surface' ? -1 : i).filter(i => i >= 0)); }")
+        page.wait_for_timeout(500)
+        state = page.evaluate(STATE_JS)
+        shot = iio.imread(page.screenshot(type="png"))[..., :3].astype(int)
+    finally:
+        page.close()
+    surf = [d for d in state["data"] if d["name"] == "terrain"]
+    assert len(surf) == 1
+    xs, ys, h, _ = terrain_nodes(s.terrain, *viewer.load_trial(rd, 0).bounds())
+    x, y, z = (np.array(a, float) for a in surf[0]["xyz"])
+    np.testing.assert_allclose(x, xs, atol=1e-3)
+    np.testing.assert_allclose(y, ys, atol=1e-3)
+    np.testing.assert_allclose(z, h, atol=1e-3)
+    i, j = np.meshgrid(np.arange(1, len(ys) - 1), np.arange(1, len(xs) - 1), indexing="ij")
+    nodes = np.column_stack([xs[j.ravel()], ys[i.ravel()], h[i, j].ravel()])
+    lo, hi = np.array(state["ranges"]).T
+    nodes = nodes[np.all((nodes[:, :2] > lo[:2] + 5) & (nodes[:, :2] < hi[:2] - 5), 1)]
+    assert len(nodes) >= 50  # inside the axis ranges (plotly clips the surface there)
+    px = np.round(project(state, nodes)).astype(int)
+    drawn = (np.abs(shot[px[:, 1], px[:, 0]] - 255).sum(-1) > 60).sum()  # not the background
+    assert drawn >= 0.95 * len(nodes), (drawn, len(nodes))  # (a node may lie on a silhouette)

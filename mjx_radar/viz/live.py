@@ -30,10 +30,12 @@ import numpy as np
 from mjx_radar.errors import InputError
 from mjx_radar.viz import live_page
 from mjx_radar.viz.run_dir import Trial
+from mjx_radar.viz.viewer_counts import count_columns
 
 DEFAULT_PORT = 8765
 SAMPLES = 16  # MPPI samples drawn per state (the highest weights)
-STEP_KEYS = ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos")
+STEP_KEYS = ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "detections",
+             "visible_pairs", "false_alarms", "targets_present")
 
 
 def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> int:
@@ -180,7 +182,12 @@ class LiveView:
         init = np.asarray(self.scenario.target_init, float)
         t = np.linspace(0.0, self.steps * self.scenario.timing.dt_filter, 11)[:, None, None]
         path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
-        return path[:, :2].min(0), path[:, :2].max(0), max(1.15 * float(path[:, 2].max()), 1.0)
+        top = 1.15 * float(path[:, 2].max())
+        if self.scenario.terrain is not None:  # the whole grid's top: the surface fits
+            from mjx_radar.world.terrain import node_heights
+
+            top = max(top, 1.1 * float(node_heights(self.scenario.terrain).max()))
+        return path[:, :2].min(0), path[:, :2].max(0), max(top, 1.0)
 
     def _grow_box(self, tr: Trial) -> tuple:
         """Scene box ``(lo, hi, ztop)``: the drones' paths and what was seen (radars with
@@ -202,7 +209,9 @@ class LiveView:
         lo = np.minimum(lo, (radars - s.mpc.r2t).min(0))
         hi = np.maximum(hi, (radars + s.mpc.r2t).max(0))
         title = f"{s.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
-        fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title)
+        self._cols = count_columns(s, None, self.steps * s.timing.dt_filter)
+        fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title,
+                                                               self._cols)  # fmt: skip
         d = json.loads(fig)
         d["ready"] = True
         self._figure = json.dumps(d).encode()
@@ -218,7 +227,8 @@ class LiveView:
         if key not in self._cache:
             tr = self._trial(a, control, j)
             dt = self.scenario.timing.dt_filter
-            curves = (dt * np.arange(1, tr.steps + 1), a["rmse_pos"][j], a["crlb_pos"][j])
+            curves = (dt * np.arange(1, tr.steps + 1), a["rmse_pos"][j], a["crlb_pos"][j],
+                      {c: a[c][j] for c in self._cols})  # fmt: skip
             body = live_page.state_json(tr, control[0][j][None], self.samples, curves, seq,
                                         self.steps, finished, self._anim, self._metrics,
                                         self._grow_box(tr))  # fmt: skip

@@ -10,8 +10,10 @@ toggles as the user left them).
 
 The layers are those of the offline viewer (:func:`~mjx_radar.viz.viewer_traces.frame_traces`)
 at the latest filter step received: radars with trails and R2T rings, drones, estimates
-with 2-sigma axes, the acting MPPI samples and plan, lines of sight; right, RMSE and
-PCRLB of the selected trial so far.
+with 2-sigma axes, the acting MPPI samples and plan, lines of sight, fixed sites (and the
+static terrain and waypoint routes); right, RMSE and PCRLB of the selected trial so far,
+and below them the counts of :mod:`mjx_radar.viz.viewer_counts` where the scenario has
+detection on or targets that appear / leave.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ import json
 
 import numpy as np
 
-from mjx_radar.viz.viewer_traces import frame_traces, layer_styles, static_traces
+from mjx_radar.viz import viewer_counts as counts
+from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
 
 PAGE = """<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>mjx-radar live: {name}</title>
@@ -47,6 +50,10 @@ function apply(s) {{  // one Plotly.react: one redraw of the scene per state
   var w = s.anim[6];
   d[w] = Object.assign({{}}, d[w], {{line: Object.assign({{}}, d[w].line, {{color: s.sample_w}})}});
   var xs = [s.time, s.time, [s.t, s.t]], ys = [s.rmse, s.crlb, s.now];
+  s.counts.forEach(function (c) {{ xs.push(s.time); ys.push(c); }});
+  if (s.counts.length) {{
+    xs.push(s.counts.map(function () {{ return s.t; }})); ys.push(s.counts_now);
+  }}
   s.metrics.forEach(function (i, n) {{
     d[i] = Object.assign({{}}, d[i], {{x: xs[n], y: ys[n]}});
   }});
@@ -110,7 +117,8 @@ def page(name: str, trials) -> str:
     return PAGE.format(name=name, options=options)
 
 
-def figure_json(scenario, lo, hi, ztop: float, title: str) -> tuple[str, list, list]:
+def figure_json(scenario, lo, hi, ztop: float, title: str,
+                cols=()) -> tuple[str, list, list]:  # fmt: skip
     """The live figure before any data; ``(json, layer indices, metrics indices)``.
 
     Built from the scenario alone (before the simulation starts, so it costs the run
@@ -122,16 +130,16 @@ def figure_json(scenario, lo, hi, ztop: float, title: str) -> tuple[str, list, l
         lo, hi: ``[2]`` xy corners of the ground extent.
         ztop: top of the z axis [m].
         title: figure title.
+        cols: the counts panel's metrics (:func:`~mjx_radar.viz.viewer_counts.count_columns`).
     """
     import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
 
-    fig = make_subplots(rows=1, cols=2, column_widths=[0.64, 0.36], horizontal_spacing=0.08,
-                        specs=[[{"type": "scene"}, {"type": "xy"}]])  # fmt: skip
+    fig = counts.subplots(bool(cols))
     for trace in static_traces(scenario, lo, hi):
         fig.add_trace(trace)
     first = len(fig.data)
-    for style in layer_styles(scenario.n_radars, len(scenario.target_init)):
+    n = scenario.n_radars
+    for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n)):
         fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
     for name, colour in (("RMSE", "rgb(0,90,200)"), ("PCRLB", "rgb(220,0,0)")):
@@ -141,12 +149,15 @@ def figure_json(scenario, lo, hi, ztop: float, title: str) -> tuple[str, list, l
                              legendgroup="metrics", marker={"size": 9, "color": "black"}),
                   row=1, col=2)  # fmt: skip
     metrics = list(range(len(fig.data) - 3, len(fig.data)))
+    if cols:
+        for trace in [*counts.count_traces(cols), counts.cursor_trace()]:
+            metrics.append(len(fig.data))
+            fig.add_trace(trace, row=2, col=2)
     fig.update_layout(
         title={"text": title, "font": {"size": 13}}, template="plotly_white",
         margin={"l": 10, "r": 10, "t": 50, "b": 10}, legend={"groupclick": "toggleitem"},
         uirevision="live", scene=_scene(lo, hi, ztop),
-        xaxis={"title": {"text": "time [s]"}},
-        yaxis={"title": {"text": "position [m]"}, "type": "log"},
+        **counts.layout(bool(cols)),
     )  # fmt: skip
     return fig.to_json(), anim, metrics
 
@@ -183,19 +194,21 @@ def state_json(tr, plan_xy, samples: int, curves, seq: int, steps: int, finished
             ``sample_xy`` holds the acting control step only).
         plan_xy: ``[1, H, N, 2]`` the acting plan.
         samples: MPPI samples drawn (the highest weights).
-        curves: ``(time [K], rmse [K], crlb [K])`` so far.
+        curves: ``(time [K], rmse [K], crlb [K], {count column: [K]})`` so far.
         seq: segments received; steps: the run's filter steps; finished: the run ended.
         anim, metrics: trace indices of the layers and of RMSE, PCRLB, marker.
         box: ``(lo, hi, ztop)`` of the scene ranges.
     """
     k = tr.steps - 1
     layers = frame_traces(tr, k, samples, plan_xy)
-    time, rmse, crlb = curves
+    time, rmse, crlb, count = curves
     out = {
         "seq": seq, "step": k + 1, "steps": steps, "finished": finished, "t": float(time[k]),
         "layers": [{c: _num(d[c]) for c in "xyz"} for d in layers],
         "sample_w": _num(layers[6]["line"]["color"]), "time": _num(time), "rmse": _num(rmse),
         "crlb": _num(crlb), "now": [_num(rmse[k:k + 1])[0], _num(crlb[k:k + 1])[0]],
+        "counts": [_num(c) for c in count.values()],
+        "counts_now": [_num(c[k:k + 1])[0] for c in count.values()],
         "anim": anim, "metrics": metrics, "ranges": ranges(*box), "ground": _ground(*box[:2]),
     }  # fmt: skip
     return json.dumps(out)

@@ -40,13 +40,14 @@ class StepOverlay:
     present: np.ndarray | None = None  # [M] bool: drones present at this step
 
 
-def _world(tr, k: int, m: int):
-    """Fixed sites [N], waypoint routes and presence [M] of a trial's scenario at step k."""
+def world_state(tr, k: int, m: int):
+    """Fixed sites [N], waypoint routes and presence [M] of a trial's scenario at step k
+    (0-based; time ``(k + 1) dt``); shared with the viewer (:mod:`mjx_radar.viz.viewer_traces`)."""
     sc, n = tr.scenario, tr.radar.shape[1]
     fixed = np.zeros(n, bool)
     for ov in getattr(sc, "radar_override", ()):
         fixed[ov.radar] = not ov.mobile
-    t = (k + 1) * float(tr.meta["dt_filter"])
+    t = (k + 1) * float(getattr(tr, "dt", None) or tr.meta["dt_filter"])
     present, routes = np.ones(m, bool), []
     for tm in getattr(sc, "target_motion", ()):
         present[tm.target] = tm.appear <= t < tm.leave
@@ -62,7 +63,7 @@ def step_overlay(tr, k: int) -> StepOverlay:
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
     order = np.argsort(w, kind="stable")  # the best drawn last, on top
-    fixed, routes, present = _world(tr, k, m)
+    fixed, routes, present = world_state(tr, k, m)
     return StepOverlay(
         radar=tr.radar[k],
         radar_rgb=RADAR_RGB[np.arange(n) % len(RADAR_RGB)],

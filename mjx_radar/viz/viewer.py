@@ -6,13 +6,16 @@ trails and R2T rings, true drones, CKF estimates with their 2-sigma axes, the ke
 MPPI samples (at the radars' height, coloured by relative weight), the plan and
 the radar-to-drone lines of sight (:mod:`mjx_radar.viz.viewer_traces`); right, the
 position RMSE and the PCRLB of the selected trial against time with a marker at the
-current step. A dropdown selects the trial; each trial has its own frames and slider
-(a few lines of JavaScript swap them). Each layer is one named trace, shown or
+current step, and below it, where the run has them, the detection counts and the targets
+present (:mod:`mjx_radar.viz.viewer_counts`). A dropdown selects the trial; each trial
+has its own frames and slider (a few lines of JavaScript swap them:
+:mod:`mjx_radar.viz.viewer_controls`). Each layer is one named trace, shown or
 hidden from the legend. plotly.js is embedded: opening the file makes no request.
 
 Steps are subsampled to at most ``max_frames`` frames per trial (every k-th filter
 step, the last step always included) and at most ``samples`` MPPI samples (the
-highest weights) per frame; the title says what was dropped.
+highest weights) per frame; a terrain surface is subsampled to at most 160 nodes per
+side (:mod:`mjx_radar.viz.viewer_world`); the title says what was dropped.
 """
 
 from __future__ import annotations
@@ -26,32 +29,17 @@ import numpy as np
 
 from mjx_radar.errors import InputError
 from mjx_radar.io.atomic import atomic_write, check_writable
+from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
-from mjx_radar.viz.viewer_traces import frame_traces, layer_styles, static_traces
+from mjx_radar.viz.viewer_controls import TRIAL_JS, menus, slider
+from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
+from mjx_radar.viz.viewer_world import terrain_nodes
 
 MAX_FRAMES = 150
 MAX_SAMPLES = 32
 MAX_TRIALS = 8  # trials in one file by default (each adds its frames)
 SIZE_BUDGET = 14e6  # bytes: defaults fit this (plotly.js itself is about 4.8 MB)
 PLOTLY_JS = 4.9e6
-
-# The trial dropdown: show that trial's slider, point play at its frames, go to its
-# first frame. plotly.js runs the button's own restyle (metrics curves) first.
-TRIAL_JS = """
-var gd = document.getElementById('{plot_id}');
-gd.on('plotly_buttonclicked', function (e) {
-  if (!e.menu || e.menu.name !== 'trial') return;
-  var i = e.active, n = gd.layout.sliders.length, upd = {};
-  for (var j = 0; j < n; j++) upd['sliders[' + j + '].visible'] = (j === i);
-  var play = gd.layout.updatemenus[0].buttons[0].args;
-  upd['updatemenus[0].buttons[0].args'] = ['trial' + i, play[1]];
-  Plotly.relayout(gd, upd).then(function () {
-    Plotly.animate(gd, ['t' + i + ':0'], {mode: 'immediate', frame: {duration: 0, redraw: true},
-                   transition: {duration: 0}});
-  });
-});
-"""
-
 
 @dataclasses.dataclass(frozen=True)
 class ViewInfo:
@@ -66,6 +54,7 @@ class ViewInfo:
     samples: int  # MPPI samples drawn per frame
     samples_kept: int  # MPPI samples in the run directory per control step
     bytes: int = 0
+    terrain: str = ""  # the terrain nodes drawn, if any
 
     def dropped(self) -> str:
         """One line: what the file leaves out of the run directory."""
@@ -73,6 +62,8 @@ class ViewInfo:
         if len(self.trials) < self.trials_run:
             parts.append(f"{len(self.trials)} of {self.trials_run} trials (--trial)")
         parts.append(f"{self.samples} of {self.samples_kept} kept MPPI samples per frame")
+        if self.terrain:
+            parts.append(self.terrain)
         return "; ".join(parts)
 
 
@@ -90,7 +81,9 @@ def _metrics(rd: RunDir):
         raise InputError(f"RUN_DIR = {str(rd.path)!r}: not a complete run directory "
                          "(no metrics.parquet)")  # fmt: skip
     try:
-        return pd.read_parquet(path, columns=["trial", "step", "time_s", "rmse_pos", "crlb_pos"])
+        wanted = ["trial", "step", "time_s", "rmse_pos", "crlb_pos"]
+        table = pd.read_parquet(path)
+        return table[wanted + [c for c, *_ in counts.COUNTS if c in table]]
     except Exception as err:  # pyarrow raises many types for a damaged file
         first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise InputError(f"{path}: damaged metrics file ({first})") from None
@@ -138,37 +131,6 @@ def _curves(metrics, trial_id: int, steps: int) -> tuple[np.ndarray, np.ndarray,
             rows["crlb_pos"].to_numpy(np.float32))  # fmt: skip
 
 
-def _slider(t: int, times: np.ndarray, visible: bool) -> dict:
-    steps = [
-        dict(method="animate", label=f"{s:.2f}",
-             args=[[f"t{t}:{i}"], {"mode": "immediate", "frame": {"duration": 0, "redraw": True},
-                                   "transition": {"duration": 0}}])
-        for i, s in enumerate(times)
-    ]  # fmt: skip
-    return dict(active=0, steps=steps, visible=visible, x=0.05, len=0.9, y=0.02,
-                currentvalue={"prefix": "t = ", "suffix": " s"}, pad={"t": 30})  # fmt: skip
-
-
-def _menus(trials, ids, metric_idx: list[list[int]]) -> list[dict]:
-    play = dict(label="play", method="animate",
-                args=["trial0", {"frame": {"duration": 80, "redraw": True}, "fromcurrent": True,
-                                 "transition": {"duration": 0}, "mode": "immediate"}])  # fmt: skip
-    pause = dict(label="pause", method="animate",
-                 args=[[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate",
-                                "transition": {"duration": 0}}])  # fmt: skip
-    menus = [dict(type="buttons", direction="left", x=0.05, y=0.0, xanchor="right",
-                  yanchor="top", pad={"t": 40}, buttons=[play, pause])]  # fmt: skip
-    everything = sorted(i for idx in metric_idx for i in idx)
-    buttons = [
-        dict(label=f"trial {ids[t]}", method="restyle",
-             args=[{"visible": [i in metric_idx[j] for i in everything]}, everything])
-        for j, t in enumerate(trials)
-    ]  # fmt: skip
-    menus.append(dict(name="trial", type="dropdown", active=0, x=0.0, y=1.0, xanchor="left",
-                      buttons=buttons, showactive=True))  # fmt: skip
-    return menus
-
-
 def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
                  samples: int | None = None):  # fmt: skip
     """The viewer's ``plotly.graph_objects.Figure`` of a run directory.
@@ -188,7 +150,6 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
         InputError: a damaged or incomplete run directory, a bad trial or option.
     """
     import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
 
     if isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 1:
         raise InputError(f"--max-frames = {max_frames!r}: must be an integer >= 1")
@@ -209,19 +170,24 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
     n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
     boxes = np.array([tr.bounds() for tr in trs])
     lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
-    ztop = max(float(max(tr.target[..., 2].max() for tr in trs)) * 1.15, 1.0)
-    fig = make_subplots(rows=1, cols=2, column_widths=[0.64, 0.36], horizontal_spacing=0.08,
-                        specs=[[{"type": "scene"}, {"type": "xy"}]])  # fmt: skip
+    ztop, zlow = max(float(max(tr.target[..., 2].max() for tr in trs)) * 1.15, 1.0), 0.0
+    cols = counts.count_columns(rd.scenario, metrics)
+    fig = counts.subplots(bool(cols))
     for trace in static_traces(rd.scenario, lo, hi):
         fig.add_trace(trace)
+        if trace["type"] == "surface":
+            ztop, zlow = max(ztop, 1.1 * float(trace["z"].max())), float(trace["z"].min())
     first = len(fig.data)
-    for style, data in zip(layer_styles(n, m), frame_traces(trs[0], ks[0], samples, None),
-                           strict=True):  # fmt: skip
+    for style, data in zip(layer_styles(n, m, fixed_sites(rd.scenario, n)),
+                           frame_traces(trs[0], ks[0], samples, None), strict=True):  # fmt: skip
         fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
     anim = list(range(first, len(fig.data) + 1))  # the layers and the metrics marker
     fig.add_trace(go.Scatter(x=[], y=[], mode="markers", name="current step",
                              legendgroup="metrics", marker={"size": 9, "color": "black"}),
                   row=1, col=2)  # fmt: skip
+    if cols:
+        anim.append(len(fig.data))
+        fig.add_trace(counts.cursor_trace(), row=2, col=2)
     metric_idx, frames, sliders = [], [], []
     for j, (t, tr) in enumerate(zip(trials, trs, strict=True)):
         time, rmse, crlb = _curves(metrics, ids[t], tr.steps)
@@ -231,12 +197,19 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
                                      legendgroup="metrics", visible=j == 0,
                                      line={"color": colour}),
                           row=1, col=2)  # fmt: skip
+        count = counts.curves(metrics, ids[t], cols)
+        for c, trace in zip(cols, counts.count_traces(cols), strict=True):
+            metric_idx[-1].append(len(fig.data))
+            fig.add_trace(trace.update(x=time, y=count[c], visible=j == 0), row=2, col=2)
         plan = None if plans is None else plans[t]
         for i, k in enumerate(ks):
             data = frame_traces(tr, k, samples, plan)
             data.append(dict(type="scatter", x=[time[k]] * 2, y=[rmse[k], crlb[k]]))
+            if cols:
+                data.append(dict(type="scatter", x=[time[k]] * len(cols),
+                                 y=[float(count[c][k]) for c in cols]))  # fmt: skip
             frames.append(go.Frame(data=data, traces=anim, name=f"t{j}:{i}", group=f"trial{j}"))
-        sliders.append(_slider(j, time[ks], j == 0))
+        sliders.append(slider(j, time[ks], j == 0))
     fig.frames = frames
     if frames:  # the figure opens at the first frame of the first trial
         for i, d in zip(anim, frames[0].data, strict=True):
@@ -244,23 +217,26 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
     fig.data[first + 6].line.color = frames[0].data[6].line.color
     kept = int(trs[0].sample_xy.shape[1])
     stride = math.ceil(trs[0].steps / max_frames)
+    terrain = ""
+    if rd.scenario.terrain is not None:
+        xs, ys, _, every = terrain_nodes(rd.scenario.terrain, lo, hi)
+        terrain = f"terrain {len(xs)} x {len(ys)} nodes (every {every})"
     info = ViewInfo(None, trials, rd.trials, trs[0].steps, len(ks), stride, min(samples, kept),
-                    kept)  # fmt: skip
+                    kept, terrain=terrain)  # fmt: skip
     pad = 0.05 * float(max(hi - lo))
     span = np.maximum(hi - lo + 2 * pad, 1.0)
     fig.update_layout(
         title={"text": f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
                        f" — shown: {info.dropped()}", "font": {"size": 13}},
         template="plotly_white", height=760, margin={"l": 10, "r": 10, "t": 70, "b": 10},
-        updatemenus=_menus(trials, ids, metric_idx), sliders=sliders,
+        updatemenus=menus(trials, ids, metric_idx), sliders=sliders,
         legend={"groupclick": "toggleitem"},
         scene={"xaxis": {"range": [lo[0] - pad, hi[0] + pad], "title": {"text": "x [m]"}},
                "yaxis": {"range": [lo[1] - pad, hi[1] + pad], "title": {"text": "y [m]"}},
-               "zaxis": {"range": [0.0, ztop], "title": {"text": "z [m]"}},
+               "zaxis": {"range": [min(zlow, 0.0), ztop], "title": {"text": "z [m]"}},
                "aspectmode": "manual",
                "aspectratio": {"x": 1.0, "y": float(span[1] / span[0]), "z": 0.4}},
-        xaxis={"title": {"text": "time [s]"}}, yaxis={"title": {"text": "position [m]"},
-                                                     "type": "log"},
+        **counts.layout(bool(cols)),
     )  # fmt: skip
     return fig, info
 

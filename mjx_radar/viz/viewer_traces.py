@@ -5,15 +5,21 @@ NaN row between pieces (plotly draws a gap there), so one trace holds all radars
 rings, all samples or all lines of sight of a step, and a frame is a handful of
 array slices, not a Python loop over points.
 
-:func:`static_traces` gives the layers that never move (ground extent, obstacles);
-:func:`frame_traces` the layers of one filter step, in the order of :data:`LAYERS`.
+:func:`static_traces` gives the layers that never move (ground extent, terrain surface,
+obstacles, waypoint routes: :mod:`mjx_radar.viz.viewer_world`); :func:`frame_traces` the
+layers of one filter step, in the order of :data:`LAYERS`. Fixed radar sites
+(``[[radar_override]] mobile = false``) are their own layer (cross markers); drones absent
+at a step (``[[target_motion]]`` appear / leave) are NaN there (not drawn), with their
+estimates, axes and lines of sight (:func:`mjx_radar.viz.overlays.world_state`). Over
+terrain, rings, MPPI samples and plans are draped on the ground.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB
+from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB, world_state
+from mjx_radar.viz.viewer_world import ground_z, route_trace, terrain_surface
 
 RING_POINTS = 40  # segments of an R2T ring
 ROUND_POINTS = 24  # segments of a cylinder's outline
@@ -28,7 +34,9 @@ LAYERS = (
     ("MPPI samples", "samples"),
     ("plan", "plan"),
     ("lines of sight", "los"),
+    ("fixed sites", "radars"),
 )
+FIXED_SYMBOL = "cross"  # fixed radar sites (mobile radars: "square")
 SAMPLE_SCALE = "Plasma"
 
 
@@ -92,7 +100,8 @@ def obstacle_outline(obstacles) -> np.ndarray:
 
 
 def static_traces(scenario, lo, hi) -> list[dict]:
-    """The ground extent (rectangle at z = 0) and the obstacle wireframes."""
+    """The ground extent (rectangle at z = 0), the terrain surface, the obstacle wireframes
+    and the waypoint routes (the last three only where the scenario has them)."""
     corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
     ground = np.column_stack([np.concatenate([corners, corners[:1]]), np.zeros(5)])
     out = [
@@ -100,17 +109,29 @@ def static_traces(scenario, lo, hi) -> list[dict]:
              line={"color": "rgb(120,120,120)", "width": 2}, hoverinfo="skip",
              **_xyz(ground.astype(np.float32)))
     ]  # fmt: skip
+    if getattr(scenario, "terrain", None) is not None:
+        out.append(terrain_surface(scenario.terrain, lo, hi))
     if scenario.obstacles:
         out.append(
             dict(type="scatter3d", mode="lines", name="obstacles", legendgroup="world",
                  line={"color": "rgb(90,90,90)", "width": 3}, hoverinfo="skip",
                  **_xyz(obstacle_outline(scenario.obstacles)))
         )  # fmt: skip
-    return out
+    routes = route_trace(scenario)
+    return out if routes is None else [*out, routes]
 
 
-def layer_styles(n: int, m: int) -> list[dict]:
-    """The constant attributes of the :data:`LAYERS` traces (names, colours, widths)."""
+def fixed_sites(scenario, n: int) -> np.ndarray:
+    """``[N]`` bool: the fixed radar sites (``[[radar_override]] mobile = false``)."""
+    fixed = np.zeros(n, bool)
+    for ov in getattr(scenario, "radar_override", ()):
+        fixed[ov.radar] = not ov.mobile
+    return fixed
+
+
+def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
+    """The constant attributes of the :data:`LAYERS` traces (names, colours, widths);
+    ``fixed [N]`` bool: the fixed sites (the "fixed sites" legend entry only if any)."""
     radar_c = [_rgb(RADAR_RGB[i % len(RADAR_RGB)]) for i in range(n)]
     target_c = [_rgb(TARGET_RGB[i % len(TARGET_RGB)]) for i in range(m)]
     styles = [
@@ -128,6 +149,9 @@ def layer_styles(n: int, m: int) -> list[dict]:
                                   "y": 0.8, "thickness": 12}}),
         dict(mode="lines", line={"color": "rgb(0,160,60)", "width": 5}),
         dict(mode="lines", line={"color": "rgb(150,150,150)", "width": 1}, opacity=0.5),
+        dict(mode="markers+text", marker={"size": 12, "symbol": FIXED_SYMBOL, "color": radar_c},
+             text=[f"R{i}" for i in range(n)], textposition="top center",
+             showlegend=fixed is not None and bool(np.any(fixed))),
     ]  # fmt: skip
     return [
         dict(type="scatter3d", name=name, legendgroup=group, hoverinfo="skip", **style)
@@ -146,12 +170,17 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
     """
     radar = tr.radar[k, :, :3].astype(np.float32)
     n, m = radar.shape[0], tr.target.shape[1]
-    target, mean = tr.target[k, :, :3], tr.mean[k]
+    _, _, present = world_state(tr, k, m)
+    gone = np.where(present, 0.0, np.nan).astype(np.float32)[:, None]  # NaN: absent
+    target, mean = tr.target[k, :, :3] + gone, tr.mean[k] + gone
+    sc = tr.scenario
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
     keep = np.argsort(w, kind="stable")[max(len(w) - samples, 0):]  # the best drawn last
     paths = np.moveaxis(tr.sample_xy[c][keep], 2, 1)  # [S, N, H, 2]
     z = np.broadcast_to(radar[None, :, None, 2:3], (*paths.shape[:-1], 1))
+    if getattr(sc, "terrain", None) is not None:
+        z = ground_z(sc, paths, 0.0)[..., None]
     sample_pts = polylines(np.concatenate([paths, z], -1).reshape(-1, paths.shape[2], 3))
     sample_w = np.repeat(w[keep], n * (paths.shape[2] + 1)).astype(np.float32)
     two_sigma = 2.0 * tr.sigma[k][:, None, :] * np.eye(3)[None]  # [M, 3 axes, 3]
@@ -159,14 +188,20 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
                     (mean[:, None] + two_sigma).reshape(-1, 3))  # fmt: skip
     if plan_xy is not None:
         plan = np.moveaxis(plan_xy[min(c, len(plan_xy) - 1)], 1, 0)  # [N, H, 2]
-        plan_pts = polylines(np.concatenate([plan, radar[:, None, 2:3].repeat(plan.shape[1], 1)],
-                                            -1))  # fmt: skip
+        plan_z = radar[:, None, 2:3].repeat(plan.shape[1], 1)
+        if getattr(sc, "terrain", None) is not None:
+            plan_z = ground_z(sc, plan, 0.0)[..., None]
+        plan_pts = polylines(np.concatenate([plan, plan_z], -1))
     else:
         plan_pts = np.zeros((0, 3), np.float32)
     los = segments(np.repeat(radar, m, 0), np.tile(target, (n, 1)))
-    points = [radar, polylines(np.moveaxis(tr.trail(k), 1, 0)), rings(radar, tr.meta["r2t"]),
+    ring = rings(radar, tr.meta["r2t"])
+    if getattr(sc, "terrain", None) is not None:
+        ring[:, 2] = ground_z(sc, ring[:, :2], 0.5)
+    fixed = fixed_sites(sc, n)[:, None]
+    points = [np.where(fixed, np.nan, radar), polylines(np.moveaxis(tr.trail(k), 1, 0)), ring,
               target.astype(np.float32), mean.astype(np.float32), axes, sample_pts, plan_pts,
-              los]  # fmt: skip
+              los, np.where(fixed, radar, np.nan)]  # fmt: skip
     out = [dict(type="scatter3d", **_xyz(p)) for p in points]
     out[6]["line"] = {"color": sample_w}
     return out
