@@ -37,12 +37,33 @@ class FilterConfig:
     ground_prior: bool = field(default=False, metadata=flag("reflect estimates to z >= 0"))
     form: str = field(default="covariance", metadata=choice("covariance", "sqrt", doc="CKF form:"
                       " covariance P, or square-root S (P = S S^T; docs/filters.md)"))  # fmt: skip
-    motion: str = field(default="cv", metadata=choice("cv", "imm", doc=(
-        "per-target motion model: CV, or an IMM of CV and coordinated turns at "
-        "+-imm_turn_rate (needs structure = per-target; docs/filters.md)")))
-    imm_turn_rate: float = field(default=0.4, metadata=rule(
-        float, 0.0, 10.0, unit="rad/s",
-        doc="IMM: turn rate w of the two coordinated-turn modes (+w, -w; horizontal plane)"))
-    imm_switch_prob: float = field(default=0.2, metadata=rule(
-        float, 0.0, 1.0,
-        doc="IMM: probability of leaving the current mode within one second (Markov chain)"))
+    motion: str = field(
+        default="cv",
+        metadata=choice(
+            "cv",
+            "imm",
+            doc=(
+                "per-target motion model: CV, or an IMM of CV and coordinated turns at "
+                "+-imm_turn_rate (needs structure = per-target; docs/filters.md)"
+            ),
+        ),
+    )
+    imm_turn_rate: float = field(
+        default=0.4,
+        metadata=rule(
+            float,
+            0.0,
+            10.0,
+            unit="rad/s",
+            doc="IMM: turn rate w of the two coordinated-turn modes (+w, -w; horizontal plane)",
+        ),
+    )
+    imm_switch_prob: float = field(
+        default=0.2,
+        metadata=rule(
+            float,
+            0.0,
+            1.0,
+            doc="IMM: probability of leaving the current mode within one second (Markov chain)",
+        ),
+    )

@@ -105,6 +105,7 @@ def test_imm_matches_textbook_on_linear_gaussian():
             cbar, xp, Pp = imm.predict(*state, jnp.asarray(F), jnp.asarray(Q), jnp.asarray(Pi))
             post = imm.update(cbar, xp, Pp, z, lambda x: x[:3], jnp.asarray(R))
             return imm.mix(*state, jnp.asarray(Pi)), post
+
         for _ in range(5):
             truth = F[1] @ truth
             z = H @ truth + rng.normal(size=3) * np.sqrt(np.diag(R))
@@ -164,10 +165,11 @@ def test_imm_scenario_rules():
     s = load_scenario("smoke")
     ok = s.replace(filter={"structure": "per-target", "motion": "imm", "imm_switch_prob": 0.0})
     assert ok.filter.motion == "imm" and s.filter.motion == "cv"
-    for bad, needle in (({"motion": "imm"}, 'filter.structure = "per-target"'),
-                        ({"structure": "per-target", "motion": "imm", "form": "sqrt"},
-                         "covariance form only"),
-                        ({"structure": "per-target", "imm_switch_prob": 1.2}, "imm_switch_prob")):
+    for bad, needle in (
+        ({"motion": "imm"}, 'filter.structure = "per-target"'),
+        ({"structure": "per-target", "motion": "imm", "form": "sqrt"}, "covariance form only"),
+        ({"structure": "per-target", "imm_switch_prob": 1.2}, "imm_switch_prob"),
+    ):
         with pytest.raises(ScenarioError, match=needle):  # fmt: skip
             s.replace(filter=bad)
 
