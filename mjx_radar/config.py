@@ -1,6 +1,6 @@
 """Typed, immutable scenario configuration (SPEC defaults; tables also in config_detection,
-config_world, config_terrain): frozen, hashable dataclasses (static under ``jax.jit``), SI
-units; each field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
+config_filter, config_world, config_terrain): frozen, hashable dataclasses (static under
+``jax.jit``), SI units; each field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.config_detection import DetectionConfig
+from mjx_radar.config_filter import FilterConfig
 from mjx_radar.config_terrain import Terrain
 from mjx_radar.config_world import RadarOverride, TargetMotion
 from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
@@ -193,27 +194,6 @@ class MeasurementConfig:
         default=3.0, metadata=positive("3 dB beamwidth theta_3dB", "deg", hi=90.0)
     )
     monopulse_slope: float = field(default=1.6, metadata=positive("monopulse slope k_m", hi=10.0))
-
-
-@dataclass(frozen=True)
-class FilterConfig:
-    """The tracking filter (SPEC §4 and its options).
-
-    ``structure``: "joint" (the paper's one CKF over all 6M dimensions) or "per-target"
-    (M independent 6-D CKFs, :mod:`mjx_radar.estimation.filter_bank`: the natural filter
-    for independent targets measured separately; it differs in the cubature rule only).
-    ``ground_prior``: reflect a target's estimate to z >= 0 after each update
-    (:mod:`mjx_radar.estimation.ground_prior`; drones fly above the radars' ground
-    plane). Off for the paper's reproduction.
-    ``form``: "covariance" (the paper's CKF) or "sqrt" (:mod:`mjx_radar.estimation.ckf_sqrt`).
-    """
-
-    structure: str = field(
-        default="joint", metadata=choice("joint", "per-target", doc="filter structure")
-    )
-    ground_prior: bool = field(default=False, metadata=flag("reflect estimates to z >= 0"))
-    form: str = field(default="covariance", metadata=choice("covariance", "sqrt", doc="CKF form:"
-                      " covariance P, or square-root S (P = S S^T; docs/filters.md)"))  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -117,7 +117,7 @@ def predict(mean, cov, f, Q):
     return m, linalg.symmetrize(P)
 
 
-def update(mean, cov, z, h, R, mask=None, residual=None):
+def update(mean, cov, z, h, R, mask=None, residual=None, with_innovation=False):
     """CKF measurement update.
 
     Args:
@@ -129,9 +129,12 @@ def update(mean, cov, z, h, R, mask=None, residual=None):
         mask: optional ``[p]`` bool, True where the measurement is used (default all).
         residual: optional ``residual(a[p], b[p]) -> [p]``, the difference ``a − b``
             of two measurements (angles wrapped); default plain subtraction.
+        with_innovation: also return the innovation ``ν[p]`` and its covariance
+            ``Pzz[p, p]`` (masked rows: ν = 0, identity rows/columns), e.g. for the
+            IMM's mode likelihood ``N(ν; 0, Pzz)`` (:mod:`mjx_radar.estimation.imm`).
 
     Returns:
-        ``(mean[n], cov[n, n])`` posterior moments.
+        ``(mean[n], cov[n, n])`` posterior moments (``+ (ν, Pzz)`` with ``with_innovation``).
     """
     mean = jnp.asarray(mean)
     cov = jnp.asarray(cov, mean.dtype)
@@ -159,6 +162,8 @@ def update(mean, cov, z, h, R, mask=None, residual=None):
     K = linalg.psd_solve(Pzz, Pxz.T).T
     new_mean = mean + K @ innov
     new_cov = cov - K @ Pzz @ K.T
+    if with_innovation:
+        return new_mean, linalg.symmetrize(new_cov), innov, Pzz
     return new_mean, linalg.symmetrize(new_cov)
 
 

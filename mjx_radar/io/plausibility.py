@@ -26,6 +26,9 @@ The rules (docs/scenarios.md, "Plausibility"):
   ``clutter_range_min < clutter_range_max``; the expected false alarms per scan and
   radar ``λ = clutter_density · (max − min)`` must fit the per-scan cap:
   ``P(Poisson(λ) > max_false_alarms) <= 1e-6``.
+* IMM (``filter.motion = "imm"``, docs/filters.md): needs ``filter.structure =
+  "per-target"`` (the modes are per target), ``filter.form = "covariance"`` and no
+  clutter (no IMM-PDA).
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ def check_scenario(s: Scenario) -> None:
     _check_noise(s)
     _check_geometry(s)
     _check_detection(s)
+    _check_imm(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
             f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "
@@ -204,4 +208,25 @@ def _check_detection(s: Scenario) -> None:
         raise ScenarioError(
             f'filter.form = "{s.filter.form}": clutter (PDA) runs in the covariance form only; '
             f'use filter.form = "covariance" or detection.clutter_density = 0'
+        )
+
+
+def _check_imm(s: Scenario) -> None:
+    f = s.filter
+    if f.motion != "imm":
+        return
+    if f.structure != "per-target":
+        raise ScenarioError(
+            f'filter.motion = "imm": needs filter.structure = "per-target" (an IMM per '
+            f'target), got "{f.structure}"'
+        )
+    if f.form != "covariance":
+        raise ScenarioError(
+            f'filter.motion = "imm": runs in the covariance form only; got filter.form = '
+            f'"{f.form}"'
+        )
+    if s.detection.clutter:
+        raise ScenarioError(
+            f'filter.motion = "imm": not with clutter (no IMM-PDA); set '
+            f"detection.clutter_density = 0 (got {s.detection.clutter_density})"
         )

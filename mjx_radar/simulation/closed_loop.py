@@ -32,13 +32,13 @@ import jax.numpy as jnp
 
 from mjx_radar import precision
 from mjx_radar.control import mppi
-from mjx_radar.estimation import ckf_sqrt, filter_bank, fisher, ground_prior, linalg, measurement
+from mjx_radar.estimation import ckf_sqrt, fisher, linalg, measurement
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics import target_motion
-from mjx_radar.simulation import placement, presence, scan, track_health
+from mjx_radar.simulation import filter_ops, placement, presence, scan, track_health
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
-from mjx_radar.task.task import RadarTask, process_noise
+from mjx_radar.task.task import RadarTask
 from mjx_radar.world import occlusion
 
 N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video (at most)
@@ -94,6 +94,7 @@ class LoopCarry(NamedTuple):
     pfim: jax.Array  # [M, 6, 6] PFIM along the true trajectory (for the PCRLB)
     u_plan: jax.Array  # [H, 2N] warm start of MPPI
     health: track_health.HealthState  # lost-track detector state
+    modes: object = ()  # the IMM's imm.ImmState (filter.motion = "imm"; mean/cov combined)
 
 
 @precision.pinned  # full float32 dots, also on GPUs (mjx_radar.precision)
@@ -102,15 +103,15 @@ def init_carry(task: RadarTask, params, trial) -> tuple[LoopCarry, jax.Array]:
     sc = task.scenario
     init = placement.initial_conditions(sc, params, trial_streams(params.seed, trial))
     m, n = sc.n_targets, sc.n_radars
-    carry = LoopCarry(
+    return LoopCarry(
         data=physics.init_data(task.truth, init.radar_state, init.target_state),
         mean=init.mean,
         cov=ckf_sqrt.form_ops(sc.filter.form).carry(init.cov),  # P, or S for "sqrt"
         pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (m, 6, 6)),
         u_plan=jnp.zeros((sc.mpc.horizon, 2 * n)),
         health=track_health.init_health(m),
-    )
-    return carry, init.ok
+        modes=filter_ops.init_modes(sc, init.mean, init.cov),
+    ), init.ok
 
 
 def _idle_plan(task: RadarTask, u_plan):
@@ -147,47 +148,17 @@ def advance(
     n = sc.n_radars
     model, noise, flags = task.measurement, params.noise, params.method
     plant = task.truth
-    a_f, q_f = task.a_filter, process_noise(task, params)
     w6 = params.sigma_w2 * task.w6_filter_unit
     planner = make_planner(task) if task.kind != "none" else None
     streams = trial_streams(params.seed, trial)
-    r_filter = measurement.noise_cov_fn(model, noise, flags.ccr)
-    residual = measurement.flat_residual(model) if model.dim > 1 else None
-    per_target = sc.filter.structure == "per-target"
-    form = sc.filter.form  # "sqrt": the carried cov is the factor S of P = S Sᵀ
-    filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it (once per segment)
-    q_f, q6 = filt.noise(q_f), filt.noise(params.sigma_w2 * task.w6_filter_unit)
+    filt = ckf_sqrt.form_ops(sc.filter.form)  # "sqrt": the carried cov is S of P = S Sᵀ
+    fops = filter_ops.make(task, params)  # CKF (joint or bank) or IMM predict / update
     motion = params.motion  # None without [[target_motion]] (the paper's CV drones)
     dt = sc.timing.dt_filter
 
-    def predict(mean, cov):
-        if per_target:  # M independent 6-D CKFs (block-diagonal covariance)
-            return filter_bank.predict_joint(mean, cov, task.a6_filter, q6, form)
-        return filt.predict(mean, cov, lambda x: a_f @ x, q_f)
-
-    def update(mean, cov, z, radar_pos, vis):
-        if per_target:
-
-            def h_pair(r, x6):
-                return model.predict(r[None], x6[None, :3]).reshape(model.dim)
-
-            means, covs = filter_bank.joint_to_bank(mean, cov)
-            post = filter_bank.update_bank(
-                means, covs, z, radar_pos, h_pair, r_filter, mask=vis, residual=residual, form=form
-            )
-            mean, cov = filter_bank.bank_to_joint(*post)
-        else:
-            keep = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
-            h = measurement.measurement_function(model, radar_pos)
-            kw = {} if residual is None else {"residual": residual}
-            mean, cov = filt.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep, **kw)
-        if sc.filter.ground_prior:
-            mean, cov = ground_prior.apply_ground_prior(mean, cov)
-        return mean, cov
-
     def filter_step(carry, k, u):
-        data, mean0, cov0, pfim, health = carry
-        mean, cov = predict(mean0, cov0)
+        data, mean0, cov0, pfim, health, modes0 = carry
+        mean, cov, modes_p = fops.predict(mean0, cov0, modes0)
         accel_key = jax.random.fold_in(streams.drones, k)
         data = target_motion.step_plant(plant, data, u, motion, accel_key, k, params.sigma_w2)
         radars = physics.radar_state(plant, data)
@@ -201,15 +172,18 @@ def advance(
         here, vis, (mean, cov, pfim) = presence.begin_step(
             motion, k, dt, vis, (mean, cov, pfim), truth, filt, streams.estimate, params.p0, n
         )
+        modes_p = fops.begin(modes_p, mean, cov, k)  # the IMM's modes of appearing targets
         obs = scan.observe(sc.detection, params, trial, k, radars[:, :3], truth[:, :3], z, vis)
-        post = (scan.pda_update(sc, params, model, flags.ccr, mean, cov, obs, radars[:, :3], vis)
-                if sc.detection.clutter else update(mean, cov, z, radars[:, :3], obs.seen))
+        post = ((*scan.pda_update(sc, params, model, flags.ccr, mean, cov, obs, radars[:, :3],
+                                  vis), modes_p) if sc.detection.clutter
+                else fops.update(mean, cov, modes_p, z, radars[:, :3], obs.seen))  # fmt: skip
         # A diverged misspecified filter (CCR noise model) can overflow float32 in the
         # update; keep the prediction then (or, if that overflowed too, the last
         # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
         finite = lambda a, b: jnp.all(jnp.isfinite(a)) & jnp.all(jnp.isfinite(b))  # noqa: E731
-        ok_pred, ok = finite(mean, cov), finite(*post)
+        ok_pred, ok = finite(mean, cov), finite(*post[:2])
         blown = ~(ok_pred & ok)
+        modes = filter_ops.keep(ok_pred, ok, post[2], modes_p, modes0)
         mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
         cov_p = filt.cov(cov)  # P for the detector, metrics and records (S Sᵀ for "sqrt")
@@ -231,13 +205,13 @@ def advance(
             contacts, obs.n_vis, obs.n_det, obs.n_fa, flags_h.lost | diverged, diverged,
             jnp.sum(here).astype(jnp.int32),
         )  # fmt: skip
-        return (data, mean, cov, pfim, health), rec
+        return (data, mean, cov, pfim, health, modes), rec
 
     def plan(loop, j, u_plan):
         data, mean, cov = loop[:3]
         # MPPI plans from the estimate at the radars' instant (mpc.aligned), or -- as
         # the paper's code -- from the estimate predicted one filter step ahead.
-        pm, pc = (mean, cov) if sc.mpc.aligned else predict(mean, cov)
+        pm, pc = (mean, cov) if sc.mpc.aligned else fops.predict(mean, cov, loop[5])[:2]
         pc = filt.cov(pc)  # the planner takes P
         key = jax.random.fold_in(streams.planner, j)
         p_plan = params if motion is None else presence.plan_params(params, j * every * dt)
@@ -253,7 +227,7 @@ def advance(
         return rec.control, mppi.shift(res.mean), rec
 
     def control_period(lc: LoopCarry, j):
-        loop = (lc.data, lc.mean, lc.cov, lc.pfim, lc.health)
+        loop = (lc.data, lc.mean, lc.cov, lc.pfim, lc.health, lc.modes)
         if task.kind == "none":  # stationary program: no planner compiled
             u, u_plan, crec = _idle_plan(task, lc.u_plan)
         elif task.kind != "all":  # one information kind: always plans
@@ -266,8 +240,8 @@ def advance(
             )
         ks = j * every + 1 + jnp.arange(every)
         loop, srec = jax.lax.scan(lambda c_, k: filter_step(c_, k, u), loop, ks)
-        data, mean, cov, pfim, health = loop
-        return LoopCarry(data, mean, cov, pfim, u_plan, health), (srec, crec)
+        data, mean, cov, pfim, health, modes = loop
+        return LoopCarry(data, mean, cov, pfim, u_plan, health, modes), (srec, crec)
 
     js = start + jnp.arange(periods)
     carry, (srec, crec) = jax.lax.scan(control_period, carry, js)
