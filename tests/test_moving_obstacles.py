@@ -198,6 +198,18 @@ def test_closed_loop_vehicle_blocks_and_is_avoided(tiny):
                           end="stop")  # fmt: skip
     s = _scenario(tiny, wall).replace(name="mv", timing={"steps": 80})
     run = mjx_radar.simulate(s, method="ddr-sfim", trials=2, steps=80, progress=False)
-    m = run.metrics
+    m = run.metrics.sort_values(["trial", "step"])
     assert (m["obstacle_contacts"] == 0).all()
-    assert m["visible_pairs"].min() < 2 and m["visible_pairs"].max() == 2
+    tr = run.trajectories
+    radar, target = tr.radar_states.values[..., :3], tr.truth.values[..., :3]  # [T, K, ., 3]
+    t = tr.time_s.values  # t_k = k dt: the vehicle's centre y = -300 + 250 + 20 t
+    u = np.linspace(0.0, 1.0, 4001)
+    pts = radar[:, :, :, None, None] + u[:, None] * (target[:, :, None, :, None]
+                                                     - radar[:, :, :, None, None])  # fmt: skip
+    yc = (-50.0 + 20.0 * t)[None, :, None, None, None]
+    inside = ((np.abs(pts[..., 0] - 150.0) < 2.0) & (np.abs(pts[..., 1] - yc) < 30.0)
+              & (pts[..., 2] < 200.0))  # fmt: skip  # [T, K, N, M, U] dense segment samples
+    expected = (~inside.any(-1)).sum((-1, -2))  # [T, K] visible pairs
+    assert expected.min() < 4 and expected.max() == 4  # the vehicle blocks some steps
+    np.testing.assert_array_equal(m["visible_pairs"].to_numpy().reshape(expected.shape),
+                                  expected)  # fmt: skip
