@@ -161,6 +161,10 @@ def test_scenario_table_and_town(tiny):
                                                 for m in town.moving_obstacles))  # fmt: skip
     assert shape_key(other) == shape_key(town)  # speeds and paths are runtime numbers
     assert load_scenario("smoke").moving_obstacles == ()
+    with pytest.raises(ScenarioError, match=r"not supported with \[terrain\]"):
+        load_scenario("hills_4r4t").replace(moving_obstacles=(POLE,))
+    with pytest.raises(ScenarioError, match=r"radars\[0\]: .* from moving_obstacles\[0\]"):
+        s.replace(moving_obstacles=(dataclasses.replace(POLE, path=((300.0, 1.0), (300.0, 9.0))),))
 
 
 def test_render_places_vehicles(tiny):

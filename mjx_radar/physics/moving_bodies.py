@@ -8,7 +8,8 @@ exactly as with a building (MJX collides geoms of mocap bodies like any other: t
 poses come from ``mocap_pos`` / ``mocap_quat`` in the kinematics stage).
 
 Before the MJX step that takes the world from ``t_{k-1}`` to ``t_k = k dt`` the bodies
-are put at their closed-form pose at ``t_k`` (:func:`mjx_radar.world.moving.pose`):
+are put at their closed-form pose at ``t_k`` (:func:`pose_bodies`, called by
+:func:`mjx_radar.physics.target_motion.step_plant`; :func:`mjx_radar.world.moving.pose`):
 the contacts of that step see the vehicle where it is at the step's end (a one-step
 look-ahead, as the radars' grown collision spheres), and line of sight at ``t_k`` sees
 the same pose. A vehicle is kinematic (infinite mass): it pushes a radar it drives into;
