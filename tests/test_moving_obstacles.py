@@ -217,3 +217,27 @@ def test_closed_loop_vehicle_blocks_and_is_avoided(tiny):
     assert expected.min() < 4 and expected.max() == 4  # the vehicle blocks some steps
     np.testing.assert_array_equal(m["visible_pairs"].to_numpy().reshape(expected.shape),
                                   expected)  # fmt: skip
+
+
+def test_snapshot_draws_vehicles(tiny):
+    """snapshot's map draws each vehicle's footprint at the step's time (k + 1) dt."""
+    import matplotlib.pyplot as plt
+
+    from mjx_radar.viz.run_dir import Trial
+    from mjx_radar.viz.snapshot import snapshot_figure
+
+    s = _scenario(tiny, CAR, POLE)
+    radar = np.zeros((12, 2, 6))
+    radar[:, :, 0] = [300.0, -300.0]
+    target = np.tile(np.asarray(s.target_init, float)[None], (12, 1, 1))
+    meta = {"r2t": 125.0, "r2r": 10.0, "dt_filter": 0.025, "noise_constant": 1e6}
+    tr = Trial(meta, s, target, target[..., :3], np.ones_like(target[..., :3]), radar,
+               np.zeros((3, 1, 3, 2, 2)), np.zeros((3, 1)), 4, 0.025)  # fmt: skip
+    fig = snapshot_figure(tr, 7, grid=20)  # t = 0.2 s: car centre (-48, -100), pole (0, 52)
+    patches = [p for ax in fig.axes for p in ax.patches if p.get_gid() == "moving"]
+    plt.close(fig)
+    assert len(patches) == 4  # two vehicles on two panels
+    car = patches[0].get_xy()[:4]
+    np.testing.assert_allclose(car.mean(0), [-48.0, -100.0], atol=1e-3)
+    np.testing.assert_allclose(np.ptp(car, 0), [6.0, 3.0], atol=1e-3)
+    np.testing.assert_allclose(patches[1].get_xy().mean(0), [0.0, 52.0], atol=0.2)
