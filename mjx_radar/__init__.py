@@ -1,6 +1,7 @@
 """mjx_radar: mobile radars re-positioned by MPPI over MuJoCo-MJX rollouts."""
 
 from mjx_radar.config import (
+    MovingObstacle,
     MPCConfig,
     MPPIConfig,
     Obstacle,
@@ -42,6 +43,7 @@ __all__ = [
     "MPCConfig",
     "Method",
     "MPPIConfig",
+    "MovingObstacle",
     "Obstacle",
     "RadarEquation",
     "Run",

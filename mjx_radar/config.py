@@ -10,14 +10,8 @@ from dataclasses import dataclass, field
 from mjx_radar.config_detection import DetectionConfig
 from mjx_radar.config_filter import FilterConfig
 from mjx_radar.config_terrain import Terrain
-from mjx_radar.config_world import RadarOverride, TargetMotion
-from mjx_radar.io.checks import INF, choice, col, flag, name_rule, rows, rule, table
-
-
-def positive(doc: str, unit: str = "", hi: float = INF) -> dict:
-    """Metadata of a float in (0, hi]."""
-    return rule(float, 0.0, hi, lo_open=True, doc=doc, unit=unit)
-
+from mjx_radar.config_world import MovingObstacle, RadarOverride, TargetMotion, positive
+from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, table
 
 SCENE = 1e5  # |x|, |y| bound of every position [m] (float32 keeps ~1 cm there)
 TARGET_COLUMNS = (  # plausibility bounds of an initial target state (docs/scenarios.md)
@@ -254,6 +248,7 @@ class Scenario:
     target_motion: tuple[TargetMotion, ...] = ()  # [[target_motion]]: io.scenario_motion
     radar_override: tuple[RadarOverride, ...] = ()  # [[radar_override]]: io.scenario_fleet
     terrain: Terrain | None = None  # [terrain]: io.scenario_terrain (None: flat ground z = 0)
+    moving_obstacles: tuple[MovingObstacle, ...] = ()  # [[moving_obstacles]]: io.scenario_moving
     radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
         default=(),
         metadata=rows(

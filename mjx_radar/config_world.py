@@ -93,3 +93,36 @@ class RadarOverride:
     mobile: bool = field(default=True, metadata=flag("false: a fixed site that never moves"))
     radar_eq: tuple[tuple[str, float], ...] = ()  # [radar_override.radar_equation]
     limits: tuple[tuple[str, float], ...] = ()  # [radar_override.limits] (accel, alpha)
+
+
+PATH_COLUMNS = (("x", col(-SCENE, SCENE, "m")), ("y", col(-SCENE, SCENE, "m")))
+
+
+@dataclass(frozen=True)
+class MovingObstacle:
+    """A vehicle driving a polyline on the ground (``[[moving_obstacles]]``, docs/maps.md).
+
+    Its footprint centre at time t is the point at arc length
+    ``s(t) = offset + speed · t`` along ``path`` (wrapped modulo the closed loop's length
+    with ``end = "loop"``, where the last waypoint joins the first; held at the last
+    waypoint with ``end = "stop"``); a box is turned along the segment it is on
+    (:mod:`mjx_radar.world.moving`). Solid in the truth plant (an MJCF mocap body), a
+    keep-out for the planner at its predicted positions, an occluder of lines of sight.
+    """
+
+    kind: str = field(metadata=choice("box", "cylinder", doc="footprint"))
+    size: tuple[float, ...] = ()  # box: half length, half width; cylinder: radius [m]
+    height: float = field(default=3.0, metadata=positive("height above the ground", "m", 1e3))
+    path: tuple[tuple[float, ...], ...] = field(
+        default=(), metadata=rows(PATH_COLUMNS, doc="path: at least 2 waypoints [x, y]")
+    )
+    speed: float = field(default=10.0, metadata=positive("speed along the path", "m/s", 100.0))
+    offset: float = field(
+        default=0.0,
+        metadata=rule(float, 0.0, 1e6, doc="arc length along the path at t = 0", unit="m"),
+    )
+    end: str = field(
+        default="loop",
+        metadata=choice("loop", "stop", doc="after the last waypoint: back to the first "
+                        "(closed loop) or stop there"),
+    )  # fmt: skip

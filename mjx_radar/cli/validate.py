@@ -20,5 +20,6 @@ def main(args) -> int:
         f"ok: {s.name}: {s.n_radars} radars, {s.n_targets} targets, {s.timing.steps} steps "
         f"of {s.timing.dt_filter} s, control every {s.timing.dt_control} s, "
         f"{len(s.obstacles)} obstacles"
+        + (f", {len(s.moving_obstacles)} moving obstacles" if s.moving_obstacles else "")
     )
     return 0

@@ -55,6 +55,7 @@ EXTRA_KEYS = {
     "radar_override": ("[]", "`[[radar_override]]` tables: per-radar radar equation, limits, "
                        "fixed sites (below)"),
     "terrain": ("none", "`[terrain]` height field (docs/terrain.md; fields below)"),
+    "moving_obstacles": ("[]", "`[[moving_obstacles]]` vehicles on paths (docs/maps.md; below)"),
 }
 
 
@@ -195,6 +196,10 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         from mjx_radar.io import scenario_terrain
 
         kwargs["terrain"] = scenario_terrain.terrain(raw["terrain"], base, external)
+    if "moving_obstacles" in raw:
+        from mjx_radar.io.scenario_moving import moving_obstacles
+
+        kwargs["moving_obstacles"] = moving_obstacles(raw["moving_obstacles"])
     scenario = Scenario(**kwargs)
     if scenario.radar_override:
         from mjx_radar.io import scenario_fleet
@@ -215,6 +220,10 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
         from mjx_radar.io import scenario_terrain
 
         scenario_terrain.check_targets(scenario)
+    if scenario.moving_obstacles:
+        from mjx_radar.io.scenario_moving import check_scene
+
+        check_scene(scenario)
     return scenario
 
 

@@ -11,7 +11,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from mjx_radar.config import RadarOverride, Scenario, TargetMotion, Terrain
+from mjx_radar.config import MovingObstacle, RadarOverride, Scenario, TargetMotion, Terrain
 from mjx_radar.io.checks import Rows, Rule
 from mjx_radar.io.scenario import EXTRA_KEYS, config_fields, toml_name
 
@@ -73,6 +73,9 @@ def fields_markdown() -> str:
               *_HEAD, "| `path` | required | - | an existing .npy or .png file, relative to "
               "the scenario file | height field (float/integer array, or grayscale PNG) |",
               *_table(Terrain, "")]  # fmt: skip
+    lines += ["", "### `[[moving_obstacles]]` — a vehicle on a path (docs/maps.md; `size`: "
+              "box `[half length, half width]`, cylinder `[radius]`)", "", *_HEAD,
+              *_table(MovingObstacle, "")]  # fmt: skip
     return "\n".join([BEGIN, *lines, END]) + "\n"
 
 

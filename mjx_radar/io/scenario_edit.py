@@ -97,6 +97,12 @@ def scenario_to_dict(s: Scenario) -> dict:
         from mjx_radar.io import scenario_fleet
 
         raw["radar_override"] = [scenario_fleet.to_dict(o) for o in fleet]
+    if getattr(s, "moving_obstacles", ()):
+        from mjx_radar.io.scenario_moving import to_dict
+
+        mov = s.moving_obstacles
+        raw["moving_obstacles"] = [to_dict(m) for m in mov] if isinstance(mov, tuple | list) \
+            else mov  # fmt: skip
     terrain = getattr(s, "terrain", None)
     if terrain is not None:
         raw["terrain"] = _terrain(terrain)
@@ -164,7 +170,7 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
             value = _merge(current, value, f"{prefix}{key}.")
         elif f.name == "terrain" and isinstance(value, dict):  # a new [terrain] table
             value = _merge(Terrain(), value, f"{prefix}{key}.")
-        elif f.name in ("obstacles", "target_motion", "radar_override"):
+        elif f.name in ("obstacles", "target_motion", "radar_override", "moving_obstacles"):
             value = tuple(value)
         kwargs[f.name] = value
     return dataclasses.replace(obj, **kwargs)

@@ -67,6 +67,7 @@ class Plant:
     terrain: object = None  # world.terrain.TerrainGrid, or None (flat ground z = 0)
     antenna: float = 0.0  # antenna height above the ground on terrain [m]
     max_grade: float = math.inf  # steepest grade a radar drives onto
+    moving: tuple = ()  # moving obstacles' shapes (mocap bodies, physics.moving_bodies)
 
     @property
     def n_radars(self) -> int:
@@ -84,17 +85,20 @@ def make_plant(
     limits: RadarLimits | None = None,
     obstacles=(),
     terrain=None,
+    moving=(),
 ) -> Plant:
     """Builds the scene and puts it on the device (see :func:`scene.build_scene`).
 
     ``terrain`` (a :class:`~mjx_radar.config.Terrain`): the scene's ground becomes its
-    hfield and the radars follow the grid kinematically (module docstring).
+    hfield and the radars follow the grid kinematically (module docstring). ``moving``:
+    moving obstacles as mocap bodies (:mod:`~mjx_radar.physics.moving_bodies`).
     """
     limits = RadarLimits() if limits is None else limits
     # The most a radar moves in one step: the collision sphere grows by this much so
     # that the physical hull never enters an obstacle on the step of impact.
-    margin = contact_envelope(limits, dt) if obstacles else 0.0
-    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin, terrain)
+    margin = contact_envelope(limits, dt) if (obstacles or moving) else 0.0
+    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin, terrain,
+                                  moving=tuple(moving))  # fmt: skip
     # Plants are cached and may first be built while a jit trace is running: keep the
     # device model concrete so it never captures a tracer. On this process's own device:
     # MJX's default, jax.devices()[0], belongs to process 0 under jax.distributed.
@@ -103,7 +107,7 @@ def make_plant(
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
     if terrain is None:
-        return Plant(mj_model, model, index, float(dt), limits, fast)
+        return Plant(mj_model, model, index, float(dt), limits, fast, moving=tuple(moving))
     grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
     return Plant(mj_model, model, index, float(dt), limits, fast, grid,
                  float(terrain.antenna_height), grade)  # fmt: skip
@@ -148,7 +152,7 @@ def truth_plant(scenario: Scenario) -> Plant:
         raise ValueError(f"n_targets: {scenario.n_targets} is not allowed; need at least 1")
     sc = scenario
     return make_plant(sc.n_radars, sc.n_targets, sc.timing.dt_filter, sc.limits, sc.obstacles,
-                      sc.terrain)  # fmt: skip
+                      sc.terrain, sc.moving_obstacles)  # fmt: skip
 
 
 def _check_finite(name: str, x) -> None:
@@ -241,11 +245,8 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
 
 ROLLOUT_UNROLL: int = 1
 """Rollout steps per loop iteration of :func:`radar_rollout` (``lax.scan``'s ``unroll``).
-
-H100, ``scripts/bench_mppi.py --unroll 1,15``: the unrolled 15-step horizon took an
-SFIM MPPI call from 6.06 to 5.58 ms but its compilation from 12 to 30 s, so the
-default keeps the loop; benchmarks may change it.
-"""
+H100, ``scripts/bench_mppi.py --unroll 1,15``: unrolled 15 steps took an SFIM MPPI call
+from 6.06 to 5.58 ms but its compilation from 12 to 30 s; benchmarks may change it."""
 
 
 def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Array:

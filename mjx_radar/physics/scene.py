@@ -42,6 +42,7 @@ import mujoco
 import numpy as np
 
 from mjx_radar.config import Obstacle
+from mjx_radar.physics import moving_bodies as mb
 
 RADAR_ACTUATORS = ("speed", "turn", "drive", "lateral", "steer")
 CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
@@ -132,6 +133,7 @@ def build_scene(
     hull_margin: float = 0.0,
     terrain=None,
     radar_z_joint: bool = False,
+    moving=(),
 ) -> tuple[mujoco.MjModel, SceneIndex]:
     """Builds the MuJoCo model of a scene.
 
@@ -145,6 +147,7 @@ def build_scene(
             (no contacts: radars follow it kinematically, :func:`add_terrain`).
         radar_z_joint: give each radar an unactuated slide-z joint ``z`` (rendering on
             terrain writes the ground height there; the physics plants never set it).
+        moving: moving obstacles (mocap bodies, :mod:`~.moving_bodies`); contacts on.
 
     Returns:
         The compiled ``MjModel`` (servo gains set) and its :class:`SceneIndex`.
@@ -163,7 +166,7 @@ def build_scene(
     spec.option.disableflags |= (
         flags.mjDSBL_GRAVITY | flags.mjDSBL_SPRING | flags.mjDSBL_DAMPER | flags.mjDSBL_EULERDAMP
     )
-    if not obstacles:
+    if not (obstacles or moving):
         spec.option.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT
     else:
         spec.option.iterations = SOLVER_ITERATIONS
@@ -185,7 +188,7 @@ def build_scene(
     )
     for i in range(n_radars):
         child = mujoco.MjSpec.from_string(_model_xml("radar.xml"))
-        if obstacles:
+        if obstacles or moving:
             hull = child.geom("hull")
             hull.size[0] += hull_margin
             hull.condim = 1
@@ -200,8 +203,12 @@ def build_scene(
         spec.attach(child, prefix=f"drone{j}/", frame=spec.worldbody.add_frame())
     for k, obs in enumerate(obstacles):
         _add_obstacle(spec, k, obs)
+    mb.add_moving_bodies(spec, moving, CONTACT_SOLIMP)  # the obstacles' contact settings
     model = spec.compile()
     index = _index(model, n_radars, n_drones, len(obstacles))
+    if moving:  # the vehicles' geoms collide and count as obstacles (contacts, speed reset)
+        geoms = np.concatenate([index.obstacle_geoms, mb.moving_geoms(model, len(moving))])
+        index = dataclasses.replace(index, obstacle_geoms=geoms)
     _set_servo_gains(model, index)
     return model, index
 

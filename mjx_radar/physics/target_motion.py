@@ -230,16 +230,21 @@ def drone_command(mp: MotionParams, k, vel_state, noise, dt: float):
     return accel, vbar
 
 
-def step_plant(plant, data, radar_u, mp: MotionParams | None, key, k, sigma_w2):
+def step_plant(plant, data, radar_u, mp: MotionParams | None, key, k, sigma_w2, moving=None):
     """One truth-plant step; the drones on their motion models (:func:`drone_command`).
+
+    ``moving`` (:class:`~mjx_radar.world.moving.MovingParams`, or None): the moving
+    obstacles' mocap bodies are first posed at ``t_k = k dt`` (:mod:`.moving_bodies`).
 
     ``mp`` None: the paper's CV drones, ``w = sqrt(sigma_w2) N(0, I)`` from ``key``
     (:func:`~mjx_radar.physics.kinematics.sample_white_accel`). Else the standard
     normal draws of the same key drive :func:`drone_command` (``sigma_w2`` unused).
     """
-    from mjx_radar.physics import kinematics
+    from mjx_radar.physics import kinematics, moving_bodies
     from mjx_radar.physics import plant as physics
 
+    if moving is not None:
+        data = moving_bodies.pose_bodies(plant, data, moving, k * plant.dt)
     if mp is None:
         return physics.step(plant, data, radar_u, kinematics.sample_white_accel(
             key, plant.n_drones, sigma_w2))  # fmt: skip

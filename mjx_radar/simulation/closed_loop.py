@@ -39,7 +39,7 @@ from mjx_radar.simulation import filter_ops, placement, presence, scan, track_he
 from mjx_radar.simulation.streams import trial_streams
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import RadarTask
-from mjx_radar.world import occlusion
+from mjx_radar.world import moving
 
 N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video (at most)
 
@@ -160,14 +160,14 @@ def advance(
         data, mean0, cov0, pfim, health, modes0 = carry
         mean, cov, modes_p = fops.predict(mean0, cov0, modes0)
         accel_key = jax.random.fold_in(streams.drones, k)
-        data = target_motion.step_plant(plant, data, u, motion, accel_key, k, params.sigma_w2)
+        data = target_motion.step_plant(plant, data, u, motion, accel_key, k, params.sigma_w2,
+                                        params.moving)  # fmt: skip
         radars = physics.radar_state(plant, data)
         truth = physics.target_state(plant, data)
         key = jax.random.fold_in(streams.measurement, k)
         z = model.sample(key, radars[:, :3], truth[:, :3], noise)  # [N, M, dim]
-        vis = None  # [N, M] line of sight (truth geometry); blocked pairs are skipped
-        if task.occluders is not None:
-            vis = occlusion.line_of_sight(task.occluders, radars[:, :3], truth[:, :3])
+        # [N, M] line of sight (truth geometry, vehicles at t_k; None: all clear)
+        vis = moving.truth_visibility(task, params, radars[:, :3], truth[:, :3], k * dt)
         # [M] present targets (absent: not measured); tracks start as targets appear
         here, vis, (mean, cov, pfim) = presence.begin_step(
             motion, k, dt, vis, (mean, cov, pfim), truth, filt, streams.estimate, params.p0, n
@@ -214,7 +214,7 @@ def advance(
         pm, pc = (mean, cov) if sc.mpc.aligned else fops.predict(mean, cov, loop[5])[:2]
         pc = filt.cov(pc)  # the planner takes P
         key = jax.random.fold_in(streams.planner, j)
-        p_plan = params if motion is None else presence.plan_params(params, j * every * dt)
+        p_plan = presence.plan_params(params, j * every * dt)  # presence, vehicles' time
         res, mean_plan = planner(physics.radar_state(plant, data), pm, pc, u_plan, key, p_plan)
         keep = slice(0, kept_samples(sc))
         rec = ControlRecord(

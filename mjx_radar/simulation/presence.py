@@ -145,6 +145,11 @@ def begin_step(motion, k, dt, vis, state, truth, filt, stream, p0, n: int):
 
 
 def plan_params(params, t):
-    """``params`` with the planner's target weights: the presence at the planning instant."""
+    """``params`` with the planner's target weights (the presence at the planning instant)
+    and, with moving obstacles, the planning instant ``t`` (their predicted positions)."""
+    if params.moving is not None:
+        params = params._replace(plan_time=jnp.asarray(t, params.p0.dtype))
+    if params.motion is None:
+        return params
     here = target_motion.present(params.motion, t)
     return params._replace(target_weight=here.astype(params.p0.dtype))

@@ -15,6 +15,9 @@ t+1 and E_p the mean over the CKF cubature points of the target states at that t
 * ``radar_target``: ``α2 · E_p[#{radar-target pairs closer than R2T}]``;
 * ``obstacle`` (scenes with obstacles): ``α_obs Σ_n relu(margin − φ(p_n(t)))``, φ the
   footprints' signed distance -- metres of intrusion into the keep-out band;
+* ``moving_obstacle`` (scenes with ``[[moving_obstacles]]``, ``alpha_obs > 0``): the same
+  intrusion into the band around each moving footprint at its predicted position at the
+  step's time ``t_plan + (t + 1) dt_control`` (:func:`mjx_radar.world.moving.keep_out_cost`);
 * ``terrain_slope`` (scenes with terrain, ``terrain.alpha_slope > 0``):
   ``α_slope Σ_n relu(|∇h(p_n(t))| − tan(max_slope_deg))`` (keep-out of steep ground);
 * ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``.
@@ -36,7 +39,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.estimation import detection, fisher, measurement, pda
-from mjx_radar.world import obstacles, occlusion
+from mjx_radar.world import moving, obstacles
 
 
 class Horizon(NamedTuple):
@@ -69,8 +72,8 @@ def information(h: Horizon, task, params) -> jax.Array:
     # backend; the [..., 3] layout was ~10x slower), reduced over points by a dot.
     xyz = tuple(tgt[..., c].reshape(hh, p * m) for c in range(3))
     mask = None  # [H, N, P·M] line of sight to the predicted target means (mpc.los)
-    if task.plan_occluders is not None:
-        vis = occlusion.line_of_sight(task.plan_occluders, radar_pos, tgt.mean(1))  # [H, N, M]
+    vis = moving.plan_visibility(task, params, radar_pos, tgt.mean(1))  # [H, N, M] or None
+    if vis is not None:
         mask = jnp.broadcast_to(vis[:, :, None], (hh, vis.shape[1], p, m)).reshape(hh, -1, p * m)
     det = task.scenario.detection
     if (det.detects or det.clutter) and det.planner:  # expected FIM (docs/detection.md)
@@ -137,6 +140,10 @@ def obstacle(h: Horizon, task, params) -> jax.Array:
     return mpc.alpha_obs * jnp.sum(depth, axis=-1)
 
 
+def moving_obstacle(h: Horizon, task, params) -> jax.Array:
+    return moving.keep_out_cost(h, task, params)
+
+
 def terrain_slope(h: Horizon, task, params) -> jax.Array:
     """``α_slope Σ_n relu(|∇h(p_n(t))| − tan(max_slope))``: grade beyond the vehicle limit."""
     from mjx_radar.world.terrain import max_grade, slope, terrain_grid
@@ -154,8 +161,8 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
 
 #: terms registered from scripts: name -> (fn, enabled(scenario) -> bool)
 _REGISTERED: dict[str, tuple[Callable, Callable[[Any], bool]]] = {}
-BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "terrain_slope",
-            "control_effort")  # fmt: skip
+BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "moving_obstacle",
+            "terrain_slope", "control_effort")  # fmt: skip
 
 
 def register_cost_term(name: str, fn: Callable[[Horizon, Any, Any], jax.Array],
@@ -221,6 +228,8 @@ def cost_terms(scenario) -> tuple[CostTerm, ...]:
     ]
     if scenario.obstacles and scenario.mpc.alpha_obs > 0:
         terms.append(CostTerm("obstacle", obstacle))
+    if getattr(scenario, "moving_obstacles", ()) and scenario.mpc.alpha_obs > 0:
+        terms.append(CostTerm("moving_obstacle", moving_obstacle))
     terrain = getattr(scenario, "terrain", None)
     if terrain is not None and terrain.alpha_slope > 0:
         terms.append(CostTerm("terrain_slope", terrain_slope))

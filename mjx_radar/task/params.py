@@ -23,6 +23,7 @@ import numpy as np
 from mjx_radar.config import DetectionConfig, RadarEquation, Scenario
 from mjx_radar.estimation import detection, measurement
 from mjx_radar.task.method import Method, MethodFlags
+from mjx_radar.world.moving import moving_params
 
 
 class TaskParams(NamedTuple):
@@ -51,6 +52,8 @@ class TaskParams(NamedTuple):
     detection: Any = None  # detection.DetectionParams (issue 23)
     motion: Any = None  # physics.target_motion.MotionParams with [[target_motion]], else None
     target_weight: Any = None  # [M] planner weight of each target (presence), None: all 1
+    moving: Any = None  # world.moving.MovingParams with [[moving_obstacles]], else None
+    plan_time: Any = None  # [] planning instant [s] (set per control step with moving obstacles)
 
 
 def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> TaskParams:
@@ -86,6 +89,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         alpha_r2t=arr(mpc.alpha_r2t),
         detection=detection.detection_params(scenario, dtype),
         motion=motion,
+        moving=moving_params(scenario.moving_obstacles, dtype),
     )
 
 
@@ -106,6 +110,9 @@ def shape_key(scenario: Scenario) -> Scenario:
         clutter_range_min=None, clutter_range_max=None,
         clutter_density=float(scenario.detection.clutter),
     )
+    moving = tuple(dataclasses.replace(  # paths, speeds, offsets: MovingParams (end: the
+        m, path=blank_rows(m.path), speed=None, offset=None)  # number of segments stays)
+        for m in scenario.moving_obstacles)  # fmt: skip
     if not (det.detects or det.clutter):  # perfect detection (also fixed_pd = 1): one program
         det = dataclasses.replace(DetectionConfig(), pfa=None, gain_db=None,
                                   gate_probability=None, clutter_range_min=None,
@@ -123,4 +130,5 @@ def shape_key(scenario: Scenario) -> Scenario:
         mpc=mpc,
         measurement=meas,
         detection=det,
+        moving_obstacles=moving,
     )

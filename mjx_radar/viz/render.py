@@ -85,7 +85,8 @@ def scene_model(tr: Trial, camera: str = "top", aspect: float = 4 / 3):
     terrain = tr.scenario.terrain  # the hfield ground; radars get a z joint to stand on it
     model, index = build_scene(tr.radar.shape[1], tr.target.shape[1], tr.dt,
                                tr.scenario.obstacles, terrain=terrain,
-                               radar_z_joint=terrain is not None)  # fmt: skip
+                               radar_z_joint=terrain is not None,
+                               moving=tr.scenario.moving_obstacles)  # fmt: skip
     lo, hi = tr.bounds()
     model.stat.extent = max(float(np.max(hi - lo)), 100.0)  # sets near/far clipping
     model.stat.center[:] = [*(0.5 * (lo + hi)), 0.0]
@@ -107,6 +108,14 @@ def set_state(model, data, index, tr: Trial, k: int) -> None:
         for i in range(tr.radar.shape[1]):
             adr = model.jnt_qposadr[model.joint(f"radar{i}/z").id]
             data.qpos[adr] = tr.radar[k, i, 2] - terrain.antenna_height
+    if tr.scenario.moving_obstacles:  # the vehicles at the step's time (k + 1) dt
+        from mjx_radar.physics.moving_bodies import mocap_ids, mocap_pose
+        from mjx_radar.world.moving import moving_params, pose
+
+        mov = tr.scenario.moving_obstacles
+        xyz, quat = mocap_pose(mov, *pose(moving_params(mov, np.float32), (k + 1) * tr.dt))
+        ids = mocap_ids(model, len(mov))
+        data.mocap_pos[ids], data.mocap_quat[ids] = np.asarray(xyz), np.asarray(quat)
     mujoco.mj_kinematics(model, data)
 
 

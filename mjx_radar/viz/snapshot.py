@@ -95,6 +95,33 @@ def _draw_footprints(ax, tr: Trial, lo, hi) -> None:
     )
 
 
+def vehicle_outlines(moving, t: float) -> list[np.ndarray]:
+    """``[V, 2]`` footprint outline of each moving obstacle at time ``t`` (host)."""
+    from mjx_radar.world.moving import geometry, moving_params, pose
+
+    xy, unit = (np.asarray(a, float) for a in pose(moving_params(moving, np.float32), t))
+    half, cyl, _ = geometry(moving)
+    out = []
+    for c, u, (hl, hw), is_cyl in zip(xy, unit, half, cyl, strict=True):
+        if is_cyl:
+            a = np.linspace(0.0, 2 * np.pi, 33)
+            out.append(c + hl * np.stack([np.cos(a), np.sin(a)], -1))
+        else:
+            v = np.array([-u[1], u[0]])
+            out.append(c + np.array([hl * u + hw * v, -hl * u + hw * v, -hl * u - hw * v,
+                                     hl * u - hw * v]))  # fmt: skip
+    return out
+
+
+def _draw_vehicles(ax, tr: Trial, k: int) -> None:
+    """The moving obstacles at step ``k``'s time ``(k + 1) dt`` (``gid="moving"``)."""
+    from matplotlib.patches import Polygon
+
+    for poly in vehicle_outlines(tr.scenario.moving_obstacles, (k + 1) * tr.dt):
+        ax.add_patch(Polygon(poly, closed=True, fc=(0.75, 0.2, 0.15), ec="k", lw=0.5,
+                             zorder=3, gid="moving"))  # fmt: skip
+
+
 def _draw_terrain(ax, tr: Trial, lo, hi) -> None:
     """Terrain heights as a shaded image (``gid="terrain"``), slopes beyond the vehicle
     limit hatched (``gid="steep"``)."""
@@ -160,6 +187,9 @@ def snapshot_figure(tr: Trial, k: int, grid: int = 120):
         right.imshow(np.ma.masked_where(masked == 0, masked), origin="lower", cmap="Greys",
                      vmin=0.0, vmax=1.25, alpha=0.6, extent=(lo[0], hi[0], lo[1], hi[1]),
                      gid="masked")  # fmt: skip
+    if tr.scenario.moving_obstacles:  # vehicles at the step's time, on both panels
+        _draw_vehicles(left, tr, k)
+        _draw_vehicles(right, tr, k)
     right.plot(*tr.radar[k, :, :2].T, "s", color="w", mec="k", ms=7)
     right.plot(*tr.target[k, :, :2].T, "x", color="r", ms=7)
     for ax, title in ((left, "scene"), (right, f"SFIM log det at z = {z:.0f} m")):
