@@ -44,6 +44,7 @@ def test_clutter_counts_are_poisson_within_the_window(tiny):
     assert r.min() >= 100.0 and r.max() <= 600.0 and abs(r.mean() - 350) < 5
 
 
+@pytest.mark.slow  # the PDA itself: tests/test_pda.py against the textbook (suite time)
 def test_pda_closed_loop_tracks_in_clutter(tiny):
     """Per-target PDA with Pd 0.9 and 1 false alarm per radar and scan: the recorded false
     alarms are Poisson(1) per radar, and the track error stays within 3x the clutter-free

@@ -43,6 +43,7 @@ def test_examples_are_listed_and_short():
         assert "--small" in text and f"examples/{name}.py" in doc, name
 
 
+@pytest.mark.slow  # CI keeps compare_methods, custom_cost, video_and_snapshot (suite time)
 def test_sweep_r2t(tmp_path, cache_dir):
     _run("sweep_r2t", tmp_path / "o", cache_dir)
     table = pd.read_csv(tmp_path / "o" / "sweep_r2t.csv")
@@ -64,6 +65,7 @@ def test_custom_cost(tmp_path, cache_dir):
     assert "without stay_home" in out and "with stay_home" in out
 
 
+@pytest.mark.slow  # CI keeps compare_methods, custom_cost, video_and_snapshot (suite time)
 def test_scenario_in_code(tmp_path, cache_dir):
     import mjx_radar
 
@@ -80,6 +82,7 @@ def test_video_and_snapshot(tmp_path, cache_dir):
     assert (tmp_path / "o" / "snapshot.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow  # CI keeps compare_methods, custom_cost, video_and_snapshot (suite time)
 def test_small_study(tmp_path, cache_dir):
     _run("small_study", tmp_path / "o", cache_dir)
     study = tmp_path / "o" / "study"

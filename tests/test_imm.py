@@ -211,9 +211,8 @@ def test_appearing_targets_restart_their_modes():
         np.testing.assert_allclose(np.asarray(out.probs[3]), 1.0 / 3.0, rtol=1e-7)
 
 
-@pytest.mark.parametrize(
-    "method", ["stationary", pytest.param("ddr-sfim", marks=pytest.mark.slow)]
-)  # CI: the filter without a planner program (compiles in a fraction of the time)
+@pytest.mark.slow  # the IMM itself: the textbook test above (suite time)
+@pytest.mark.parametrize("method", ["stationary", "ddr-sfim"])
 def test_closed_loop_waypoints_imm_tracks(method):
     """waypoints_3r4t with the per-target IMM bank (analytic rollouts, 1 trial, 80 steps =
     2 s; drone 3 appears at 0.5 s, so its modes restart mid-run): runs, stays finite and
