@@ -129,3 +129,22 @@ def test_overlay_draws_fixed_sites_waypoints_and_leaves_out_absent_drones():
     assert types_.count(mujoco.mjtGeom.mjGEOM_BOX) == 1 + 2  # one site, two waypoints
     assert types_.count(mujoco.mjtGeom.mjGEOM_CYLINDER) == 2  # the mobile radars
     assert types_.count(mujoco.mjtGeom.mjGEOM_ELLIPSOID) == 1  # the present drone only
+
+
+def test_detection_snr_is_per_radar_in_a_mixed_fleet():
+    """With [detection] on, each radar's SNR constant k = 10^((snr_db+gain)/10)/M r_ref^4
+    comes from its own radar equation (closed form; float32 arrays: rtol 1e-6)."""
+    import mjx_radar
+    from mjx_radar.estimation import detection
+
+    s = mjx_radar.load_scenario("mixed_6r4t").replace(
+        detection={"model": "swerling1", "gain_db": 10.0})
+    k = np.asarray(detection.detection_params(s, np.float64).k_snr)
+    m = s.n_targets
+    want = [10.0 ** ((-15.0 + 10.0) / 10.0) / m * 1500.0**4] * 2 + [
+        10.0 ** ((s.radar_eq.snr_db + 10.0) / 10.0) / m * s.radar_eq.r_ref**4] * 4
+    assert k.shape == (6, 1)
+    np.testing.assert_allclose(k[:, 0], want, rtol=1e-6)
+    d2 = np.full((6, m), 400.0**2)
+    pd = np.asarray(detection.pair_probability("swerling1", detection.detection_params(s), d2))
+    assert np.all(pd[:2] > pd[2:])  # the long-range sites detect better at the same range
