@@ -147,4 +147,4 @@ def test_detection_snr_is_per_radar_in_a_mixed_fleet():
     np.testing.assert_allclose(k[:, 0], want, rtol=1e-6)
     d2 = np.full((6, m), 400.0**2)
     pd = np.asarray(detection.pair_probability("swerling1", detection.detection_params(s), d2))
-    assert np.all(pd[:2] > pd[2:])  # the long-range sites detect better at the same range
+    assert pd[:2].min() > pd[2:].max()  # the long-range sites detect better at the same range
