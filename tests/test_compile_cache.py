@@ -12,6 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parent.parent
 ENV = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(REPO)}
 ENV.pop("MJX_RADAR_CACHE_DIR", None)
@@ -61,6 +63,7 @@ def test_other_warnings_pass_through(tmp_path):
     assert "UserWarning: something else" in proc.stderr, proc.stderr
 
 
+@pytest.mark.slow  # a whole CLI run (suite time)
 def test_run_with_a_corrupt_cache_warns_once(tmp_path):
     """``mjx-radar run --cache-dir D`` twice, D's entries overwritten with garbage between."""
     cache = tmp_path / "cache"

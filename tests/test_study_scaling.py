@@ -89,6 +89,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+@pytest.mark.slow  # two processes with jax.distributed (suite time; two devices stay in CI)
 def test_distributed_two_processes(reference, tmp_path):
     """``jax.distributed`` on localhost (CPU backend): each process runs its chunks,
     process 0 waits for all and consolidates; both exit 0 together."""
