@@ -139,7 +139,7 @@ def test_detection_snr_is_per_radar_in_a_mixed_fleet():
 
     s = mjx_radar.load_scenario("mixed_6r4t").replace(
         detection={"model": "swerling1", "gain_db": 10.0})
-    k = np.asarray(detection.detection_params(s, np.float64).k_snr)
+    k = np.asarray(detection.detection_params(s).k_snr)
     m = s.n_targets
     want = [10.0 ** ((-15.0 + 10.0) / 10.0) / m * 1500.0**4] * 2 + [
         10.0 ** ((s.radar_eq.snr_db + 10.0) / 10.0) / m * s.radar_eq.r_ref**4] * 4
