@@ -155,6 +155,19 @@ def key_name(key: Any) -> str:
     return key if ok else show(key, 40)
 
 
+def check_table(field: str, raw: Any, allowed) -> dict:
+    """``raw`` if it is a table whose keys are all in ``allowed``, else a one-line
+    :class:`ScenarioError` (not a table; the first unknown key and the allowed ones)."""
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{field}: must be a table")
+    for key in raw:
+        if key not in allowed:
+            raise ScenarioError(
+                f"{field}.{key_name(key)}: unknown field; allowed: {', '.join(allowed)}"
+            )
+    return raw
+
+
 def fmt_range(rule_: Rule | tuple) -> str:
     return as_rule(rule_).describe()
 

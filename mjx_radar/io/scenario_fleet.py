@@ -25,7 +25,7 @@ import dataclasses
 from typing import Any
 
 from mjx_radar.config import RadarEquation, RadarLimits, RadarOverride, Scenario
-from mjx_radar.io.checks import Rule, ScenarioError, check, key_name
+from mjx_radar.io.checks import Rule, ScenarioError, check, check_table, key_name
 
 _ALLOWED = ("radar", "mobile", "radar_equation", "limits")
 _EQ = {f.name: f.metadata["rule"] for f in dataclasses.fields(RadarEquation)}
@@ -36,13 +36,7 @@ _LIM_PER_RADAR = ("accel", "alpha")
 def radar_override(i: int, raw: Any, n: int) -> RadarOverride:
     """Validates one ``[[radar_override]]`` table of a fleet of ``n`` radars."""
     field = f"radar_override[{i}]"
-    if not isinstance(raw, dict):
-        raise ScenarioError(f"{field}: must be a table")
-    for key in raw:
-        if key not in _ALLOWED:
-            raise ScenarioError(
-                f"{field}.{key_name(key)}: unknown field; allowed: {', '.join(_ALLOWED)}"
-            )
+    check_table(field, raw, _ALLOWED)
     if "radar" not in raw:
         raise ScenarioError(f"{field}.radar: missing required field (a radar index)")
     radar = check(f"{field}.radar", raw["radar"], Rule(int, 0, 999))

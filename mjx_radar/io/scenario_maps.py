@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from mjx_radar.config import SCENE, Obstacle
-from mjx_radar.io.checks import Rule, ScenarioError, check, key_name, show
+from mjx_radar.io.checks import Rule, ScenarioError, check, check_table, show
 
 #: field -> (rule, default, doc); default None = required
 BUILDINGS = {
@@ -65,13 +65,7 @@ def map_path(field: str, given: Any, base: Path, allow_external: bool, suffixes)
 
 
 def _fields(table: str, raw: Any, spec: dict) -> dict:
-    if not isinstance(raw, dict):
-        raise ScenarioError(f"{table}: must be a table")
-    for key in raw:
-        if key not in spec:
-            raise ScenarioError(
-                f"{table}.{key_name(key)}: unknown field; allowed: {', '.join(spec)}"
-            )
+    check_table(table, raw, spec)
     out = {}
     for key, (rule, default, _) in spec.items():
         if key not in raw and default is None:

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from mjx_radar.config import SCENE, Scenario, TargetMotion
-from mjx_radar.io.checks import Rows, ScenarioError, check, key_name, show
+from mjx_radar.io.checks import Rows, ScenarioError, check, check_table, show
 
 MAX_TRACK_ROWS = 1_000_000
 _FIELDS = {f.name: f for f in dataclasses.fields(TargetMotion)}
@@ -48,13 +48,7 @@ _ALLOWED = ("target", "model", "waypoints", "speed", "accel_max", "capture", "lo
 def target_motion(i: int, raw: Any, base: Path, allow_external: bool, m: int) -> TargetMotion:
     """Validates one ``[[target_motion]]`` table (``m`` targets, paths relative to ``base``)."""
     field = f"target_motion[{i}]"
-    if not isinstance(raw, dict):
-        raise ScenarioError(f"{field}: must be a table")
-    for key in raw:
-        if key not in _ALLOWED:
-            raise ScenarioError(
-                f"{field}.{key_name(key)}: unknown field; allowed: {', '.join(_ALLOWED)}"
-            )
+    check_table(field, raw, _ALLOWED)
     if "target" not in raw:
         raise ScenarioError(f"{field}.target: missing required field (a target index)")
     target = check(f"{field}.target", raw["target"], _FIELDS["target"].metadata["rule"])

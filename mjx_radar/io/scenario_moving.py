@@ -22,7 +22,7 @@ import math
 from typing import Any
 
 from mjx_radar.config import MovingObstacle
-from mjx_radar.io.checks import Rows, ScenarioError, check, key_name, show
+from mjx_radar.io.checks import Rows, ScenarioError, check, check_table, show
 
 MAX_MOVING = 100
 MAX_WAYPOINTS = 1000
@@ -40,13 +40,7 @@ def moving_obstacles(raw: Any) -> tuple[MovingObstacle, ...]:
 def moving_obstacle(i: int, raw: Any) -> MovingObstacle:
     """Validates one ``[[moving_obstacles]]`` table."""
     field = f"moving_obstacles[{i}]"
-    if not isinstance(raw, dict):
-        raise ScenarioError(f"{field}: must be a table")
-    for key in raw:
-        if key not in _ALLOWED:
-            raise ScenarioError(
-                f"{field}.{key_name(key)}: unknown field; allowed: {', '.join(_ALLOWED)}"
-            )
+    check_table(field, raw, _ALLOWED)
     for key in ("kind", "size", "path"):
         if key not in raw:
             raise ScenarioError(f"{field}.{key}: missing required field")

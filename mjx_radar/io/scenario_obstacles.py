@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from mjx_radar.config import SCENE, Obstacle, Scenario
-from mjx_radar.io.checks import Rule, ScenarioError, check, key_name, show
+from mjx_radar.io.checks import Rule, ScenarioError, check, check_table, key_name, show
 
 _COORD = Rule(float, -SCENE, SCENE)
 _SIZE = Rule(float, 0.0, 1e4, lo_open=True)
@@ -159,13 +159,7 @@ def forest(raw: Any, radar_init) -> tuple[Obstacle, ...]:
     """Validates the ``[forest]`` table and generates its trees (cylinders)."""
     from mjx_radar.world import obstacles as geometry
 
-    if not isinstance(raw, dict):
-        raise ScenarioError("forest: must be a table")
-    for key in raw:
-        if key not in _FOREST:
-            raise ScenarioError(
-                f"forest.{key_name(key)}: unknown field; allowed: {', '.join(_FOREST)}"
-            )
+    check_table("forest", raw, _FOREST)
     v: dict[str, Any] = {}
     for key, (rule, default) in _FOREST.items():
         if key not in raw and default is None:
