@@ -15,10 +15,13 @@ TRIALS = np.arange(2)
 
 @pytest.fixture(scope="module")
 def export_dir(tmp_path_factory):
-    """The export cache switched on in a fresh directory (XLA's own cache left as it is)."""
+    """The export cache switched on in a fresh directory (XLA's own cache left as it is),
+    and an empty in-memory program cache: this module's first run compiles whatever
+    other test files ran before it in the same worker process."""
     path = tmp_path_factory.mktemp("cache")
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(compile_cache, "_DIR", [path])
+        mp.setattr(programs, "_CACHE", {})
         yield path / "programs"
 
 
