@@ -16,8 +16,8 @@ import jax
 import jax.numpy as jnp
 from bench_timing import median_seconds  # scripts/, on the path when run
 
+from mjx_radar import physics
 from mjx_radar.config import RadarLimits
-from mjx_radar.physics import plant as physics
 from mjx_radar.physics.kinematics import unicycle_rollout
 
 

@@ -9,12 +9,16 @@ Runs, each in a fresh process and in this order:
 4. the README quick start, ``mjx-radar run scenarios/smoke.toml`` (80 steps), with
    an empty cache directory (skip with ``--no-quick-start``);
 5. optionally (``--study-trials T``) ``mjx-radar study SCENARIO --methods M1,M2 --trials T
-   --chunk T`` cold and warm.
+   --chunk T`` cold and warm;
+6. one MPPI call at paper settings, DDR-SFIM and DDR-PFIM (``scripts/bench_mppi.py``,
+   median of ``--mppi-calls`` calls; 0 skips it).
 
 Prints one line per step with the process wall time and the compile / simulation
-split reported by the run, then the issue's table (issue 27, "Start in seconds":
-quick start compile <= 15 s, ``run paper_3r4t --steps 600`` <= 30 s cold and <= 12 s
-warm on the 2-core CPU) and the machine's load average. Usage::
+split reported by the run, then the issue's table (issue 27, "Start in seconds") with
+the goals of the device it ran on: on a CPU, quick start compile <= 15 s and
+``run paper_3r4t --steps 600`` <= 30 s cold and <= 12 s warm; on a GPU (H100) that
+run <= 20 s cold and <= 8 s warm and one MPPI call <= 4 ms (SFIM) and <= 6 ms (PFIM);
+and the machine's load average. Usage::
 
     python scripts/bench_startup.py --scenario scenarios/paper_3r4t.toml --steps 600
 """
@@ -74,6 +78,7 @@ def main() -> None:
     ap.add_argument("--study-methods", default="ddr-sfim,ddr-pfim")
     ap.add_argument("--study-steps", type=int, default=600)
     ap.add_argument("--no-quick-start", action="store_true", help="skip the quick start row")
+    ap.add_argument("--mppi-calls", type=int, default=30, help="MPPI call rows (0: skip)")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench_startup_"))
     cache = work / "cache"
@@ -104,23 +109,51 @@ def main() -> None:
             wall, rc = _cli(cmd, cache)
             meta = json.loads((out / "study.json").read_text()) if rc == 0 else {}
             rows.append((f"study {label}", wall, meta.get("compile_s"), meta.get("sim_s"), rc))
+    mppi = _mppi_calls(args.mppi_calls) if args.mppi_calls else {}
     print(f"{'what':28s} {'wall_s':>8s} {'compile_s':>10s} {'sim_s':>8s} rc")
     for what, wall, comp, sim, rc in rows:
         f = lambda x: f"{x:10.1f}" if isinstance(x, float) else f"{'-':>10s}"  # noqa: E731
         print(f"{what:28s} {wall:8.1f} {f(comp)} {f(sim)[2:]:>8s} {rc}")
-    _goals(rows, f"{src.stem} {args.steps} steps")
-    print(json.dumps({"rows": rows, "load": os.getloadavg()}))
+    for method, ms in mppi.items():
+        print(f"{'MPPI call ' + method:28s} {ms:8.2f} ms (median of {args.mppi_calls})")
+    device = _device()
+    _goals(rows, mppi, f"{src.stem} {args.steps} steps", device)
+    print(json.dumps({"rows": rows, "mppi_ms": mppi, "device": device,
+                      "load": os.getloadavg()}))  # fmt: skip
 
 
-def _goals(rows, what: str) -> None:
-    """The issue's table: measured vs goal (process wall time; compile for the quick start)."""
+def _device() -> str:
+    out = subprocess.run([sys.executable, "-c", "import jax; print(jax.devices()[0].device_kind)"],
+                         capture_output=True, text=True)  # fmt: skip
+    return out.stdout.strip().splitlines()[-1] if out.returncode == 0 else "unknown"
+
+
+def _mppi_calls(calls: int) -> dict[str, float]:
+    """Median ms of one MPPI call per method (``bench_mppi.py``, paper settings)."""
+    bench = Path(__file__).resolve().parent / "bench_mppi.py"
+    cmd = [sys.executable, str(bench), "--methods", "ddr-sfim,ddr-pfim", "--calls", str(calls)]
+    out = subprocess.run(cmd, capture_output=True, text=True).stdout.splitlines()
+    meds = [float(line.split("=")[1]) * 1e3 for line in out if line.startswith("mppi_call_s=")]
+    return dict(zip(("DDR-SFIM", "DDR-PFIM"), meds, strict=False))
+
+
+def _goals(rows, mppi: dict, what: str, device: str) -> None:
+    """The issue's table: measured vs goal (process wall time; compile for the quick start;
+    milliseconds for the MPPI call), the goals of a CPU or of a GPU (H100)."""
     got = {r[0]: r for r in rows}
-    goals = [("run cold", f"run {what}, cold", 1, 30.0), ("run warm", f"run {what}, warm", 1, 12.0),
-             ("quick start cold", "quick start compile", 2, 15.0)]  # fmt: skip
-    print(f"\n{'goal (issue 27, CPU)':36s} {'measured_s':>10s} {'goal_s':>7s}")
+    cpu = device.lower() == "cpu"
+    cold, warm = (30.0, 12.0) if cpu else (20.0, 8.0)
+    goals = [("run cold", f"run {what}, cold", 1, cold), ("run warm", f"run {what}, warm", 1, warm)]
+    if cpu:
+        goals.append(("quick start cold", "quick start compile", 2, 15.0))
+    print(f"\n{'goal (issue 27, ' + device + ')':40s} {'measured':>10s} {'goal':>7s}")
     for key, label, col, goal in goals:
         if key in got and isinstance(got[key][col], float):
-            print(f"{label:36s} {got[key][col]:10.1f} {goal:7.1f}")
+            print(f"{label:40s} {got[key][col]:8.1f} s {goal:5.1f} s")
+    if not cpu:
+        for method, goal in (("DDR-SFIM", 4.0), ("DDR-PFIM", 6.0)):
+            if method in mppi:
+                print(f"{'MPPI call ' + method:40s} {mppi[method]:7.2f} ms {goal:4.1f} ms")
     print(f"load average (1, 5, 15 min): {os.getloadavg()}")
 
 

@@ -146,3 +146,13 @@ def test_defaults_are_perfect_detection():
     d = DetectionConfig()
     assert not d.detects and not d.clutter
     assert dataclasses.asdict(d)["model"] == "perfect"
+
+
+@pytest.mark.parametrize("dof", [1, 2, 3])
+def test_gate_quantile_closed_forms_match_scipy(dof):
+    """The gate γ (closed forms for dof 1 and 2, no scipy.stats import) vs scipy's chi2."""
+    from scipy.stats import chi2
+
+    for p in (0.5, 0.9, 0.95, 0.99, 0.999, 0.9999, 0.999999):
+        got = detection.chi2_quantile(p, dof)
+        assert got == pytest.approx(chi2.ppf(p, dof), rel=1e-10), (p, dof)

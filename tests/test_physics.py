@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from mjx_radar import physics
 from mjx_radar.config import RadarLimits, Scenario
-from mjx_radar.physics import plant as physics
 from mjx_radar.physics.kinematics import cv_step, sample_white_accel, unicycle_rollout
 
 LIM = RadarLimits()
@@ -27,12 +27,17 @@ def _initial(n, key):
     return jnp.stack([xy[:, 0], xy[:, 1], jnp.zeros(n), th, v, w], axis=-1)
 
 
+@pytest.mark.parametrize("fused", [True, False])
 @pytest.mark.parametrize(("steps", "dt", "pos_tol"), [(15, 0.1, 1e-3), (600, 0.025, 0.05)])
-def test_mjx_radar_rollout_matches_analytic(steps, dt, pos_tol):
+def test_mjx_radar_rollout_matches_analytic(steps, dt, pos_tol, fused):
+    import dataclasses
+
     n = 3
     k1, k2 = jax.random.split(jax.random.PRNGKey(7))
     s0, u = _initial(n, k1), _controls(k2, steps, n)
     plant = physics.make_plant(n, 0, dt, LIM)
+    assert plant.fused is not None
+    plant = plant if fused else dataclasses.replace(plant, fused=None)  # MJX's stages
     mjx_traj = jax.jit(physics.radar_rollout, static_argnums=0)(plant, s0, u)
     ref = unicycle_rollout(s0, u, dt, LIM)
     # Every limit is hit in the reference trajectory (else the test proves less).
@@ -144,7 +149,7 @@ def test_invalid_model_inputs_raise(call, match):
 def test_contact_free_step_equals_mjx_step():
     import dataclasses
 
-    plant = physics.make_plant(3, 2, 0.025, LIM)
+    plant = dataclasses.replace(physics.make_plant(3, 2, 0.025, LIM), fused=None)  # stages
     assert plant.fast
     slow = dataclasses.replace(plant, fast=False)
     k1, k2, k3 = jax.random.split(jax.random.PRNGKey(5), 3)

@@ -297,7 +297,7 @@ def test_planner_rollouts_and_terms_know_the_terrain():
     np.testing.assert_allclose(traj[..., 2], z, atol=1e-3)
     off, _ = build(s.replace(mpc={"los": False}))
     assert off.plan_occluders is None and off.occluders.terrain is not None
-    from mjx_radar.physics.plant import rollout_radars  # the public entry point (MJX)
+    from mjx_radar.physics import rollout_radars  # the public entry point (MJX)
 
     traj = np.asarray(rollout_radars(s, state, jnp.ones((3, 4, 2))))
     z = terrain.height_np(s.terrain, traj[..., :2].astype(float)) + s.terrain.antenna_height

@@ -176,15 +176,6 @@ class Run:
         return view(self._saved(), path, trial, max_frames, samples).path
 
 
-def _import_mjx_quietly() -> None:
-    """Imports ``mujoco.mjx`` with its import-time chatter ("Failed to import warp") muted."""
-    import contextlib
-    import io
-
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        import mujoco.mjx  # noqa: F401
-
-
 def _trial_ids(trials) -> np.ndarray:
     if isinstance(trials, bool):
         raise ScenarioError(f"trials = {trials!r}: must be a count >= 1 or a list of indices")
@@ -261,7 +252,6 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
 
 def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: bool,
               cache: bool, view=(False, None)) -> Run:  # fmt: skip
-    _import_mjx_quietly()
     import jax
 
     from mjx_radar.io import results

@@ -123,9 +123,9 @@ def main(argv: list[str] | None = None) -> int:
             import jax
 
             jax.config.update("jax_enable_x64", True)  # before any array exists
-        if args.command not in LIGHT:  # MJX prints "Failed to import warp" on import
+        if args.command not in LIGHT:  # reads MUJOCO_GL (MJX itself: on first use)
             with _quiet():
-                importlib.import_module("mujoco.mjx")
+                importlib.import_module("mujoco")
         gl.restore()
         if args.command in COMPILING and not args.no_cache:
             from mjx_radar.simulation import compile_cache

@@ -30,6 +30,7 @@ every pair and the filter sees exactly the paper's measurements.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import jax
@@ -83,10 +84,22 @@ def snr_constant(radar_eq, n_targets: int, gain_db: float = 0.0) -> float:
 
 
 def chi2_quantile(p: float, dof: int) -> float:
-    """Chi-square quantile (host): the validation gate ``γ`` of gate probability ``p``."""
+    """Chi-square quantile (host): the validation gate ``γ`` of gate probability ``p``.
+
+    Closed forms for the measurement dimensions used here (no scipy.stats import, ~1 s
+    of every start): ``dof = 1``: ``γ = Φ⁻¹((1 + p)/2)²``; ``dof = 2``:
+    ``γ = −2 ln(1 − p)``; other ``dof`` through scipy.
+    """
+    p, dof = float(p), int(dof)
+    if dof == 1:
+        from statistics import NormalDist
+
+        return NormalDist().inv_cdf(0.5 * (1.0 + p)) ** 2
+    if dof == 2:
+        return -2.0 * math.log1p(-p)
     from scipy.stats import chi2
 
-    return float(chi2.ppf(float(p), int(dof)))
+    return float(chi2.ppf(p, dof))
 
 
 def detection_params(scenario, dtype=None) -> DetectionParams:

@@ -30,16 +30,17 @@ import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
-from mujoco import mjx
 
 from mjx_radar.config import RadarLimits, Scenario
-from mjx_radar.physics import contacts
+from mjx_radar.physics import contacts, fused_step, mjx_module
 from mjx_radar.physics.contacts import obstacle_contacts  # noqa: F401 (plant API)
 from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
 from mjx_radar.physics.terrain_follow import slope_stop
 from mjx_radar.world import terrain as ground
 from mjx_radar.world.obstacles import contact_envelope
+
+mjx = mjx_module.load()
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -56,6 +57,9 @@ class Plant:
             bias-force stages, and the constant mass-matrix factor); set when the scene
             has no contacts, its mass matrix does not depend on the configuration and
             its bias forces (Coriolis, centrifugal; gravity is off) vanish.
+        fused: that step as one fused expression built from the compiled model
+            (:mod:`~mjx_radar.physics.fused_step`, checked against ``mj_step`` when
+            built), or None (MJX's stages, :func:`_contact_free_step`).
     """
 
     mj_model: mujoco.MjModel
@@ -68,6 +72,7 @@ class Plant:
     antenna: float = 0.0  # antenna height above the ground on terrain [m]
     max_grade: float = math.inf  # steepest grade a radar drives onto
     moving: tuple = ()  # moving obstacles' shapes (mocap bodies, physics.moving_bodies)
+    fused: object = None  # physics.fused_step.FusedModel of a fast scene, or None
 
     @property
     def n_radars(self) -> int:
@@ -106,11 +111,18 @@ def make_plant(
         model = mjx.put_model(mj_model, device=jax.local_devices()[0])
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
+    fused = fused_step.build(mj_model, index) if fast and FUSED_STEP else None
     if terrain is None:
-        return Plant(mj_model, model, index, float(dt), limits, fast, moving=tuple(moving))
+        return Plant(mj_model, model, index, float(dt), limits, fast, moving=tuple(moving),
+                     fused=fused)  # fmt: skip
     grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
     return Plant(mj_model, model, index, float(dt), limits, fast, grid,
-                 float(terrain.antenna_height), grade)  # fmt: skip
+                 float(terrain.antenna_height), grade, fused=fused)  # fmt: skip
+
+
+FUSED_STEP: bool = True
+"""Build the fused step for fast scenes (:mod:`~mjx_radar.physics.fused_step`); False
+keeps MJX's stages (benchmarks and tests compare the two)."""
 
 
 def _contact_free_step(model: mjx.Model, data):
@@ -155,12 +167,12 @@ def truth_plant(scenario: Scenario) -> Plant:
                       sc.terrain, sc.moving_obstacles)  # fmt: skip
 
 
-def _check_finite(name: str, x) -> None:
+def check_finite(name: str, x) -> None:
     if not isinstance(x, jax.core.Tracer) and not np.all(np.isfinite(np.asarray(x))):
         raise ValueError(f"{name}: contains non-finite values; need finite numbers")
 
 
-def _check_shape(name: str, x, shape: tuple[int, ...]) -> None:
+def check_shape(name: str, x, shape: tuple[int, ...]) -> None:
     if tuple(jnp.shape(x)) != shape:
         raise ValueError(f"{name}: shape {tuple(jnp.shape(x))} is not the expected {shape}")
 
@@ -168,20 +180,20 @@ def _check_shape(name: str, x, shape: tuple[int, ...]) -> None:
 def init_data(plant: Plant, radar_state: jax.Array, target_state: jax.Array | None = None):
     """MJX data holding the given radar ([N, 6]) and target ([M, 6]) states."""
     idx = plant.index
-    _check_shape("radar_state", radar_state, (plant.n_radars, 6))
-    _check_finite("radar_state", radar_state)
+    check_shape("radar_state", radar_state, (plant.n_radars, 6))
+    check_finite("radar_state", radar_state)
     data = mjx.make_data(plant.model)
     qpos = data.qpos.at[idx.radar_qpos].set(radar_state[:, jnp.array([0, 1, 3])])
     act = data.act.at[idx.radar_act].set(radar_state[:, 4:6])
     if plant.n_drones:
         if target_state is None:
             raise ValueError("target_state: required, the plant has drones")
-        _check_shape("target_state", target_state, (plant.n_drones, 6))
-        _check_finite("target_state", target_state)
+        check_shape("target_state", target_state, (plant.n_drones, 6))
+        check_finite("target_state", target_state)
         qpos = qpos.at[idx.drone_qpos].set(target_state[:, :3])
         act = act.at[idx.drone_act].set(target_state[:, 3:])
     data = data.replace(qpos=qpos.astype(data.qpos.dtype), act=act.astype(data.act.dtype))
-    if plant.fast:  # the constant mass-matrix factor, once
+    if plant.fast and plant.fused is None:  # the constant mass-matrix factor, once
         data = mjx.kinematics(plant.model, data)
         data = mjx.com_pos(plant.model, data)
         data = mjx.factor_m(plant.model, mjx.crb(plant.model, data))
@@ -204,6 +216,20 @@ def target_state(plant: Plant, data) -> jax.Array:
     )
 
 
+def clip_controls(plant: Plant, radar_u: jax.Array) -> jax.Array:
+    """``[N, 2]`` radar controls ``[a, alpha]`` clipped to the plant's limits."""
+    lim = plant.limits
+    return jnp.clip(radar_u, jnp.array([-lim.accel, -lim.alpha]), jnp.array([lim.accel, lim.alpha]))
+
+
+def radar_ctrl(plant: Plant, va: jax.Array, u: jax.Array) -> jax.Array:
+    """``[N, 5]`` actuator controls (speed, turn, drive, lateral, steer) from the
+    activations ``va [N, 2]`` (v, omega) and clipped controls ``u [N, 2]``: the servo
+    set-points are the mean velocities over the step, ``v + u dt / 2``."""
+    mean_v = va + 0.5 * plant.dt * u
+    return jnp.concatenate([u, mean_v[:, :1], jnp.zeros_like(u[:, :1]), mean_v[:, 1:]], -1)
+
+
 def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None = None,
          drone_mean_v: jax.Array | None = None):  # fmt: skip
     """One physics step.
@@ -220,21 +246,23 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     Returns:
         The next MJX data.
     """
-    idx, dt, lim = plant.index, plant.dt, plant.limits
-    u = jnp.clip(radar_u, jnp.array([-lim.accel, -lim.alpha]), jnp.array([lim.accel, lim.alpha]))
+    idx, dt = plant.index, plant.dt
+    u = clip_controls(plant, radar_u)
     if plant.terrain is not None:
         data, u = slope_stop(plant, data, u)
     va = data.act[idx.radar_act]  # [N, 2] (v, omega)
     mean_v = va + 0.5 * dt * u
-    zero = jnp.zeros_like(u[:, :1])
-    radar_ctrl = jnp.concatenate([u, mean_v[:, :1], zero, mean_v[:, 1:]], axis=-1)
-    ctrl = data.ctrl.at[idx.radar_ctrl].set(radar_ctrl.astype(data.ctrl.dtype))
+    ctrl = data.ctrl.at[idx.radar_ctrl].set(radar_ctrl(plant, va, u).astype(data.ctrl.dtype))
     if plant.n_drones:
         w = jnp.zeros((plant.n_drones, 3)) if drone_accel is None else drone_accel
         mean_w = data.act[idx.drone_act] + 0.5 * dt * w if drone_mean_v is None else drone_mean_v
         drone_ctrl = jnp.concatenate([w, mean_w], axis=-1)
         ctrl = ctrl.at[idx.drone_ctrl].set(drone_ctrl.astype(data.ctrl.dtype))
     data = data.replace(ctrl=ctrl)
+    if plant.fused is not None:
+        qpos, qvel, act = fused_step.data_step(jnp, plant.fused, data.qpos, data.qvel, data.act,
+                                               ctrl)  # fmt: skip
+        return data.replace(qpos=qpos, qvel=qvel, act=act, time=data.time + dt)
     if plant.fast:
         return _contact_free_step(plant.model, data)
     data = mjx.step(plant.model, data)
@@ -243,58 +271,10 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     return data
 
 
-ROLLOUT_UNROLL: int = 1
-"""Rollout steps per loop iteration of :func:`radar_rollout` (``lax.scan``'s ``unroll``).
-H100, ``scripts/bench_mppi.py --unroll 1,15``: unrolled 15 steps took an SFIM MPPI call
-from 6.06 to 5.58 ms but its compilation from 12 to 30 s; benchmarks may change it."""
+def __getattr__(name: str):
+    """The rollouts live in :mod:`~mjx_radar.physics.rollout`; still importable from here."""
+    if name in ("radar_rollout", "rollout_radars"):
+        from mjx_radar.physics import rollout
 
-
-def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Array:
-    """Rolls the radars of a radar-only plant out through MJX.
-
-    Args:
-        plant: a plant without drones and with N radars, or with one radar (e.g.
-            :func:`planner_plant`), which is then vmapped over the N radars (valid
-            for a contact-free plant, where radars do not interact).
-        state: [N, 6] initial radar states.
-        controls: [H, N, 2] controls, one per physics step.
-
-    Returns:
-        [H, N, 6] radar states after each step.
-    """
-    if plant.n_radars == 1 and state.shape[0] != 1:
-        if plant.index.obstacle_geoms.size:
-            raise ValueError("plant: a one-radar plant with obstacles cannot roll out N radars")
-
-        def one(s, u):  # [6], [H, 2] -> [H, 6]
-            return radar_rollout(plant, s[None], u[:, None])[:, 0]
-
-        return jax.vmap(one, (0, 1), 1)(state, controls)
-    data = init_data(plant, state)
-
-    def body(d, u):
-        d = step(plant, d, u)
-        return d, radar_state(plant, d)
-
-    unroll = max(1, min(int(ROLLOUT_UNROLL), controls.shape[0]))
-    return jax.lax.scan(body, data, controls, unroll=unroll)[1]
-
-
-def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Array) -> jax.Array:
-    """Public SPEC §11 entry point: MJX rollout at the scenario's control step.
-
-    ``radar_state [N, 6]`` = ``[x, y, z, theta, v, omega]``, ``controls [H, N, 2]`` =
-    ``[a, alpha]`` -> ``[H, N, 6]`` states after each control step (the scenario's N,
-    limits and control step; obstacles are ignored, terrain sets z).
-    """
-    plant = planner_plant(scenario)
-    _check_shape("controls", controls, (jnp.shape(controls)[0], scenario.n_radars, 2))
-    _check_shape("radar_state", radar_state, (scenario.n_radars, 6))
-    _check_finite("controls", controls)
-    _check_finite("radar_state", radar_state)
-    out = _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
-    t = scenario.terrain  # z on the ground (the planner's lookup; terrain-free: z = 0)
-    return out if t is None else ground.on_ground(ground.terrain_grid(t), out, t.antenna_height)
-
-
-_jit_radar_rollout = jax.jit(radar_rollout, static_argnums=0)
+        return getattr(rollout, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -36,11 +36,10 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar import precision
 from mjx_radar.io import results
-from mjx_radar.simulation import closed_loop, compile_cache
+from mjx_radar.simulation import compile_cache, records
 from mjx_radar.task import costs
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params
-from mjx_radar.task.task import make_task
 
 SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
 
@@ -107,8 +106,8 @@ def device_mesh(devices=None) -> Mesh:
 def record_template(full: bool):
     """Pytree of the per-segment records (leaf values are placeholders)."""
     if full:
-        steps = closed_loop.StepRecord(*[0] * len(closed_loop.StepRecord._fields))
-        return steps, closed_loop.ControlRecord(*[0] * len(closed_loop.ControlRecord._fields))
+        steps = records.StepRecord(*[0] * len(records.StepRecord._fields))
+        return steps, records.ControlRecord(*[0] * len(records.ControlRecord._fields))
     return {k: 0 for k in results.METRIC_COLUMNS}, None
 
 
@@ -120,6 +119,8 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
     program boundary: they are rebuilt inside (sharding zero-size arrays over several
     GPUs crashed XLA's compiler).
     """
+    from mjx_radar.simulation import closed_loop  # the loop (and MJX): only when tracing
+
     carry_tree = jax.tree.structure(c_shapes)
     shapes = jax.tree.leaves(c_shapes)
     live = [x.size > 0 for x in shapes]
@@ -202,7 +203,6 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
         if mem_key in _CACHE:
             return _CACHE[mem_key], 0.0
     t0 = time.perf_counter()
-    task = make_task(shape, kind)
     params = task_params(scenario, parse_method("stationary"))
     p_leaves, params_tree = jax.tree.flatten(params)
     trial_sh, rep = NamedSharding(mesh, SPLIT), NamedSharding(mesh, WHOLE)
@@ -215,7 +215,11 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     path = store / f"loop-{key}.jaxexport" if store else None
     exported = _load(path) if path else None
     source = "export cache" if exported else "traced"
-    if exported is None:
+    if exported is None:  # trace: the task, its plants and MJX are built only here
+        from mjx_radar.simulation import closed_loop
+        from mjx_radar.task.task import make_task
+
+        task = make_task(shape, kind)
         carry_shapes = jax.eval_shape(
             lambda t, p: closed_loop.init_carry(task, p, t)[0],
             jax.ShapeDtypeStruct((), jnp.int32), params,
@@ -238,8 +242,8 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
         init_l, step_l = _lower(exported, trials, start, p_specs, mesh)
     n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
     t1 = time.perf_counter()
-    progs = Programs(init_l.compile(), step_l.compile(), len(p_leaves), n_carry, full,
-                     trial_sh, rep, source)  # fmt: skip
+    init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
+    progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, trial_sh, rep, source)
     t2 = time.perf_counter()
     with _LOCK:
         _CACHE[mem_key] = progs

@@ -21,6 +21,7 @@ from mjx_radar.config import Scenario
 from mjx_radar.estimation import measurement
 from mjx_radar.physics import kinematics, motion
 from mjx_radar.physics import plant as physics
+from mjx_radar.physics.rollout import radar_rollout
 from mjx_radar.task import costs
 from mjx_radar.world import obstacles, occlusion, terrain
 
@@ -75,7 +76,7 @@ def _rollout_backend(scenario: Scenario) -> Callable:
         plant = physics.planner_plant(scenario) if k == 1 else physics.make_plant(1, 0, dt, limits)
 
         def integrate(state, u):
-            return physics.radar_rollout(plant, state, u)
+            return radar_rollout(plant, state, u)
     else:
 
         def integrate(state, u):
