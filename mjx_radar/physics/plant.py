@@ -270,11 +270,3 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
         data = contacts.contact_speed(plant, data, mean_v[:, 0])
     return data
 
-
-def __getattr__(name: str):
-    """The rollouts live in :mod:`~mjx_radar.physics.rollout`; still importable from here."""
-    if name in ("radar_rollout", "rollout_radars"):
-        from mjx_radar.physics import rollout
-
-        return getattr(rollout, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
