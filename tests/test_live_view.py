@@ -216,13 +216,20 @@ def test_interactive_linger_serves_until_ctrl_c(tiny, capsys):
     timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
 
     def check_then_interrupt():  # still serving, finished, while linger waits
-        state = get_json(view.url + "state.json?trial=0")
-        seen.append(state["seq"])
-        timer.start()
+        try:
+            seen.append(get_json(view.url + "state.json?trial=0")["seq"])
+        finally:  # Ctrl-C whatever the check found: a failed check fails, never hangs
+            timer.start()
 
     seen: list = []
-    threading.Timer(0.3, check_then_interrupt).start()
-    view.linger(True)  # returns on Ctrl-C
+    # Python's own Ctrl-C handler for this test: a library loaded by an earlier test in the
+    # same worker process must not be able to turn the SIGINT into a hang
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        threading.Timer(0.3, check_then_interrupt).start()
+        view.linger(True)  # returns on Ctrl-C
+    finally:
+        signal.signal(signal.SIGINT, old)
     assert seen == [-1]  # the server answered while linger waited (no segment was fed)
     assert "until Ctrl-C" in capsys.readouterr().err
     with pytest.raises(urllib.error.URLError):
