@@ -76,8 +76,11 @@ def run(variant: str, e: int, t: int, calls: int) -> float:
         jax.block_until_ready(f(j0, jd))
         times.append(time.perf_counter() - t0)
     med = float(np.median(times))
-    print(f"{variant:8s} E={e} T={t} on {jax.devices()[0].device_kind}: compile {compile_s:.1f} s, "
-          f"median {med * 1e3:.2f} ms ({e * t / med / 1e6:.1f} M matrix-steps/s)", flush=True)
+    print(
+        f"{variant:8s} E={e} T={t} on {jax.devices()[0].device_kind}: compile {compile_s:.1f} s, "
+        f"median {med * 1e3:.2f} ms ({e * t / med / 1e6:.1f} M matrix-steps/s)",
+        flush=True,
+    )
     return med
 
 
