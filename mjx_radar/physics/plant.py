@@ -203,10 +203,14 @@ def init_data(plant: Plant, radar_state: jax.Array, target_state: jax.Array | No
 def radar_state(plant: Plant, data) -> jax.Array:
     """[N, 6] radar states ``[x, y, z, theta, v, omega]`` read from MJX data (z = 0, or
     on terrain the ground height at (x, y) plus the antenna height)."""
-    q = data.qpos[plant.index.radar_qpos]
-    a = data.act[plant.index.radar_act]
-    out = jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], a], axis=-1)
+    out = planar_state(data.qpos[plant.index.radar_qpos], data.act[plant.index.radar_act])
     return out if plant.terrain is None else ground.on_ground(plant.terrain, out, plant.antenna)
+
+
+def planar_state(q: jax.Array, va: jax.Array) -> jax.Array:
+    """``[N, 6]`` ``[x, y, 0, theta, v, omega]`` from joint positions ``q [N, 3]`` (x, y,
+    yaw) and activations ``va [N, 2]`` (v, omega)."""
+    return jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], va], axis=-1)
 
 
 def target_state(plant: Plant, data) -> jax.Array:
@@ -250,9 +254,8 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     u = clip_controls(plant, radar_u)
     if plant.terrain is not None:
         data, u = slope_stop(plant, data, u)
-    va = data.act[idx.radar_act]  # [N, 2] (v, omega)
-    mean_v = va + 0.5 * dt * u
-    ctrl = data.ctrl.at[idx.radar_ctrl].set(radar_ctrl(plant, va, u).astype(data.ctrl.dtype))
+    rc = radar_ctrl(plant, data.act[idx.radar_act], u)  # [N, 5]; rc[:, 2]: mean speed
+    ctrl = data.ctrl.at[idx.radar_ctrl].set(rc.astype(data.ctrl.dtype))
     if plant.n_drones:
         w = jnp.zeros((plant.n_drones, 3)) if drone_accel is None else drone_accel
         mean_w = data.act[idx.drone_act] + 0.5 * dt * w if drone_mean_v is None else drone_mean_v
@@ -267,6 +270,6 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
         return _contact_free_step(plant.model, data)
     data = mjx.step(plant.model, data)
     if idx.obstacle_geoms.size:
-        data = contacts.contact_speed(plant, data, mean_v[:, 0])
+        data = contacts.contact_speed(plant, data, rc[:, 2])
     return data
 

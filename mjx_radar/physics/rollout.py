@@ -20,6 +20,7 @@ from mjx_radar.physics.plant import (
     check_shape,
     clip_controls,
     init_data,
+    planar_state,
     planner_plant,
     radar_ctrl,
     radar_state,
@@ -80,8 +81,7 @@ def _fused_rollout(plant: Plant, state: jax.Array, controls: jax.Array, unroll: 
         u = clip_controls(plant, u)
         q, qd, act = fused_step.block_step(jnp, block, plant.dt, q, qd, act,
                                            radar_ctrl(plant, act, u))  # fmt: skip
-        out = jnp.concatenate([q[:, :2], jnp.zeros_like(q[:, :1]), q[:, 2:3], act], -1)
-        return (q, qd, act), out
+        return (q, qd, act), planar_state(q, act)
 
     return jax.lax.scan(body, (q, jnp.zeros_like(q), act), controls, unroll=unroll)[1]
 
