@@ -115,3 +115,36 @@ def test_fused_truth_step_equals_mjx_stages_in_float64():
         fused, ref = jax.jit(lambda: run(plant))(), jax.jit(lambda: run(stages))()
     for x, y in zip(fused, ref, strict=True):
         np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-9)
+
+
+def test_mjx_import_mutes_only_the_importing_thread():
+    """The lazy MJX import drops its own thread's chatter ("Failed to import warp") but
+    not what other threads write meanwhile (the CLI's "interrupted" line on Ctrl-C during
+    a compile was lost while the import had swapped the process's stderr)."""
+    import io
+    import subprocess
+    import sys
+    import threading
+
+    from mjx_radar.physics import mjx_module
+
+    target = io.StringIO()
+    worker: list = []
+    t = threading.Thread(target=lambda: worker.append(threading.get_ident()))
+    t.start()
+    t.join()
+    proxy = mjx_module._MuteThread(target, worker[0])
+    proxy.write("main thread\n")
+    t = threading.Thread(target=lambda: proxy.write("dropped\n"))
+    t.start()
+    t.join()
+    proxy.flush()
+    assert target.getvalue() == "main thread\n"
+
+    code = ("import sys, threading; from mjx_radar.physics import mjx_module; "
+            "t = threading.Thread(target=mjx_module.load); t.start(); t.join(); "
+            "assert 'mujoco.mjx' in sys.modules and sys.stdout is sys.__stdout__; "
+            "print('kept'); print('kept too', file=sys.stderr)")  # fmt: skip
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "kept\n" and done.stderr == "kept too\n", (done.stdout, done.stderr)
