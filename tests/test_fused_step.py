@@ -129,15 +129,26 @@ def test_mjx_import_mutes_only_the_importing_thread():
     from mjx_radar.physics import mjx_module
 
     target = io.StringIO()
-    worker: list = []
-    t = threading.Thread(target=lambda: worker.append(threading.get_ident()))
-    t.start()
-    t.join()
-    proxy = mjx_module._MuteThread(target, worker[0])
+    muted = threading.Thread(target=lambda: proxy.write("dropped\n"))
+    proxy = mjx_module._MuteThread(target, 0)
+    muted.start()  # the muted thread is alive while it writes, so its ident is its own
+    muted.join()
+    assert target.getvalue() == "dropped\n"  # ident 0 is no thread: nothing is muted
+    target.seek(0), target.truncate()
+    go, done = threading.Event(), threading.Event()
+
+    def write_when_told():
+        go.wait()
+        proxy.write("dropped\n")
+        done.set()
+
+    muted = threading.Thread(target=write_when_told)
+    muted.start()
+    proxy = mjx_module._MuteThread(target, muted.ident)
     proxy.write("main thread\n")
-    t = threading.Thread(target=lambda: proxy.write("dropped\n"))
-    t.start()
-    t.join()
+    go.set()
+    done.wait()
+    muted.join()
     proxy.flush()
     assert target.getvalue() == "main thread\n"
 
