@@ -124,3 +124,42 @@ def test_one_program_per_scenario_shape(smoke, results):
     assert res["compile_s"] == 0.0 and np.all(np.isfinite(res["rmse_pos"]))
     # ... and the numbers do reach the program: another seed, another truth.
     assert not np.array_equal(res["target"], results["ddr-sfim"]["target"])
+
+
+def test_stages_driven_from_the_host_match_advance(smoke):
+    """The two stages of a control period, compiled as separate programs and driven by a
+    host loop (``scripts/bench_stages.py``), give the loop of ``advance``: the same state
+    and records to float64 round-off (a stage split that dropped the warm start, applied
+    the wrong period's control or mis-indexed the noise streams would differ at O(1))."""
+    import jax
+    import jax.numpy as jnp
+
+    from mjx_radar.simulation import closed_loop
+    from mjx_radar.task.method import parse_method
+    from mjx_radar.task.params import shape_key, task_params
+    from mjx_radar.task.task import make_task
+
+    sc = dataclasses.replace(smoke, mpc=dataclasses.replace(smoke.mpc, rollout="analytic"))
+    periods = 3
+    with jax.enable_x64(True):
+        task = make_task(shape_key(sc), "sfim")
+        params = task_params(sc, parse_method("ddr-sfim"))
+        trial = jnp.int32(1)
+        carry0, _ = jax.jit(lambda: closed_loop.init_carry(task, params, trial))()
+        whole = jax.jit(lambda c: closed_loop.advance(task, params, trial, c, 0, periods))
+        plan = jax.jit(lambda c, j: closed_loop.stages(task, params, trial).plan(c, j))
+        period = jax.jit(lambda c, j, u, up: closed_loop.stages(task, params, trial).period(
+            c, j, u, up))  # fmt: skip
+        carry, steps, controls = whole(carry0)
+        staged, srecs, crecs = carry0, [], []
+        for j in range(periods):
+            u, u_plan, crec = plan(staged, jnp.int32(j))
+            staged, srec = period(staged, jnp.int32(j), u, u_plan)
+            srecs.append(srec), crecs.append(crec)
+    assert not np.allclose(carry.mean, carry0.mean)  # the loop moved
+    flat = lambda tree: np.concatenate([np.ravel(x) for x in jax.tree.leaves(tree)])  # noqa: E731
+    np.testing.assert_allclose(flat(staged), flat(carry), rtol=1e-9, atol=1e-9)
+    cat = lambda recs: jax.tree.map(lambda *x: np.concatenate(x), *recs)  # noqa: E731
+    np.testing.assert_allclose(flat(cat(srecs)), flat(steps), rtol=1e-9, atol=1e-9)
+    stacked = jax.tree.map(lambda *x: np.stack(x), *crecs)
+    np.testing.assert_allclose(flat(stacked), flat(controls), rtol=1e-9, atol=1e-9)

@@ -89,6 +89,21 @@ def _idle_plan(task: RadarTask, u_plan):
     return zeros, u_plan, rec
 
 
+class Stages(NamedTuple):
+    """One control period of a trial in two stages (closures over task, params, trial).
+
+    * ``plan(carry, j) -> (u, u_plan, controls)``: MPPI at control step ``j`` (traced
+      int); ``u`` [N, 2] is applied over the period, ``u_plan`` [H, 2N] the next warm
+      start, ``controls`` its :class:`ControlRecord`.
+    * ``period(carry, j, u, u_plan) -> (carry, steps)``: the period's ``control_every``
+      filter steps (truth, measurement, CKF, metrics) under ``u``; ``steps`` a
+      :class:`StepRecord` of leading size ``control_every``.
+    """
+
+    plan: object
+    period: object
+
+
 @precision.pinned  # the whole closed loop is traced inside (mjx_radar.precision)
 def advance(
     task: RadarTask, params, trial, carry: LoopCarry, start, periods: int
@@ -107,6 +122,22 @@ def advance(
         ``(carry, steps, controls)``: steps with leading size periods * control_every,
         controls with leading size ``periods``.
     """
+    every = task.scenario.timing.control_every
+    st = stages(task, params, trial)
+
+    def control_period(lc: LoopCarry, j):
+        u, u_plan, crec = st.plan(lc, j)
+        lc, srec = st.period(lc, j, u, u_plan)
+        return lc, (srec, crec)
+
+    js = start + jnp.arange(periods)
+    carry, (srec, crec) = jax.lax.scan(control_period, carry, js)
+    srec = jax.tree_util.tree_map(lambda x: x.reshape((periods * every,) + x.shape[2:]), srec)
+    return carry, srec, crec
+
+
+def stages(task: RadarTask, params, trial) -> Stages:
+    """The two :class:`Stages` of a control period (traced inside a pinned program)."""
     sc = task.scenario
     every = sc.timing.control_every
     n = sc.n_radars
@@ -190,27 +221,24 @@ def advance(
         )
         return rec.control, mppi.shift(res.mean), rec
 
-    def control_period(lc: LoopCarry, j):
+    def plan_stage(lc: LoopCarry, j):
         loop = (lc.data, lc.mean, lc.cov, lc.pfim, lc.health, lc.modes)
         if task.kind == "none":  # stationary program: no planner compiled
-            u, u_plan, crec = _idle_plan(task, lc.u_plan)
-        elif task.kind != "all":  # one information kind: always plans
-            u, u_plan, crec = plan(loop, j, lc.u_plan)
-        else:
-            u, u_plan, crec = jax.lax.cond(
-                flags.plans,
-                lambda: plan(loop, j, lc.u_plan),
-                lambda: _idle_plan(task, lc.u_plan),
-            )
+            return _idle_plan(task, lc.u_plan)
+        if task.kind != "all":  # one information kind: always plans
+            return plan(loop, j, lc.u_plan)
+        return jax.lax.cond(
+            flags.plans, lambda: plan(loop, j, lc.u_plan), lambda: _idle_plan(task, lc.u_plan)
+        )
+
+    def period_stage(lc: LoopCarry, j, u, u_plan):
+        loop = (lc.data, lc.mean, lc.cov, lc.pfim, lc.health, lc.modes)
         ks = j * every + 1 + jnp.arange(every)
         loop, srec = jax.lax.scan(lambda c_, k: filter_step(c_, k, u), loop, ks)
         data, mean, cov, pfim, health, modes = loop
-        return LoopCarry(data, mean, cov, pfim, u_plan, health, modes), (srec, crec)
+        return LoopCarry(data, mean, cov, pfim, u_plan, health, modes), srec
 
-    js = start + jnp.arange(periods)
-    carry, (srec, crec) = jax.lax.scan(control_period, carry, js)
-    srec = jax.tree_util.tree_map(lambda x: x.reshape((periods * every,) + x.shape[2:]), srec)
-    return carry, srec, crec
+    return Stages(plan_stage, period_stage)
 
 
 def simulate(task: RadarTask, params, trial, steps: int | None = None):
