@@ -166,7 +166,7 @@ def _block(m: mujoco.MjModel, qpos, act, ctrl, yaw: int) -> BodyBlock | None:
             slot[k, j], driver[k, s] = s, j
     if np.any(slot != slot[:1]) or np.any(driver != driver[:1]):
         return None  # bodies of one kind wired differently: not this model
-    act_ids = np.array([[np.flatnonzero(m.actuator_actadr == a)[0] for a in row] for row in act])
+    act_ids = _act_owner(m)[act]
     alim = m.actuator_actlimited[act_ids].astype(bool)
     arng = m.actuator_actrange[act_ids]
     full = np.zeros((m.nv, m.nv))
@@ -201,6 +201,7 @@ def matches_mj_step(m: mujoco.MjModel, fm: FusedModel, tries: int = 6) -> bool:
     controls (up to 1.5x the control ranges, so the clamps are exercised)."""
     data = mujoco.MjData(m)
     rng = np.random.default_rng(2)
+    owner = _act_owner(m)
     for _ in range(tries):
         mujoco.mj_resetData(m, data)
         data.qpos[:] = rng.uniform(-500, 500, m.nq)
@@ -208,7 +209,6 @@ def matches_mj_step(m: mujoco.MjModel, fm: FusedModel, tries: int = 6) -> bool:
             if b.yaw >= 0:
                 data.qpos[b.qpos[:, b.yaw]] = rng.uniform(-math.pi, math.pi, len(b.qpos))
         data.qvel[:] = rng.uniform(-20, 20, m.nv)
-        owner = [int(np.flatnonzero(m.actuator_actadr == a)[0]) for a in range(m.na)]
         data.act[:] = rng.uniform(-1.5, 1.5, m.na) * _span(m.actuator_actrange[owner])
         data.ctrl[:] = rng.uniform(-1.5, 1.5, m.nu) * _span(m.actuator_ctrlrange)
         ours = data_step(np, fm, data.qpos.copy(), data.qvel.copy(), data.act.copy(),
@@ -218,6 +218,11 @@ def matches_mj_step(m: mujoco.MjModel, fm: FusedModel, tries: int = 6) -> bool:
             if not np.allclose(a, ref, rtol=CHECK_RTOL, atol=CHECK_RTOL * (1 + np.abs(ref).max())):
                 return False
     return True
+
+
+def _act_owner(m: mujoco.MjModel) -> np.ndarray:
+    """[na] the actuator whose activation sits at each activation address."""
+    return np.array([np.flatnonzero(m.actuator_actadr == a)[0] for a in range(m.na)], np.int64)
 
 
 def _span(ranges: np.ndarray) -> np.ndarray:
