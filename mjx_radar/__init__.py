@@ -27,14 +27,24 @@ _LAZY = {
     "Study": "mjx_radar.api.study",
     "register_cost_term": "mjx_radar.task.costs",
     "unregister_cost_term": "mjx_radar.task.costs",
+    "Planner": "mjx_radar.planners.base",
+    "register_planner": "mjx_radar.planners.base",
+    "unregister_planner": "mjx_radar.planners.base",
+    "register_tracker": "mjx_radar.simulation.filter_ops",
+    "unregister_tracker": "mjx_radar.simulation.filter_ops",
+    "register_sensor": "mjx_radar.estimation.measurement",
+    "unregister_sensor": "mjx_radar.estimation.measurement",
 }
+_SUBPACKAGES = ("env", "planners")  # mjx_radar.env.make(...), mjx_radar.planners.PLANNERS
 
 
 def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
+    import importlib
 
+    if name in _LAZY:
         return getattr(importlib.import_module(_LAZY[name]), name)
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f"mjx_radar.{name}")
     raise AttributeError(f"module 'mjx_radar' has no attribute {name!r}")
 
 
@@ -43,6 +53,7 @@ __all__ = [
     "MPCConfig",
     "Method",
     "MPPIConfig",
+    "Planner",
     "MovingObstacle",
     "Obstacle",
     "RadarEquation",
@@ -58,9 +69,15 @@ __all__ = [
     "load_scenario",
     "parse_method",
     "register_cost_term",
+    "register_planner",
+    "register_sensor",
+    "register_tracker",
     "run_study",
     "simulate",
     "unregister_cost_term",
+    "unregister_planner",
+    "unregister_sensor",
+    "unregister_tracker",
     "validate",
 ]
 __version__ = "0.1.0"

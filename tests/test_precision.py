@@ -64,9 +64,7 @@ def test_closed_loop_step_program_pins_every_dot(smoke):
                for x in jax.tree.leaves(carry) if x.size > 0]  # fmt: skip
     p_specs = [jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=whole)
                for x in p_leaves]  # fmt: skip
-    args = (jax.ShapeDtypeStruct((1,), jnp.int32, sharding=split),
-            jax.ShapeDtypeStruct((), jnp.int32, sharding=whole), *p_specs, *c_specs)  # fmt: skip
-    text = jax.export.export(step)(*args).mlir_module()
+    text = jax.export.export(step)(*p_specs, *c_specs).mlir_module()
     found = dot_precisions(text)
     allowed = {precision.ESTIMATION.upper(), precision.PLANNER.upper()}
     assert found["HIGHEST"] > 50, found  # filter, information, PCRLB, objective, MPPI

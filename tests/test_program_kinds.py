@@ -17,7 +17,7 @@ def _lowered(scenario, kind: str, method: str) -> str:
     task = make_task(shape_key(scenario), kind)
     params = task_params(scenario, parse_method(method))
     carry = jax.eval_shape(lambda p: closed_loop.init_carry(task, p, 0)[0], params)
-    fn = jax.jit(lambda p, c: closed_loop.advance(task, p, 0, c, 0, 1))
+    fn = jax.jit(lambda p, c: closed_loop.advance(task, p, c, 1))
     return fn.lower(params, carry).as_text()
 
 

@@ -27,7 +27,6 @@ import pandas as pd
 
 from mjx_radar.api.trajectories import to_dataset
 from mjx_radar.errors import InputError
-from mjx_radar.io.checks import ScenarioError
 
 
 @dataclasses.dataclass
@@ -176,32 +175,21 @@ class Run:
         return view(self._saved(), path, trial, max_frames, samples).path
 
 
-def _trial_ids(trials) -> np.ndarray:
-    if isinstance(trials, bool):
-        raise ScenarioError(f"trials = {trials!r}: must be a count >= 1 or a list of indices")
-    if isinstance(trials, int | np.integer):
-        if not 1 <= int(trials) <= 100_000:
-            raise ScenarioError(f"trials = {int(trials)}: must be a count in [1, 100000]")
-        return np.arange(int(trials))
-    ids = np.asarray(trials)
-    if ids.ndim != 1 or ids.size == 0 or ids.dtype.kind not in "iu" or (ids < 0).any():
-        raise ScenarioError(
-            f"trials = {trials!r}: must be a count >= 1 or a non-empty list of indices >= 0"
-        )
-    return ids.astype(np.int64)
-
-
-def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = None,
+def simulate(scenario, method: str = "ddr-sfim", trials=1, steps: int | None = None,
              seed: int | None = None, progress: bool = True, cache: bool = True,
-             view: bool = False, view_port: int | None = None) -> Run:  # fmt: skip
+             view: bool = False, view_port: int | None = None, *, planner: str | None = None,
+             rollouts: str | None = None, precision: str = "float32",
+             deterministic: bool = False, cache_dir: str | Path | None = None,
+             plugins=()) -> Run:  # fmt: skip
     """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
 
     Args:
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
         method: ``"stationary"``, ``"ccr-sfim"``, ``"ccr-pfim"``, ``"ddr-sfim"`` or
-            ``"ddr-pfim"`` (case-insensitive).
-        trials: a count T (trials ``0..T-1``) or explicit trial indices (common random
-            numbers: trial i is the same world for every method).
+            ``"ddr-pfim"`` (case-insensitive), or ``"METHOD+PLANNER"``.
+        trials: a count T (trials ``0..T-1``; default 1, as ``mjx-radar run``) or explicit
+            trial indices (common random numbers: trial i is the same world for every
+            method).
         steps: filter steps (default the scenario's ``timing.steps``); a multiple of
             ``dt_control / dt_filter``.
         seed: base seed (default the scenario's).
@@ -210,6 +198,15 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
         view: a live 3-D view while it simulates (``run --view``, docs/viewer.md): URL on
             stderr; the server stops when this returns (the page keeps the last state).
         view_port: its port on 127.0.0.1 (default 8765; 0: any free one; implies ``view``).
+        planner: a registered planner moving the radars instead of the method's own
+            (``run --planner``; :func:`mjx_radar.register_planner`).
+        rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (``run --rollouts``;
+            default the scenario's).
+        precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
+        deterministic: deterministic GPU kernels (``--deterministic``; on a GPU, XLA's flag
+            must be set before JAX starts, else a one-line ``InputError``).
+        cache_dir: the persistent compilation cache's folder (``--cache-dir``).
+        plugins: Python files run first, e.g. to register planners (``--plugin``).
 
     Returns:
         The run (not saved; :meth:`Run.save` writes it).
@@ -226,57 +223,30 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
         >>> run = mjx_radar.simulate("smoke", trials=2, steps=40)  # doctest: +SKIP
         >>> run.metrics.groupby("step")["rmse_pos"].mean().tail(1)  # doctest: +SKIP
     """
-    from mjx_radar.io.scenario import load_scenario
-    from mjx_radar.io.scenario_edit import validate
-    from mjx_radar.task.method import METHODS
+    from mjx_radar.api import run_case
 
-    s = validate(load_scenario(scenario) if isinstance(scenario, str | Path) else scenario)
-    name = method.strip().lower() if isinstance(method, str) else method
-    if name not in METHODS:
-        raise ScenarioError(f"method = {method!r}: must be one of {', '.join(METHODS)}")
-    ids = _trial_ids(trials)
-    steps = s.timing.steps if steps is None else steps
-    if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps < 1:
-        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
-    if steps % s.timing.control_every:
-        raise ScenarioError(
-            f"steps = {steps}: must be a multiple of dt_control/dt_filter = "
-            f"{s.timing.control_every} (scenario {s.name})"
-        )
-    seed = s.seed if seed is None else seed
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
-        raise ScenarioError(f"seed = {seed!r}: must be an integer in [0, 2^31 - 1]")
-    view = (view or view_port is not None, view_port)
-    return _simulate(s, name, ids, int(steps), int(seed), progress, cache, view)
+    req = run_case.request(
+        scenario, method=method, planner=planner, trials=trials, steps=steps, seed=seed,
+        rollouts=rollouts, precision=precision, deterministic=deterministic, cache=cache,
+        cache_dir=cache_dir, plugins=plugins,
+    )  # fmt: skip
+    return _simulate(req, progress, (view or view_port is not None, view_port))
 
 
-def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: bool,
-              cache: bool, view=(False, None)) -> Run:  # fmt: skip
-    import jax
-
-    from mjx_radar.io import results
-    from mjx_radar.io.run_writer import TRAJECTORY_KEYS, run_meta
-    from mjx_radar.simulation import compile_cache, resources, runner
-    from mjx_radar.simulation.placement import check_placeable
-
-    if cache and not compile_cache.enabled():
-        compile_cache.enable()
-    resources.check(s, len(ids), steps)
-    try:
-        check_placeable(s, seed, int(ids.max()) + 1)
-    except ValueError as err:
-        raise InputError(str(err)) from None
+def _simulate(req, progress: bool, view=(False, None)) -> Run:
     from tqdm import tqdm
 
+    from mjx_radar.api import run_case
+    from mjx_radar.io import results
+    from mjx_radar.io.run_writer import TRAJECTORY_KEYS, run_meta
     from mjx_radar.viz import live as live_view
 
+    s, ids, steps, method = req.scenario, req.trials, req.steps, req.method.name
     live = live_view.start(s, ids, steps, view[1], "view_port") if view[0] else None
     try:
         with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr,
                   disable=not progress) as bar:  # fmt: skip
-            res = runner.run_trials(s, method, seed, ids, steps, progress=bar.update,
-                                    phase=bar.set_description_str,
-                                    **({} if live is None else live.runner_options()))  # fmt: skip
+            res = run_case.execute(req, bar.update, bar.set_description_str, live)
     finally:
         if live is not None:
             live.linger(False)
@@ -284,6 +254,6 @@ def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: 
     frame = results.metrics_frame(s.name, method, ids, time_s, res)
     arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}
     arrays["time_s"] = time_s
-    precision = "float64" if jax.config.jax_enable_x64 else "float32"
-    meta = run_meta(s, method, seed, ids, steps, res, precision=precision)
-    return Run(s, method, seed, ids, steps, frame, arrays, meta, None, res)
+    meta = run_meta(s, method, req.seed, ids, steps, res, precision=req.precision,
+                    deterministic=req.deterministic)  # fmt: skip
+    return Run(s, method, req.seed, ids, steps, frame, arrays, meta, None, res)

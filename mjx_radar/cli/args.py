@@ -28,10 +28,11 @@ def method_name(text: str) -> str:
     Raises:
         argparse.ArgumentTypeError: not a method name (one line listing the names).
     """
-    name = text.strip().lower()
+    base, plus, planner = text.strip().partition("+")
+    name = base.lower()
     if name not in METHODS:
         raise argparse.ArgumentTypeError(f"{text!r} is not one of {', '.join(METHODS)}")
-    return name
+    return f"{name}+{planner}" if plus else name
 
 
 def method_list(text: str) -> list[str]:

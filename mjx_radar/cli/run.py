@@ -30,7 +30,6 @@ import numpy as np
 
 from mjx_radar.cli.args import (
     check_placement,
-    load_with_overrides,
     method_name,
     port,
     positive_int,
@@ -50,6 +49,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="ddr-sfim",
         metavar="METHOD",
         help=f"one of {', '.join(METHODS)} (any case; default ddr-sfim)",
+    )
+    p.add_argument(
+        "--planner",
+        default=None,
+        metavar="NAME",
+        help="a registered planner moving the radars instead of the method's own (mppi, "
+        "hold, or one a --plugin file registers; docs/extending.md)",
+    )
+    p.add_argument(
+        "--plugin",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a Python file run first, e.g. one that registers a planner or a cost term "
+        "(repeatable)",
     )
     p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
     p.add_argument(
@@ -170,10 +184,19 @@ def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
 
 
 def main(args) -> int:
+    from mjx_radar.api import run_case
     from mjx_radar.simulation import resources
 
-    s, steps = load_with_overrides(args.scenario, args.rollouts, args.steps)
-    seed_ = s.seed if args.seed is None else args.seed
+    req = run_case.request(
+        args.scenario, method=args.method, planner=args.planner, trials=args.trials,
+        steps=args.steps, seed=args.seed, rollouts=args.rollouts,
+        precision=getattr(args, "precision", "float32"),
+        deterministic=bool(getattr(args, "deterministic", False)),
+        cache=not getattr(args, "no_cache", False), cache_dir=getattr(args, "cache_dir", None),
+        plugins=args.plugin,
+    )  # the checks of mjx_radar.simulate, the same defaults  # fmt: skip
+    s, steps, seed_ = req.scenario, req.steps, req.seed
+    args.method = req.method.name  # "METHOD+PLANNER" with --planner
     out = args.out or Path("runs") / f"{s.name}_{args.method}"
     created, lock = prepare_out(out, args.force)
 
@@ -204,7 +227,7 @@ def main(args) -> int:
         if args.force:
             (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
         print(est.compile_line(), file=sys.stderr, flush=True)
-        res = simulate(lambda: _run(s, args.method, seed_, trials, steps, live))
+        res = simulate(lambda: _run(req, live))
     except KeyboardInterrupt:
         drop()
         print("\ninterrupted: no results written", file=sys.stderr, flush=True)
@@ -253,17 +276,13 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt
 
 
-def _run(s, method, seed_, trials, steps, live=None):
+def _run(req, live=None):
     from tqdm import tqdm
 
-    from mjx_radar.simulation import runner
+    from mjx_radar.api import run_case
 
-    view = {} if live is None else live.runner_options()
-    with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
-        return runner.run_trials(
-            s, method, seed_, trials, steps, progress=bar.update, phase=bar.set_description_str,
-            **view,
-        )
+    with tqdm(total=req.steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
+        return run_case.execute(req, bar.update, bar.set_description_str, live, checks=False)
 
 
 def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:

@@ -21,6 +21,12 @@ TRAJECTORY_KEYS = (
 )  # fmt: skip
 
 
+def _planner_of(method: str) -> str:
+    """The planner of a method name: ``"METHOD+PLANNER"``, else the method's default."""
+    base, plus, planner = method.partition("+")
+    return planner if plus else ("hold" if base == "stationary" else "mppi")
+
+
 def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **extra) -> dict:
     """The contents of ``run.json`` (see :mod:`mjx_radar.io.results`)."""
     from mjx_radar.estimation.sensing import noise_constant
@@ -32,6 +38,7 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
         "scenario_file": "scenario.toml",  # relative to the run directory
         "source_scenario": extra.pop("source_scenario", None),
         "method": method,
+        "planner": extra.pop("planner", None) or _planner_of(method),
         "seed": int(seed),
         "trials": int(len(trials)),
         "trial_ids": [int(t) for t in trials],

@@ -1,14 +1,16 @@
-"""The closed loop's tracking filter: CKF predict / update behind one interface.
+"""The closed loop's tracker behind one contract (:class:`FilterOps`), found by name.
 
-:func:`make` returns the :class:`FilterOps` of a scenario: the paper's joint CKF, the
-per-target bank (``filter.structure = "per-target"``, :mod:`~mjx_radar.estimation.filter_bank`)
-in the covariance or square-root form, or the IMM bank (``filter.motion = "imm"``,
-:mod:`~mjx_radar.estimation.imm`: CV + coordinated turns, docs/filters.md). Every
-variant keeps the joint interface ``mean [6M], cov [6M, 6M]`` (the combined estimate for
-the IMM), which is what the metrics, the lost-track detector and the planner see; the
-IMM's mode-conditioned state rides along as ``modes`` (an
-:class:`~mjx_radar.estimation.imm.ImmState`; ``()`` for the CV filters, so their
-programs and numbers are the same as before the IMM).
+Built-in trackers (:data:`mjx_radar.registry.TRACKERS`): ``"ckf"`` the paper's joint
+CKF, ``"bank"`` the per-target bank (``filter.structure = "per-target"``,
+:mod:`~mjx_radar.estimation.filter_bank`) in the covariance or square-root form,
+``"imm"`` the IMM bank (``filter.motion = "imm"``, :mod:`~mjx_radar.estimation.imm`:
+CV + coordinated turns, docs/filters.md) and ``"pda"`` the per-target bank with PDA
+association of cluttered scans (``[detection] clutter``). :func:`tracker_name` picks
+the scenario's; :func:`mjx_radar.register_tracker` adds one. Every tracker keeps the
+joint interface ``mean [6M], cov [6M, 6M]`` (the combined estimate for the IMM), which
+is what the metrics, the lost-track detector and the planner see; a tracker's own
+state rides along as ``modes`` (the IMM's :class:`~mjx_radar.estimation.imm.ImmState`;
+``()`` for the others, so their programs and numbers are the same as before).
 """
 
 from __future__ import annotations
@@ -21,22 +23,64 @@ import jax.numpy as jnp
 
 from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement
 from mjx_radar.physics import target_motion
+from mjx_radar.registry import TRACKERS
 from mjx_radar.task.task import RadarTask, process_noise
 
 
 class FilterOps(NamedTuple):
-    """The filter of a scenario (closures over the task and runtime parameters)."""
+    """The tracker contract: pure functions (closures over the task and runtime parameters).
 
-    predict: Callable  # (mean, cov, modes) -> (mean, cov, modes) predicted one step
-    update: Callable  # (mean, cov, modes, z [N, M, p], radar_pos [N, 3], vis [N, M] | None)
-    begin: Callable  # (modes, mean, cov, k) -> modes restarted for targets appearing at k
+    * ``predict(mean, cov, modes) -> (mean, cov, modes)``: one filter step ahead.
+    * ``update(mean, cov, modes, z, radar_pos, scan, los) -> (mean, cov, modes)``: the
+      scan's measurements; ``z`` ``[N, M, dim]`` per pair, ``scan`` a
+      :class:`~mjx_radar.simulation.scan.Scan` (``seen`` [N, M] pairs detected or None;
+      with clutter the unlabelled returns ``zs``, ``valid``), ``los`` [N, M] or None.
+    * ``begin(modes, mean, cov, k) -> modes``: restarted for targets appearing at step k.
+    * ``init(mean, cov) -> modes``: the tracker's own state at t = 0 (``()`` if none).
+
+    ``cov`` is P, or its factor S with ``filter.form = "sqrt"``.
+    """
+
+    predict: Callable
+    update: Callable
+    begin: Callable
+    init: Callable = lambda mean, cov: ()  # noqa: E731
 
 
-def init_modes(scenario, mean, cov):
-    """The IMM's initial modes (every mode at the initial estimate), or ``()`` without it."""
-    if scenario.filter.motion != "imm":
-        return ()
-    return imm.init(*filter_bank.joint_to_bank(mean, cov))
+def tracker_name(scenario) -> str:
+    """The scenario's tracker: ``[filter] tracker``, or by its options (clutter: ``"pda"``,
+    ``filter.motion = "imm"``: ``"imm"``, per-target: ``"bank"``, else ``"ckf"``)."""
+    name = getattr(scenario.filter, "tracker", "auto")
+    if name != "auto":
+        return name
+    if scenario.detection.clutter:
+        return "pda"
+    if scenario.filter.motion == "imm":
+        return "imm"
+    return "bank" if scenario.filter.structure == "per-target" else "ckf"
+
+
+def make(task: RadarTask, params) -> FilterOps:
+    """The scenario's tracker (:func:`tracker_name`) with the noise model of ``params.method``."""
+    return TRACKERS.get(tracker_name(task.scenario))(task, params)
+
+
+def register_tracker(name: str, factory=None):
+    """Registers a tracker: ``factory(task, params) -> FilterOps`` (usable as a decorator).
+
+    Select it in a scenario with ``[filter] tracker = "name"``. Its code is part of the
+    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda`` (docs/extending.md).
+    """
+
+    def add(f):
+        return TRACKERS.register(name, f)
+
+    return add if factory is None else add(factory)
+
+
+def unregister_tracker(name: str) -> None:
+    """Removes a registered tracker (built-ins stay)."""
+    TRACKERS.unregister(name)
 
 
 def keep(ok_pred, ok, post, pred, prev):
@@ -46,13 +90,13 @@ def keep(ok_pred, ok, post, pred, prev):
     return jax.tree_util.tree_map(pick, post, pred, prev)
 
 
-def make(task: RadarTask, params) -> FilterOps:
-    """The :class:`FilterOps` of ``task.scenario`` with the noise model of ``params.method``."""
+def _cv_ops(task: RadarTask, params, per_target: bool) -> FilterOps:
+    """The CV trackers: joint CKF or per-target bank, covariance or square-root form."""
     sc = task.scenario
     model = task.measurement
     r_filter = measurement.noise_cov_fn(model, params.noise, params.method.ccr)
     residual = measurement.flat_residual(model) if model.dim > 1 else None
-    per_target, form = sc.filter.structure == "per-target", sc.filter.form
+    form = sc.filter.form
     filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it
     a_f = task.a_filter
     q_f = filt.noise(process_noise(task, params))
@@ -61,15 +105,13 @@ def make(task: RadarTask, params) -> FilterOps:
     def h_pair(r, x6):
         return model.predict(r[None], x6[None, :3]).reshape(model.dim)
 
-    if sc.filter.motion == "imm":
-        return _imm_ops(task, params, q6, h_pair, r_filter, residual)
-
     def predict(mean, cov, modes):
         if per_target:  # M independent 6-D CKFs (block-diagonal covariance)
             return (*filter_bank.predict_joint(mean, cov, task.a6_filter, q6, form), modes)
         return (*filt.predict(mean, cov, lambda x: a_f @ x, q_f), modes)
 
-    def update(mean, cov, modes, z, radar_pos, vis):
+    def update(mean, cov, modes, z, radar_pos, scan, los=None):
+        vis = scan.seen
         if per_target:
             means, covs = filter_bank.joint_to_bank(mean, cov)
             post = filter_bank.update_bank(
@@ -88,9 +130,44 @@ def make(task: RadarTask, params) -> FilterOps:
     return FilterOps(predict, update, lambda modes, mean, cov, k: modes)
 
 
-def _imm_ops(task: RadarTask, params, q6, h_pair, r_filter, residual) -> FilterOps:
-    """The IMM bank (covariance form, per target; io.plausibility enforces both)."""
+def joint_ckf(task: RadarTask, params) -> FilterOps:
+    """``"ckf"``: the paper's joint CKF over the stacked state ``[6M]``."""
+    return _cv_ops(task, params, per_target=False)
+
+
+def ckf_bank(task: RadarTask, params) -> FilterOps:
+    """``"bank"``: M independent 6-D CKFs (block-diagonal covariance)."""
+    return _cv_ops(task, params, per_target=True)
+
+
+def pda_bank(task: RadarTask, params) -> FilterOps:
+    """``"pda"``: the per-target bank (covariance form) with sequential PDA of cluttered
+    scans (:func:`~mjx_radar.simulation.scan.pda_update`)."""
+    sc, model = task.scenario, task.measurement
+    bank = _cv_ops(task, params, per_target=True)
+
+    def update(mean, cov, modes, z, radar_pos, scan_, los=None):
+        if scan_.zs is None:  # no clutter buffer: the bank's update of the detected pairs
+            return bank.update(mean, cov, modes, z, radar_pos, scan_, los)
+        from mjx_radar.simulation.scan import pda_update
+
+        post = pda_update(sc, params, model, params.method.ccr, mean, cov, scan_, radar_pos, los)
+        return (*post, modes)
+
+    return bank._replace(update=update)
+
+
+def imm_bank(task: RadarTask, params) -> FilterOps:
+    """``"imm"``: the IMM bank (covariance form, per target; io.plausibility enforces both)."""
     sc = task.scenario
+    model = task.measurement
+    r_filter = measurement.noise_cov_fn(model, params.noise, params.method.ccr)
+    residual = measurement.flat_residual(model) if model.dim > 1 else None
+    q6 = ckf_sqrt.form_ops(sc.filter.form).noise(params.sigma_w2 * task.w6_filter_unit)
+
+    def h_pair(r, x6):
+        return model.predict(r[None], x6[None, :3]).reshape(model.dim)
+
     dt = sc.timing.dt_filter
     dtype = q6.dtype
     F = jnp.asarray(imm.mode_transitions(sc.filter.imm_turn_rate, dt), dtype)
@@ -104,8 +181,9 @@ def _imm_ops(task: RadarTask, params, q6, h_pair, r_filter, residual) -> FilterO
         modes = imm.predict_bank(modes, F, q6, Pi)
         return (*joint(modes), modes)
 
-    def update(mean, cov, modes, z, radar_pos, vis):
-        modes = imm.update_bank(modes, z, radar_pos, h_pair, r_filter, mask=vis, residual=residual)
+    def update(mean, cov, modes, z, radar_pos, scan, los=None):
+        modes = imm.update_bank(modes, z, radar_pos, h_pair, r_filter, mask=scan.seen,
+                                residual=residual)  # fmt: skip
         if sc.filter.ground_prior:  # each mode reflected to z >= 0
             refl = jax.vmap(jax.vmap(ground_prior.apply_ground_prior))
             means, covs = refl(modes.means, modes.covs)
@@ -120,4 +198,7 @@ def _imm_ops(task: RadarTask, params, q6, h_pair, r_filter, residual) -> FilterO
         sel = lambda a, b: jnp.where(new.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
         return jax.tree_util.tree_map(sel, fresh, modes)
 
-    return FilterOps(predict, update, begin)
+    def init(mean, cov):  # every mode at the initial estimate
+        return imm.init(*filter_bank.joint_to_bank(mean, cov))
+
+    return FilterOps(predict, update, begin, init)

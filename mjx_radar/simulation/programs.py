@@ -6,7 +6,7 @@ drives each device from its own thread), per scenario shape and *program kind* (
 is compiled of the planner: :data:`mjx_radar.task.method.PROGRAM_KINDS`):
 
 * ``init(trials, *params) -> (*carry, ok)``
-* ``step(trials, start, *params, *carry) -> (*carry, *records)``
+* ``step(*params, *carry) -> (*carry, *records)`` (the period index rides in the carry)
 
 in a *flat* signature (arrays only): the host never looks inside the loop state, and
 the programs can be exported (:mod:`jax.export`) without custom pytree serialisation.
@@ -36,6 +36,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar import precision
 from mjx_radar.io import results
+from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.simulation import compile_cache, records
 from mjx_radar.task import costs
 from mjx_radar.task.method import parse_method
@@ -111,7 +112,8 @@ def record_template(full: bool):
     return {k: 0 for k in results.METRIC_COLUMNS}, None
 
 
-def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tree, c_shapes):
+def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tree, c_shapes,
+            planner: str = "mppi"):  # fmt: skip
     """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
 
     ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
@@ -126,17 +128,18 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
     live = [x.size > 0 for x in shapes]
 
     def init_flat(trial, *p):
-        carry, ok = closed_loop.init_carry(task, jax.tree.unflatten(params_tree, p), trial)
+        params = jax.tree.unflatten(params_tree, p)
+        carry, ok = closed_loop.init_carry(task, params, trial, planner)
         leaves = jax.tree.leaves(carry)
         return (*[x for x, keep in zip(leaves, live, strict=True) if keep], ok)
 
-    def step_flat(trial, start, *rest):
+    def step_flat(*rest):
         params = jax.tree.unflatten(params_tree, rest[:n_params])
         given = iter(rest[n_params:])
         leaves = [next(given) if keep else jnp.zeros(s.shape, s.dtype)
                   for s, keep in zip(shapes, live, strict=True)]  # fmt: skip
         carry = jax.tree.unflatten(carry_tree, leaves)
-        carry, steps, controls = closed_loop.advance(task, params, trial, carry, start, periods)
+        carry, steps, controls = closed_loop.advance(task, params, carry, periods, planner)
         if not full:
             steps = {k: getattr(steps, k) for k in results.METRIC_COLUMNS}
             controls = None
@@ -149,23 +152,25 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
         in_specs=(SPLIT,) + (WHOLE,) * n_params, out_specs=SPLIT, check_vma=False,
     )  # fmt: skip
     step = jax.shard_map(
-        jax.vmap(step_flat, in_axes=(0, None) + (None,) * n_params + (0,) * n_carry),
-        mesh=mesh, in_specs=(SPLIT, WHOLE) + (WHOLE,) * n_params + (SPLIT,) * n_carry,
+        jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry),
+        mesh=mesh, in_specs=(WHOLE,) * n_params + (SPLIT,) * n_carry,
         out_specs=SPLIT, check_vma=False,
     )  # fmt: skip
-    donate = tuple(range(2 + n_params, 2 + n_params + n_carry))
+    donate = tuple(range(n_params, n_params + n_carry))
     return jax.jit(init), jax.jit(step, donate_argnums=donate)
 
 
-def _variant() -> tuple:
-    """What else a traced program depends on: x64, pinned precision, registered cost terms."""
-    return bool(jax.config.jax_enable_x64), precision.describe(), costs.registry_key()
+def _variant(planner: str = "mppi") -> tuple:
+    """What else a traced program depends on: x64, pinned precision, registered cost terms,
+    the planner (and a registered planner's code)."""
+    return (bool(jax.config.jax_enable_x64), precision.describe(), costs.registry_key(),
+            planner, PLANNERS.key((planner,)), TRACKERS.key(), SENSORS.key())  # fmt: skip
 
 
-def _key(shape, periods, full, batch, mesh, kind) -> str:
+def _key(shape, periods, full, batch, mesh, kind, planner="mppi") -> str:
     dev = mesh.devices.flat[0]
     parts = [repr(shape), periods, full, batch, mesh.size, dev.platform, dev.device_kind, kind,
-             *_variant(), compile_cache.code_fingerprint()]  # fmt: skip
+             *_variant(planner), compile_cache.code_fingerprint()]  # fmt: skip
     for obs in shape.obstacles:  # mesh files: their content, not only their path
         if obs.path and Path(obs.path).exists():
             parts.append(hashlib.sha256(Path(obs.path).read_bytes()).hexdigest())
@@ -179,7 +184,7 @@ COMPILE_LOG: list[dict] = []
 
 
 def compile_programs(scenario, batch: int, periods: int, full: bool = False, mesh=None,
-                     kind: str = "all"):  # fmt: skip
+                     kind: str = "all", planner: str = "mppi"):  # fmt: skip
     """Ahead-of-time compiled :class:`Programs` of a scenario's shape; ``(programs, seconds)``.
 
     Args:
@@ -191,6 +196,7 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
         kind: what is compiled of the planner (:data:`mjx_radar.task.method.PROGRAM_KINDS`):
             a method's ``kind`` (``"none"``, ``"sfim"``, ``"pfim"``: that method and the
             other noise model's) or ``"all"`` (every method).
+        planner: the registered planner that drives the loop (:mod:`mjx_radar.planners`).
 
     Seconds are 0 when this process compiled them before.
     """
@@ -198,7 +204,8 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     if batch % mesh.size:
         raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
     shape = shape_key(scenario)
-    mem_key = (shape, periods, full, batch, mesh, kind, *_variant())
+    PLANNERS.get(planner)  # an unknown name: one line before anything is traced
+    mem_key = (shape, periods, full, batch, mesh, kind, *_variant(planner))
     with _LOCK:
         if mem_key in _CACHE:
             return _CACHE[mem_key], 0.0
@@ -208,10 +215,9 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     trial_sh, rep = NamedSharding(mesh, SPLIT), NamedSharding(mesh, WHOLE)
     spec = lambda x, sh: jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=sh)  # noqa: E731
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=trial_sh)
-    start = jax.ShapeDtypeStruct((), jnp.int32, sharding=rep)
     p_specs = [spec(x, rep) for x in p_leaves]
     store = compile_cache.program_dir()
-    key = _key(shape, periods, full, batch, mesh, kind)
+    key = _key(shape, periods, full, batch, mesh, kind, planner)
     path = store / f"loop-{key}.jaxexport" if store else None
     exported = _load(path) if path else None
     source = "export cache" if exported else "traced"
@@ -221,7 +227,7 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
 
         task = make_task(shape, kind)
         carry_shapes = jax.eval_shape(
-            lambda t, p: closed_loop.init_carry(task, p, t)[0],
+            lambda t, p: closed_loop.init_carry(task, p, t, planner)[0],
             jax.ShapeDtypeStruct((), jnp.int32), params,
         )  # fmt: skip
         c_specs = [
@@ -229,17 +235,18 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
             for x in jax.tree.leaves(carry_shapes)
             if x.size > 0
         ]
-        init, step = _traced(task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes)
+        init, step = _traced(task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes,
+                             planner)  # fmt: skip
         exported = None
         if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
-            exported = _export(init, step, (trials, *p_specs), (trials, start, *p_specs, *c_specs))
+            exported = _export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
         if exported is None:  # not exportable: compile the traced programs directly
             init_l = init.lower(trials, *p_specs)
-            step_l = step.lower(trials, start, *p_specs, *c_specs)
+            step_l = step.lower(*p_specs, *c_specs)
         elif path:
             _save(path, exported)
     if exported is not None:
-        init_l, step_l = _lower(exported, trials, start, p_specs, mesh)
+        init_l, step_l = _lower(exported, trials, p_specs, mesh)
     n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
     t1 = time.perf_counter()
     init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
@@ -284,15 +291,15 @@ def _load(path: Path):
         return None
 
 
-def _lower(exported, trials, start, p_specs, mesh):
+def _lower(exported, trials, p_specs, mesh):
     """``(init, step)`` lowered from exported programs (no Python tracing of the loop)."""
     e_init, e_step = exported
     n_params = len(p_specs)
     c_specs = [
         jax.ShapeDtypeStruct(a.shape, a.dtype, sharding=NamedSharding(mesh, SPLIT))
-        for a in e_step.in_avals[2 + n_params :]
+        for a in e_step.in_avals[n_params:]
     ]
-    donate = tuple(range(2 + n_params, 2 + n_params + len(c_specs)))
+    donate = tuple(range(n_params, n_params + len(c_specs)))
     init = jax.jit(e_init.call).lower(trials, *p_specs)
-    step = jax.jit(e_step.call, donate_argnums=donate).lower(trials, start, *p_specs, *c_specs)
+    step = jax.jit(e_step.call, donate_argnums=donate).lower(*p_specs, *c_specs)
     return init, step

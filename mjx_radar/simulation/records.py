@@ -11,12 +11,11 @@ from typing import NamedTuple
 
 import jax
 
-N_KEEP_SAMPLES = 32  # MPPI samples kept per control step for plots and video (at most)
-
-
-def kept_samples(scenario) -> int:
-    """MPPI samples recorded per control step: ``min(32, mppi.samples)``."""
-    return min(N_KEEP_SAMPLES, scenario.mppi.samples)
+from mjx_radar.planners.base import (  # noqa: F401 (re-exported)
+    N_KEEP_SAMPLES,
+    ControlRecord,
+    kept_samples,
+)
 
 
 class StepRecord(NamedTuple):
@@ -37,16 +36,6 @@ class StepRecord(NamedTuple):
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
     targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
-
-
-class ControlRecord(NamedTuple):
-    """Per control step outputs of MPPI (leading axis K / control_every)."""
-
-    control: jax.Array  # [N, 2] applied control
-    plan_xy: jax.Array  # [H, N, 2] planned radar positions of the mean sequence
-    sample_xy: jax.Array  # [S_keep, H, N, 2] sampled radar trajectories
-    sample_weight: jax.Array  # [S_keep] their MPPI weights
-    sample_cost: jax.Array  # [S_keep] their costs
 
 
 class TrialResult(NamedTuple):

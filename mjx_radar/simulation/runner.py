@@ -51,16 +51,16 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     shapes = {}
     for job in jobs:
         s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
-        kinds = [parse_method(m).kind for m in methods] or [m.kind for m in METHODS.values()]
-        for kind in kinds:
-            shapes.setdefault((shape_key(s), kind), (s, kind))
+        ms = [parse_method(m) for m in methods] or list(METHODS.values())
+        for kind, planner in dict.fromkeys((m.kind, m.planner) for m in ms):
+            shapes.setdefault((shape_key(s), kind, planner), (s, kind, planner))
     todo = list(shapes.values())
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     t0 = time.perf_counter()
     parallel([  # one thread per shape and kind (big stacks: XLA's compiler recurses deeply)
-        lambda s=s, k=k: device_programs(s, batch // len(devices), segment_periods(s, steps),
-                                         full, devices, k)
-        for s, k in todo
+        lambda s=s, k=k, p=p: device_programs(s, batch // len(devices), segment_periods(s, steps),
+                                              full, devices, k, p)
+        for s, k, p in todo
     ])  # fmt: skip
     return time.perf_counter() - t0
 
@@ -128,7 +128,13 @@ def run_trials(
         phase("compiling")
     t0 = time.perf_counter()
     progs = device_programs(
-        scenario, trials.shape[0] // len(devices), periods, full, devices, method.kind
+        scenario,
+        trials.shape[0] // len(devices),
+        periods,
+        full,
+        devices,
+        method.kind,
+        method.planner,
     )
     compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0
     if phase:
@@ -145,17 +151,16 @@ def run_trials(
     template = record_template(full)
     chunks = []
 
-    def advance(w, start):  # one segment on one device; returns its records on the host
-        prog, p, ids, carry, _ = w
-        start_a = jax.device_put(jnp.int32(start), prog.replicated)
-        out = prog.step(ids, start_a, *p, *carry)
+    def advance(w):  # one segment on one device; returns its records on the host
+        prog, p, _, carry, _ = w
+        out = prog.step(*p, *carry)
         w[3] = list(out[: prog.n_carry])
         return jax.device_get(out[prog.n_carry :])
 
     for start in range(0, steps // every, periods):
         # A GPU program with loops is driven by its host thread: one thread per device
         # makes the devices run concurrently.
-        parts = parallel([lambda w=w, s=start: advance(w, s) for w in workers])
+        parts = parallel([lambda w=w: advance(w) for w in workers])
         records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
         chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
         if progress is not None:
@@ -177,7 +182,7 @@ def run_trials(
 
 
 def device_programs(scenario, batch: int, periods: int, full: bool, devices,
-                    kind: str = "all") -> list:  # fmt: skip
+                    kind: str = "all", planner: str = "mppi") -> list:  # fmt: skip
     """``[(programs, seconds)]``: the single-device program of each device, each for
     ``batch`` trials. Every device runs the same per-device program, so a trial's
     numbers never depend on the number of devices.
@@ -191,7 +196,7 @@ def device_programs(scenario, batch: int, periods: int, full: bool, devices,
     """
 
     def one(d):
-        return compile_programs(scenario, batch, periods, full, device_mesh([d]), kind)
+        return compile_programs(scenario, batch, periods, full, device_mesh([d]), kind, planner)
 
     devices = list(devices)
     if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:

@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, pda
-from mjx_radar.simulation.streams import detection_streams
+from mjx_radar.simulation.streams import detection_streams_of
 
 
 class Scan(NamedTuple):
@@ -35,20 +35,21 @@ class Scan(NamedTuple):
     valid: jax.Array | None  # [N, M + cap]
 
 
-def observe(det_cfg, params, trial, k, radar_pos, target_pos, z, vis) -> Scan:
+def observe(det_cfg, params, key, k, radar_pos, target_pos, z, vis) -> Scan:
     """Detections (and false alarms) of scan ``k`` from the truth geometry.
 
     Args:
         det_cfg: the scenario's :class:`~mjx_radar.config.DetectionConfig` (static).
         params: :class:`~mjx_radar.task.params.TaskParams`.
-        trial: trial index (traced int): its detection streams.
+        key: the trial's key (:func:`~mjx_radar.simulation.streams.trial_key`): its
+            detection streams.
         k: filter step (traced int).
         radar_pos: ``[N, 3]``; target_pos: ``[M, 3]`` true positions.
         z: ``[N, M, dim]`` the pairs' measurements; vis: ``[N, M]`` line of sight or None.
     """
     n, m, dim = z.shape
     n_vis = jnp.int32(n * m) if vis is None else jnp.sum(vis).astype(jnp.int32)
-    streams = detection_streams(params.seed, trial)
+    streams = detection_streams_of(key)
     seen, n_det, n_fa, zs, valid = vis, n_vis, jnp.int32(0), None, None
     if det_cfg.detects:  # a missed pair is skipped like a blocked one
         key = jax.random.fold_in(streams.detection, k)

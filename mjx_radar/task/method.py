@@ -13,7 +13,11 @@ information kind share a program (``ccr`` stays a runtime flag). Kind ``"all"``
 serves every method: both information branches joined by ``lax.cond`` on the runtime
 flags (an unbatched predicate stays a branch under ``vmap``).
 
-Adding a method is one line in :data:`METHODS`.
+A method is planner x information x noise model: ``planner`` names the registered
+planner (:mod:`mjx_radar.planners`) that moves the radars -- the paper's MPPI for the
+four planning methods, ``hold`` for ``stationary``. ``"ddr-sfim+NAME"`` is the method
+``ddr-sfim`` with the planner ``NAME`` (:func:`parse_method`); the five paper names are
+aliases of their default planners. Adding a method is one line in :data:`METHODS`.
 """
 
 from __future__ import annotations
@@ -36,11 +40,14 @@ class Method:
         noise: ``"ddr"`` (variance ``C d⁴``, the truth) or ``"ccr"`` (constant
             ``C R2T⁴``): the model of the planner's information and of the filter.
         info: ``"sfim"``, ``"pfim"`` or ``"none"`` (no planner: radars stay put).
+        planner: the registered planner that moves the radars (``"mppi"``, ``"hold"``,
+            or a name given to :func:`mjx_radar.register_planner`).
     """
 
     name: str
     noise: str
     info: str
+    planner: str = "mppi"
 
     def __post_init__(self):
         if self.noise not in NOISE_MODELS:
@@ -80,7 +87,7 @@ class MethodFlags(NamedTuple):
 METHODS: dict[str, Method] = {
     m.name: m
     for m in (
-        Method("stationary", "ddr", "none"),
+        Method("stationary", "ddr", "none", planner="hold"),
         Method("ccr-sfim", "ccr", "sfim"),
         Method("ccr-pfim", "ccr", "pfim"),
         Method("ddr-sfim", "ddr", "sfim"),
@@ -89,14 +96,43 @@ METHODS: dict[str, Method] = {
 }
 
 
-def parse_method(name: str | Method) -> Method:
-    """The :class:`Method` called ``name``; a one-line ``ValueError`` for an unknown name."""
+def parse_method(name: str | Method, planner: str | None = None) -> Method:
+    """The :class:`Method` called ``name`` (``"ddr-sfim"`` or ``"ddr-sfim+PLANNER"``).
+
+    Args:
+        name: a method name or :class:`Method`.
+        planner: a planner replacing the method's (None: the method's own).
+
+    Raises:
+        ValueError: one line for an unknown method, or a planner given to ``stationary``.
+    """
     if isinstance(name, Method):
-        return name
-    try:
-        return METHODS[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"method: {name!r} is not one of {', '.join(METHODS)}") from None
+        method = name
+    else:
+        base, _, own = name.partition("+") if isinstance(name, str) else (name, "", "")
+        try:
+            method = METHODS[base]
+        except (KeyError, TypeError):
+            raise ValueError(f"method: {name!r} is not one of {', '.join(METHODS)}") from None
+        planner = own or planner
+    return with_planner(method, planner)
+
+
+def with_planner(method: Method, planner: str | None) -> Method:
+    """``method`` moved by ``planner`` (named ``"METHOD+PLANNER"``; None: unchanged)."""
+    if planner is None or planner == method.planner:
+        return method
+    if not isinstance(planner, str) or not planner:
+        raise ValueError(f"planner: {planner!r} is not a planner name")
+    if not method.plans:
+        raise ValueError(
+            f"planner: {method.name!r} radars never move; give --planner a planning method "
+            "(e.g. ddr-sfim)"
+        )
+    base = method.name.partition("+")[0]
+    default = METHODS[base].planner if base in METHODS else "mppi"
+    name = base if planner == default else f"{base}+{planner}"
+    return Method(name, method.noise, method.info, planner)
 
 
 def baseline_of(method: Method) -> Method | None:
@@ -114,10 +150,13 @@ def normalise_methods(names) -> list[str]:
     """
     out = []
     for name in names:
-        key = name.strip().lower() if isinstance(name, str) else name
+        key, plus, planner = (
+            name.strip().partition("+") if isinstance(name, str) else (name, "", "")
+        )
+        key = key.lower() if isinstance(key, str) else key
         if key not in METHODS:
             raise ValueError(f"methods: {name!r} is not one of {', '.join(METHODS)}")
-        out.append(key)
+        out.append(parse_method(key, planner or None).name if plus else key)
     if not out:
         raise ValueError("methods: empty list")
     return list(dict.fromkeys(out))

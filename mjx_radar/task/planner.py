@@ -21,6 +21,23 @@ from mjx_radar.physics import kinematics
 from mjx_radar.task import objective
 
 
+def control_box(scenario) -> tuple[jax.Array, jax.Array]:
+    """Lower and upper bounds ``[2N]`` of the radars' flattened controls ``[a0, α0, a1, ...]``.
+
+    ``|a| <= limits.accel``, ``|α| <= limits.alpha``; a mixed fleet's per-radar limits,
+    and 0 for its fixed sites (``[[radar_override]]``).
+    """
+    n = scenario.n_radars
+    lower, upper = kinematics.control_bounds(scenario.limits)
+    lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
+    if scenario.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
+        from mjx_radar.io.scenario_fleet import control_bounds
+
+        upper = jnp.asarray(control_bounds(scenario), lower.dtype).T.reshape(-1)
+        lower = -upper
+    return lower, upper
+
+
 def make_planner(task) -> Callable:
     """Returns ``plan(radar_state[N,6], mean[6M], cov[6M,6M], u_plan[H,2N], key, params)``.
 
@@ -33,16 +50,12 @@ def make_planner(task) -> Callable:
     :data:`~mjx_radar.precision.PLANNER`.
     """
     sc = task.scenario
-    n = sc.n_radars
     cost_fn = objective.make_objective(task)
-    lower, upper = kinematics.control_bounds(sc.limits)
-    lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
-    init_std = jnp.tile(jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), n)
-    if sc.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
-        from mjx_radar.io.scenario_fleet import control_bounds
-
-        upper = jnp.asarray(control_bounds(sc), lower.dtype).T.reshape(-1)  # [a0, al0, a1, ..]
-        lower, init_std = -upper, jnp.where(upper > 0, init_std, 0.0)
+    lower, upper = control_box(sc)
+    init_std = jnp.tile(
+        jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), sc.n_radars
+    )
+    init_std = jnp.where(upper > 0, init_std, 0.0)  # fixed sites of a mixed fleet: no noise
 
     @precision.pinned
     def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key, params):

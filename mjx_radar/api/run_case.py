@@ -1,0 +1,197 @@
+"""The one run use case under ``mjx-radar run`` and ``mjx_radar.simulate``.
+
+Both take the same options with the same defaults (:data:`RUN_DEFAULTS`), checked by
+the same code (:func:`request`: one line naming the option and its allowed range, a
+``ScenarioError``, before anything is compiled), and run through the same
+:func:`execute` (compilation cache, precision, placement and memory checks, the
+runner). The command line adds only what belongs to a terminal (``--out``, ``--force``,
+``--video``, ``--keep-diverged``, Ctrl-C); the API returns a :class:`~mjx_radar.api.run.Run`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import runpy
+from pathlib import Path
+
+import numpy as np
+
+from mjx_radar.errors import InputError
+from mjx_radar.io.checks import ScenarioError
+
+#: every option of a run and its default, for the command line and the API alike
+RUN_DEFAULTS = {
+    "method": "ddr-sfim",
+    "planner": None,
+    "trials": 1,
+    "steps": None,
+    "seed": None,
+    "rollouts": None,
+    "precision": "float32",
+    "deterministic": False,
+    "cache": True,
+    "cache_dir": None,
+    "plugins": (),
+}
+MAX_TRIALS = 100_000
+PRECISIONS = ("float32", "float64")
+ROLLOUTS = ("mjx", "analytic")
+
+
+@dataclasses.dataclass(frozen=True)
+class RunRequest:
+    """A checked run: the scenario (``rollouts`` applied), method, trials, steps, seed."""
+
+    scenario: object
+    method: object  # mjx_radar.task.method.Method
+    trials: np.ndarray
+    steps: int
+    seed: int
+    precision: str = "float32"
+    deterministic: bool = False
+    cache: bool = True
+    cache_dir: str | None = None
+
+
+def load_plugins(paths) -> None:
+    """Runs each plug-in file (a script that registers planners, cost terms, ...).
+
+    Raises:
+        ScenarioError: a missing file, or one that raises (one line naming it).
+    """
+    for path in paths or ():
+        p = Path(path)
+        if not p.is_file():
+            raise ScenarioError(f"plugin = {str(path)!r}: no such file")
+        try:
+            runpy.run_path(str(p), run_name=f"mjx_radar_plugin_{p.stem}")
+        except Exception as err:  # noqa: BLE001 -- a user's file: one line, no traceback
+            raise ScenarioError(f"plugin = {str(path)!r}: {type(err).__name__}: {err}") from None
+
+
+def trial_ids(trials) -> np.ndarray:
+    """``[T]`` trial indices of a count (``0..T-1``) or an explicit list."""
+    if isinstance(trials, bool):
+        raise ScenarioError(f"trials = {trials!r}: must be a count >= 1 or a list of indices")
+    if isinstance(trials, int | np.integer):
+        if not 1 <= int(trials) <= MAX_TRIALS:
+            raise ScenarioError(f"trials = {int(trials)}: must be a count in [1, {MAX_TRIALS}]")
+        return np.arange(int(trials))
+    ids = np.asarray(trials)
+    if ids.ndim != 1 or ids.size == 0 or ids.dtype.kind not in "iu" or (ids < 0).any():
+        raise ScenarioError(
+            f"trials = {trials!r}: must be a count >= 1 or a non-empty list of indices >= 0"
+        )
+    if ids.max() >= 2**31:
+        raise ScenarioError(f"trials: index {int(ids.max())} must be < 2^31")
+    return ids.astype(np.int64)
+
+
+def request(scenario, **options) -> RunRequest:
+    """Checks a run's options (:data:`RUN_DEFAULTS` for those not given).
+
+    Args:
+        scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
+        **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
+            ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``.
+
+    Raises:
+        ScenarioError: one line naming the option and its allowed values.
+    """
+    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.io.scenario_edit import validate
+    from mjx_radar.planners import PLANNERS
+    from mjx_radar.task.method import parse_method
+
+    unknown = sorted(set(options) - set(RUN_DEFAULTS))
+    if unknown:
+        raise ScenarioError(f"{unknown[0]}: not an option of a run ({', '.join(RUN_DEFAULTS)})")
+    o = {**RUN_DEFAULTS, **options}
+    load_plugins(o["plugins"])
+    s = validate(load_scenario(scenario) if isinstance(scenario, str | Path) else scenario)
+    if o["rollouts"] is not None:
+        if o["rollouts"] not in ROLLOUTS:
+            raise ScenarioError(f"rollouts = {o['rollouts']!r}: must be one of mjx, analytic")
+        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=o["rollouts"]))
+    try:
+        name = o["method"].strip().lower() if isinstance(o["method"], str) else o["method"]
+        method = parse_method(name, o["planner"])
+        PLANNERS.get(method.planner)
+    except ValueError as err:
+        raise ScenarioError(str(err)) from None
+    ids = trial_ids(o["trials"])
+    steps = s.timing.steps if o["steps"] is None else o["steps"]
+    if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps < 1:
+        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
+    if steps % s.timing.control_every:
+        raise ScenarioError(
+            f"steps = {steps}: must be a multiple of dt_control/dt_filter = "
+            f"{s.timing.control_every} (scenario {s.name})"
+        )
+    seed = s.seed if o["seed"] is None else o["seed"]
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
+        raise ScenarioError(f"seed = {seed!r}: must be an integer in [0, 2^31 - 1]")
+    if o["precision"] not in PRECISIONS:
+        raise ScenarioError(f"precision = {o['precision']!r}: must be one of float32, float64")
+    for flag in ("deterministic", "cache"):
+        if not isinstance(o[flag], bool):
+            raise ScenarioError(f"{flag} = {o[flag]!r}: must be True or False")
+    cache_dir = None if o["cache_dir"] is None else str(o["cache_dir"])
+    return RunRequest(
+        s, method, ids, int(steps), int(seed), o["precision"], o["deterministic"], o["cache"],
+        cache_dir,
+    )
+
+
+def process_options(req: RunRequest) -> None:
+    """The process-wide settings a run asks for: the persistent compilation cache and
+    deterministic GPU kernels (XLA's flag must be set before JAX starts its backend)."""
+    from mjx_radar.simulation import compile_cache
+
+    if req.cache and not compile_cache.enabled():
+        compile_cache.enable(req.cache_dir)
+    if req.deterministic:
+        flags = os.environ.get("XLA_FLAGS", "")
+        if "--xla_gpu_deterministic_ops=true" not in flags:
+            import jax
+
+            if any(d.platform == "gpu" for d in jax.devices()):
+                raise InputError(
+                    "deterministic = True: JAX has started its GPU backend without XLA's "
+                    "--xla_gpu_deterministic_ops=true; set XLA_FLAGS before importing jax"
+                )
+            os.environ["XLA_FLAGS"] = f"{flags} --xla_gpu_deterministic_ops=true".strip()
+
+
+def precision_scope(req: RunRequest):
+    """A context in which the run is traced at its precision (float64: x64 mode)."""
+    import jax
+
+    if req.precision == "float64" and not jax.config.jax_enable_x64:
+        return jax.enable_x64(True)
+    return contextlib.nullcontext()
+
+
+def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool = True) -> dict:
+    """Checks memory and placement (unless ``checks`` is False: the caller did), then
+    runs the trials (:func:`runner.run_trials`).
+
+    Raises:
+        InputError: the radars cannot be placed or the run does not fit in memory.
+    """
+    from mjx_radar.simulation import resources, runner
+    from mjx_radar.simulation.placement import check_placeable
+
+    process_options(req)
+    with precision_scope(req):
+        if checks:
+            resources.check(req.scenario, len(req.trials), req.steps)
+            try:
+                check_placeable(req.scenario, req.seed, int(req.trials.max()) + 1)
+            except ValueError as err:
+                raise InputError(str(err)) from None
+        view = {} if live is None else live.runner_options()
+        return runner.run_trials(req.scenario, req.method, req.seed, req.trials, req.steps,
+                                 progress=progress, phase=phase, **view)  # fmt: skip

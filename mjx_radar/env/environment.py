@@ -1,0 +1,231 @@
+"""The closed loop of paper Algorithm 1 as a pure environment (brax / mujoco_playground style).
+
+One ``env.step`` is one control period (``env.dt = dt_control``): the radars apply the
+action for ``control_every`` filter steps, each::
+
+    tracker predict                       (x_k|k-1, P_k|k-1)
+    MJX plant step: drones fly (white acceleration w_k), radars actuate the action
+    measure all N*M pairs with the true (DDR) noise; detections, clutter, line of sight
+    tracker update (DDR or CCR noise model, per method); errors, NEES, PCRLB, lost track
+
+then the observation for the next plan is formed. ``reset``, ``step`` and
+``transition`` are pure functions of arrays: jit them, vmap them over keys, scan them
+over time. A planner (:mod:`mjx_radar.planners`) closes the loop
+(:func:`mjx_radar.env.driver.rollout`); the simulator's runner is that scan.
+
+Random numbers (common random numbers, SPEC §9): every stream of a trial derives from
+the key given to ``reset`` (:func:`trial_key`: ``fold_in(PRNGKey(seed), trial)``), so
+every method and planner sees the same placement, truth and noise draws.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar import precision
+from mjx_radar.env.state import LoopState, State
+from mjx_radar.estimation import ckf_sqrt, linalg
+from mjx_radar.physics import plant as physics
+from mjx_radar.planners.base import Observation
+from mjx_radar.simulation import filter_ops, placement, presence, track_health
+from mjx_radar.simulation.period import make_filter_step
+from mjx_radar.simulation.streams import streams_of, trial_key
+from mjx_radar.task import objective
+from mjx_radar.task.planner import control_box
+
+#: the per-period metrics of ``State.metrics`` (the last filter step's values)
+METRICS = ("rmse_pos", "rmse_state", "nees", "crlb_pos", "lost", "diverged",
+           "visible_pairs", "detections", "false_alarms", "targets_present")  # fmt: skip
+
+
+class RadarEnv:
+    """Radars tracking drones, one control period a step.
+
+    Args:
+        task: the scenario's :class:`~mjx_radar.task.task.RadarTask` (static).
+        params: its :class:`~mjx_radar.task.params.TaskParams` (arrays; may be traced).
+        steps: filter steps of an episode (default the scenario's).
+
+    Attributes:
+        dt: the control period [s]; ``episode_length``: control periods per episode;
+        action_size: ``2N`` (``[a, α]`` per radar); observation_size: length of
+        :meth:`observation_vector`; action_bounds: ``(lower, upper)`` each ``[N, 2]``.
+    """
+
+    def __init__(self, task, params, steps: int | None = None):
+        sc = task.scenario
+        self.task, self.params, self.scenario = task, params, sc
+        self.every = sc.timing.control_every
+        steps = sc.timing.steps if steps is None else steps
+        if steps % self.every:
+            raise ValueError(f"steps: {steps} must be a multiple of {self.every}")
+        self.episode_length = steps // self.every
+        self.dt = sc.timing.dt_control
+        self.n_radars, self.n_targets = sc.n_radars, sc.n_targets
+        self.action_size = 2 * sc.n_radars
+        m, n = sc.n_targets, sc.n_radars
+        self.observation_size = 6 * n + 6 * m + 21 * m + m + n * m
+        lower, upper = control_box(sc)
+        self.action_bounds = (lower.reshape(n, 2), upper.reshape(n, 2))
+        self._form = ckf_sqrt.form_ops(sc.filter.form)
+        self._tracker = filter_ops.make(task, params)
+
+    @staticmethod
+    def trial_key(seed, trial) -> jax.Array:
+        """The key of trial ``trial`` of base seed ``seed`` (what the runner resets with)."""
+        return trial_key(seed, trial)
+
+    # -- the contract -------------------------------------------------------------------
+
+    def reset(self, key) -> State:
+        """The state at t = 0 of the trial whose key is ``key`` (radars placed, tracks started)."""
+        return precision.pinned(self._reset)(key)
+
+    def step(self, state: State, action) -> State:
+        """Applies ``action`` (``[N, 2]`` or ``[2N]``, clipped to the limits) for one period.
+
+        The reward is ``-Σ_m log det P_m,pos`` over the targets present at the period's end
+        (``P_m,pos`` the 3x3 position block of target m's posterior covariance [m²]): the
+        information the radars hold about where the drones are.
+        """
+        return self.transition(state, action)[0]
+
+    def transition(self, state: State, action):
+        """:meth:`step` and the period's per-filter-step records (``StepRecord``, leading
+        size ``control_every``): what the simulator's runner writes."""
+        return precision.pinned(self._transition)(state, action)
+
+    # -- helpers for planners -----------------------------------------------------------
+
+    def planning_params(self, obs: Observation):
+        """The runtime parameters a planner scores with at ``obs``'s instant (the
+        presence weights, the moving obstacles' time)."""
+        return presence.plan_params(self.params, obs.time)
+
+    def objective(self, obs: Observation):
+        """``cost(u [H, 2N]) -> (cost [], Plan)``: the method's objective (information
+        and keep-out terms, discounted) of a control sequence from ``obs``. Vmap it over
+        candidate sequences."""
+        ctx = objective.plan_context(self.task, obs.radar_state, obs.mean, obs.cov)
+        fn, params = objective.make_objective(self.task), self.planning_params(obs)
+        return lambda u: fn(u.reshape(self.scenario.mpc.horizon, -1), ctx, params)
+
+    def observation_vector(self, obs: Observation) -> jax.Array:
+        """``[observation_size]`` flat features: radar states, track means, the upper
+        triangles of the targets' 6x6 covariance blocks, presence, detections."""
+        m = self.n_targets
+        blocks = jnp.stack([obs.cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
+        iu = jnp.triu_indices(6)
+        return jnp.concatenate([
+            obs.radar_state.reshape(-1), obs.mean, blocks[:, iu[0], iu[1]].reshape(-1),
+            obs.target_weight, obs.detections.reshape(-1).astype(obs.mean.dtype),
+        ])  # fmt: skip
+
+    # -- internals ----------------------------------------------------------------------
+
+    def _reset(self, key) -> State:
+        sc, params = self.scenario, self.params
+        init = placement.initial_conditions(sc, params, streams_of(key))
+        loop = LoopState(
+            data=physics.init_data(self.task.truth, init.radar_state, init.target_state),
+            mean=init.mean,
+            cov=self._form.carry(init.cov),
+            pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (sc.n_targets, 6, 6)),
+            health=track_health.init_health(sc.n_targets),
+            modes=self._tracker.init(init.mean, init.cov),
+        )
+        none_seen = jnp.zeros((sc.n_radars, sc.n_targets), bool)
+        period = jnp.int32(0)
+        zero = jnp.zeros((), init.mean.dtype)
+        metrics = {k: zero for k in METRICS}
+        return State(
+            loop=loop,
+            obs=self._observe(loop, period, none_seen),
+            reward=self._reward(loop, period),
+            done=jnp.asarray(False),
+            metrics=metrics,
+            info={"key": key, "period": period, "placement_ok": init.ok},
+        )
+
+    def _transition(self, state: State, action):
+        n = self.n_radars
+        lower, upper = self.action_bounds
+        u = jnp.clip(jnp.reshape(action, (n, 2)), lower, upper)
+        j = state.info["period"]
+        key = state.info["key"]
+        filter_step = make_filter_step(self.task, self.params, key, self._tracker)
+        ks = j * self.every + 1 + jnp.arange(self.every)
+        loop, (srec, seen) = jax.lax.scan(lambda c, k: filter_step(c, k, u), state.loop, ks)
+        j1 = j + 1
+        metrics = {k: getattr(srec, k)[-1].astype(state.reward.dtype) for k in METRICS}
+        new = state._replace(
+            loop=loop,
+            obs=self._observe(loop, j1, seen[-1]),
+            reward=self._reward(loop, j1),
+            done=j1 >= self.episode_length,
+            metrics=metrics,
+            info={**state.info, "period": j1},
+        )
+        return new, srec
+
+    def _observe(self, loop: LoopState, j, seen) -> Observation:
+        """What the planner of control period ``j`` knows (the loop after ``j`` periods)."""
+        sc = self.scenario
+        pm, pc = loop.mean, loop.cov
+        if not sc.mpc.aligned:  # the paper code's one-filter-step lead of the targets
+            pm, pc = self._tracker.predict(loop.mean, loop.cov, loop.modes)[:2]
+        t = j * self.every * sc.timing.dt_filter
+        weight = presence.plan_params(self.params, t).target_weight
+        if weight is None:
+            weight = jnp.ones(sc.n_targets, pm.dtype)
+        return Observation(
+            radar_state=physics.radar_state(self.task.truth, loop.data),
+            mean=pm,
+            cov=self._form.cov(pc),  # P (S Sᵀ for the square-root form)
+            target_weight=weight,
+            detections=seen,
+            time=jnp.asarray(t, pm.dtype),
+            period=j,
+        )
+
+    def _reward(self, loop: LoopState, j):
+        """``-Σ_m log det P_m,pos`` over the targets present after ``j`` periods."""
+        sc = self.scenario
+        cov = self._form.cov(loop.cov)
+        m = sc.n_targets
+        pos = jnp.stack([cov[6 * i : 6 * i + 3, 6 * i : 6 * i + 3] for i in range(m)])
+        logdet = jax.vmap(linalg.logdet_psd)(pos)  # [M]
+        t = j * self.every * sc.timing.dt_filter
+        weight = presence.plan_params(self.params, t).target_weight
+        weight = jnp.ones(m, logdet.dtype) if weight is None else weight
+        return -jnp.sum(weight * logdet)
+
+
+def make(scenario, method="ddr-sfim", seed: int | None = None, steps: int | None = None):
+    """The environment of a scenario and method (``mjx_radar.env.make``).
+
+    Args:
+        scenario: a validated :class:`~mjx_radar.config.Scenario` (or a bundled name /
+            file path, read with :func:`mjx_radar.load_scenario`).
+        method: a method name (``"ddr-sfim"``, ...) or :class:`~mjx_radar.task.method.Method`:
+            the tracker's noise model and the information of ``env.objective``.
+        seed: base seed of :meth:`RadarEnv.trial_key` (default the scenario's).
+        steps: filter steps of an episode (default the scenario's).
+
+    Example:
+        >>> env = make("smoke")
+        >>> state = jax.jit(env.reset)(env.trial_key(env.params.seed, 0))
+        >>> state = jax.jit(env.step)(state, jnp.zeros((env.n_radars, 2)))
+    """
+    from mjx_radar.task.method import parse_method
+    from mjx_radar.task.params import shape_key, task_params
+    from mjx_radar.task.task import make_task
+
+    if isinstance(scenario, str):
+        from mjx_radar.io.scenario import load_scenario
+
+        scenario = load_scenario(scenario)
+    method = parse_method(method)
+    task = make_task(shape_key(scenario), method.kind)
+    return RadarEnv(task, task_params(scenario, method, seed), steps)

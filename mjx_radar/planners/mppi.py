@@ -1,0 +1,84 @@
+"""The paper's planner behind the planner contract: MPPI over the information objective.
+
+Wraps :func:`mjx_radar.task.planner.make_planner` (the MPC step the benchmarks time):
+the carry is the warm start ``u_plan [H, 2N]`` (the previous mean sequence shifted by
+one control step) and the last :class:`~mjx_radar.planners.base.ControlRecord` (planned
+positions, kept samples, weights, costs). What is compiled follows the task's program
+kind: nothing for ``"none"`` (the radars keep still), one information kind, or both
+behind ``lax.cond`` on the method's runtime flags (``"all"``).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.control import mppi
+from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.task.planner import make_planner
+
+
+class MPPICarry(NamedTuple):
+    u_plan: jax.Array  # [H, 2N] warm start of the next call
+    record: ControlRecord  # the last call's record
+
+
+class MPPIPlanner(Planner):
+    """MPPI with adaptive importance sampling (SPEC §7) on ``env.task``'s objective."""
+
+    name = "mppi"
+
+    def __init__(self, env):
+        super().__init__(env)
+        self.task = env.task
+        self._optimize = make_planner(env.task) if env.task.kind != "none" else None
+
+    def init(self) -> MPPICarry:
+        sc = self.env.scenario
+        u_plan = jnp.zeros((sc.mpc.horizon, 2 * sc.n_radars))
+        return MPPICarry(u_plan, idle_record(sc, jnp.zeros((sc.n_radars, 2))))
+
+    def _idle(self, carry: MPPICarry):
+        zeros = jnp.zeros((self.env.scenario.n_radars, 2))
+        return zeros, MPPICarry(carry.u_plan, idle_record(self.env.scenario, zeros))
+
+    def _mppi(self, carry: MPPICarry, obs, key):
+        sc = self.env.scenario
+        params = self.env.planning_params(obs)  # presence weights, vehicles' time
+        res, mean_plan = self._optimize(obs.radar_state, obs.mean, obs.cov, carry.u_plan, key,
+                                        params)  # fmt: skip
+        keep = slice(0, kept_samples(sc))
+        rec = ControlRecord(
+            res.mean[0].reshape(sc.n_radars, 2),
+            mean_plan.radar_xy,
+            res.aux.radar_xy[keep],
+            res.weights[keep],
+            res.costs[keep],
+        )
+        return rec.control, MPPICarry(mppi.shift(res.mean), rec)
+
+    def plan(self, carry: MPPICarry, obs, key):
+        kind = self.task.kind
+        if kind == "none":  # stationary program: no planner compiled
+            return self._idle(carry)
+        if kind != "all":  # one information kind: always plans
+            return self._mppi(carry, obs, key)
+        return jax.lax.cond(
+            self.env.params.method.plans,
+            lambda: self._mppi(carry, obs, key),
+            lambda: self._idle(carry),
+        )
+
+    def record(self, carry: MPPICarry, action) -> ControlRecord:
+        return carry.record
+
+
+class HoldPlanner(Planner):
+    """Radars keep still: zero acceleration (the ``stationary`` method's planner)."""
+
+    name = "hold"
+
+    def plan(self, carry, obs, key):
+        return jnp.zeros((self.env.scenario.n_radars, 2)), carry
