@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from mjx_radar import METHODS
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import runner
+from mjx_radar.engine import runner
+from mjx_radar.scenario.reader import load_scenario
 
 STEPS = 80  # 2 s: the first second is excluded from the keep-out checks
 TRIALS = 2
@@ -134,7 +134,7 @@ def test_stages_driven_from_the_host_match_advance(smoke):
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar.simulation import closed_loop
+    from mjx_radar.env import closed_loop
     from mjx_radar.task.method import parse_method
     from mjx_radar.task.params import shape_key, task_params
     from mjx_radar.task.task import make_task

@@ -2,7 +2,7 @@
 
 ``simulate`` validates the scenario by the rules of a TOML file, checks that the
 radars can be placed and that the run fits in memory, and runs the same compiled
-program as ``mjx-radar run`` (:func:`mjx_radar.simulation.runner.run_trials`), so a
+program as ``mjx-radar run`` (:func:`mjx_radar.engine.runner.run_trials`), so a
 fixed seed gives the same numbers from either. A :class:`Run` holds the result:
 
 - ``metrics``: a pandas DataFrame with the columns of ``metrics.parquet``
@@ -41,8 +41,8 @@ class Run:
         trials: ``[T]`` trial indices.
         steps: filter steps K per trial.
         metrics: long-format table, one row per (trial, step): scenario, method, trial,
-            step, time_s and :data:`mjx_radar.io.results.METRIC_COLUMNS`.
-        arrays: the arrays of ``trajectories.npz`` (schema in :mod:`mjx_radar.io.results`).
+            step, time_s and :data:`mjx_radar.rundir.results.METRIC_COLUMNS`.
+        arrays: the arrays of ``trajectories.npz`` (schema in :mod:`mjx_radar.rundir.results`).
         meta: the contents of ``run.json``.
         path: the run directory it was saved to or loaded from (``None``: not saved).
     """
@@ -97,7 +97,7 @@ class Run:
         """
         from mjx_radar.io.atomic import create_dir
         from mjx_radar.io.lock import lock_dir
-        from mjx_radar.io.run_writer import write_run
+        from mjx_radar.rundir.writer import write_run
 
         if self._res is None:
             raise InputError("Run.save: this run was loaded from a directory; copy that instead")
@@ -226,8 +226,8 @@ def simulate(scenario, method: str = "ddr-sfim", trials=8, steps: int | None = N
         >>> run = mjx_radar.simulate("smoke", trials=2, steps=40)  # doctest: +SKIP
         >>> run.metrics.groupby("step")["rmse_pos"].mean().tail(1)  # doctest: +SKIP
     """
-    from mjx_radar.io.scenario import load_scenario
-    from mjx_radar.io.scenario_edit import validate
+    from mjx_radar.scenario.edit import validate
+    from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.task.method import METHODS
 
     s = validate(load_scenario(scenario) if isinstance(scenario, str | Path) else scenario)
@@ -254,10 +254,10 @@ def _simulate(s, method: str, ids: np.ndarray, steps: int, seed: int, progress: 
               cache: bool, view=(False, None)) -> Run:  # fmt: skip
     import jax
 
-    from mjx_radar.io import results
-    from mjx_radar.io.run_writer import TRAJECTORY_KEYS, run_meta
-    from mjx_radar.simulation import compile_cache, resources, runner
-    from mjx_radar.simulation.placement import check_placeable
+    from mjx_radar.engine import compile_cache, resources, runner
+    from mjx_radar.env.placement import check_placeable
+    from mjx_radar.rundir import results
+    from mjx_radar.rundir.writer import TRAJECTORY_KEYS, run_meta
 
     if cache and not compile_cache.enabled():
         compile_cache.enable()

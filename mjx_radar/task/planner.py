@@ -39,7 +39,7 @@ def make_planner(task) -> Callable:
     lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
     init_std = jnp.tile(jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), n)
     if sc.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
-        from mjx_radar.io.scenario_fleet import control_bounds
+        from mjx_radar.scenario.fleet import control_bounds
 
         upper = jnp.asarray(control_bounds(sc), lower.dtype).T.reshape(-1)  # [a0, al0, a1, ..]
         lower, init_std = -upper, jnp.where(upper > 0, init_std, 0.0)

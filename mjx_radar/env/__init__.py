@@ -1,0 +1,1 @@
+"""The closed loop of paper Algorithm 1 and initial placement, pure JAX (SPEC §8)."""
