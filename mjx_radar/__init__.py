@@ -1,6 +1,8 @@
 """mjx_radar: mobile radars re-positioned by MPPI over MuJoCo-MJX rollouts."""
 
-from mjx_radar.config import (
+from mjx_radar.scenario.edit import validate
+from mjx_radar.scenario.reader import ScenarioError, bundled_scenarios, load_scenario
+from mjx_radar.scenario.schema import (
     MovingObstacle,
     MPCConfig,
     MPPIConfig,
@@ -12,10 +14,9 @@ from mjx_radar.config import (
     TargetMotion,
     Timing,
 )
-from mjx_radar.io.scenario import ScenarioError, bundled_scenarios, load_scenario
-from mjx_radar.io.scenario_edit import validate
 from mjx_radar.task.method import METHODS as _METHODS
 from mjx_radar.task.method import Method, parse_method
+from mjx_radar.version import __version__ as __version__
 
 METHODS = tuple(_METHODS)  # method names (SPEC §9)
 
@@ -30,8 +31,8 @@ _LAZY = {
     "Planner": "mjx_radar.planners.base",
     "register_planner": "mjx_radar.planners.base",
     "unregister_planner": "mjx_radar.planners.base",
-    "register_tracker": "mjx_radar.simulation.filter_ops",
-    "unregister_tracker": "mjx_radar.simulation.filter_ops",
+    "register_tracker": "mjx_radar.env.filter_ops",
+    "unregister_tracker": "mjx_radar.env.filter_ops",
     "register_sensor": "mjx_radar.estimation.measurement",
     "unregister_sensor": "mjx_radar.estimation.measurement",
 }
@@ -80,4 +81,3 @@ __all__ = [
     "unregister_tracker",
     "validate",
 ]
-__version__ = "0.1.0"

@@ -166,14 +166,14 @@ PLANNERS = Registry(
     "planner",
     {"mppi": "mjx_radar.planners.mppi:MPPIPlanner", "hold": "mjx_radar.planners.mppi:HoldPlanner"},
 )
-#: trackers by name (:mod:`mjx_radar.simulation.filter_ops`): ``[filter] tracker``
+#: trackers by name (:mod:`mjx_radar.env.filter_ops`): ``[filter] tracker``
 TRACKERS = Registry(
     "tracker",
     {
-        "ckf": "mjx_radar.simulation.filter_ops:joint_ckf",
-        "bank": "mjx_radar.simulation.filter_ops:ckf_bank",
-        "imm": "mjx_radar.simulation.filter_ops:imm_bank",
-        "pda": "mjx_radar.simulation.filter_ops:pda_bank",
+        "ckf": "mjx_radar.env.filter_ops:joint_ckf",
+        "bank": "mjx_radar.env.filter_ops:ckf_bank",
+        "imm": "mjx_radar.env.filter_ops:imm_bank",
+        "pda": "mjx_radar.env.filter_ops:pda_bank",
     },
 )
 #: sensors (measurement models) by name (:mod:`mjx_radar.estimation.measurement`):

@@ -23,9 +23,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_timing import median_seconds  # noqa: E402
 
-from mjx_radar.config import RadarEquation  # noqa: E402
 from mjx_radar.estimation import ckf_sqrt, filter_bank, sensing  # noqa: E402
 from mjx_radar.physics import motion  # noqa: E402
+from mjx_radar.scenario.schema import RadarEquation  # noqa: E402
 
 N, M, DT = 3, 4, 0.025
 
@@ -83,8 +83,8 @@ def micro(batch: int, scan: int) -> list[tuple]:
 def loop(scenario: str, trials: int, steps: int, repeat: int) -> list[tuple]:
     """Compiles the four programs, then ``repeat`` interleaved rounds of warm runs
     (a shared host's load drifts: interleaving spreads it over the four); median sim_s."""
-    from mjx_radar.io.scenario import load_scenario
-    from mjx_radar.simulation import runner
+    from mjx_radar.engine import runner
+    from mjx_radar.scenario.reader import load_scenario
 
     sc = load_scenario(scenario)
     configs = [(st, fm) for st in ("joint", "per-target") for fm in ("covariance", "sqrt")]

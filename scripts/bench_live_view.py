@@ -48,8 +48,8 @@ def main() -> None:
     ap.add_argument("--client", choices=("http", "chromium", "none"), default="http")
     args = ap.parse_args()
 
-    from mjx_radar.io.scenario import load_with_overrides
-    from mjx_radar.simulation import compile_cache, runner
+    from mjx_radar.engine import compile_cache, runner
+    from mjx_radar.scenario.reader import load_with_overrides
     from mjx_radar.viz.live import LiveView
 
     compile_cache.enable()
@@ -94,8 +94,10 @@ def main() -> None:
                   flush=True)  # fmt: skip
     for what, d in (("sim wall", times), ("process CPU", cpus)):
         plain, view = statistics.median(d["plain"]), statistics.median(d["view"])
-        print(f"median {what}: plain {plain:.3f} s, view {view:.3f} s: overhead "
-              f"{100 * (view / plain - 1):+.1f} %")
+        print(
+            f"median {what}: plain {plain:.3f} s, view {view:.3f} s: overhead "
+            f"{100 * (view / plain - 1):+.1f} %"
+        )
     print(f"load average {os.getloadavg()[0]:.1f}")
 
 

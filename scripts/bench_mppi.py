@@ -33,11 +33,11 @@ import numpy as np
 
 from mjx_radar import precision
 from mjx_radar.control import mppi
-from mjx_radar.io.scenario import load_scenario
+from mjx_radar.env.placement import initial_conditions
+from mjx_radar.env.streams import trial_streams
 from mjx_radar.physics import plant as plant_module
 from mjx_radar.physics import rollout as physics
-from mjx_radar.simulation.placement import initial_conditions
-from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task import task as task_module
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build
@@ -56,6 +56,7 @@ def bench(s, method: str, calls: int, batch: int = 0) -> float:
     # batch > 0: that many independent calls vmapped (a study chunk's throughput)
     control = jax.jit(jax.vmap(one, (None, None, None, 0, 0)) if batch else one)
     u = jnp.zeros((s.mpc.horizon, 2 * n))
+
     def keys(i):
         return jax.random.split(jax.random.PRNGKey(i), batch) if batch else jax.random.PRNGKey(i)
 
@@ -112,8 +113,11 @@ def main() -> None:
     ap.add_argument("--calls", type=int, default=20)
     ap.add_argument("--batch", type=int, default=0, help="vmapped independent calls (0: one)")
     ap.add_argument("--profile", default="", help="write a perfetto trace of 3 calls here")
-    ap.add_argument("--step", default="fused",
-                    help="comma list of physics steps: fused (default), mjx (MJX's stages)")
+    ap.add_argument(
+        "--step",
+        default="fused",
+        help="comma list of physics steps: fused (default), mjx (MJX's stages)",
+    )
     ap.add_argument("--matmul-precision", choices=("pinned", "default"), default="pinned")
     ap.add_argument("--planner-precision", default=None, help="e.g. high, default")
     args = ap.parse_args()

@@ -18,9 +18,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.control import mppi
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation.placement import initial_conditions
-from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.env.placement import initial_conditions
+from mjx_radar.env.streams import trial_streams
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build
 

@@ -17,8 +17,8 @@ import jax.numpy as jnp
 from bench_timing import median_seconds  # scripts/, on the path when run
 
 from mjx_radar import physics
-from mjx_radar.config import RadarLimits
 from mjx_radar.physics.kinematics import unicycle_rollout
+from mjx_radar.scenario.schema import RadarLimits
 
 
 def main() -> None:

@@ -40,12 +40,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import RadarEquation
+from mjx_radar.engine import runner
+from mjx_radar.env import placement
+from mjx_radar.env.streams import trial_streams
 from mjx_radar.estimation import ckf, filter_bank, sensing
-from mjx_radar.io.scenario import scenario_from_dict
 from mjx_radar.physics import motion
-from mjx_radar.simulation import placement, runner
-from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.scenario.reader import scenario_from_dict
+from mjx_radar.scenario.schema import RadarEquation
 from mjx_radar.task import objective
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build

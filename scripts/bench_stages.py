@@ -2,7 +2,7 @@
 
 The runner compiles one ``step`` program per shape: a ``lax.scan`` over control periods,
 each the MPPI plan then ``control_every`` filter steps. Issue 27 asked whether compiling
-the two stages (:class:`mjx_radar.simulation.closed_loop.Stages`) as separate programs,
+the two stages (:class:`mjx_radar.env.closed_loop.Stages`) as separate programs,
 in parallel threads, driven by a host loop per control period, starts faster without
 slowing the simulation by more than 10 %. This measures, for one scenario and program
 kind, on a fresh compilation cache (one process per configuration, so no stage inherits
@@ -36,8 +36,8 @@ def _build(scenario_path: str, kind: str, batch: int, periods: int):
     import jax.numpy as jnp
 
     from mjx_radar import precision
-    from mjx_radar.io.scenario import load_scenario
-    from mjx_radar.simulation import closed_loop
+    from mjx_radar.env import closed_loop
+    from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.task.method import parse_method
     from mjx_radar.task.params import shape_key, task_params
     from mjx_radar.task.task import make_task
@@ -82,7 +82,7 @@ def measure(scenario: str, kind: str, batch: int, periods: int, steps: int, part
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar.simulation.programs import parallel
+    from mjx_radar.engine.programs import parallel
 
     fns, init, params, sc = _build(scenario, kind, batch, periods)
     out: dict = {}

@@ -59,8 +59,8 @@ import jax  # noqa: E402
 import numpy as np  # noqa: E402
 
 from mjx_radar import precision  # noqa: E402
-from mjx_radar.io.scenario import ScenarioError, load_scenario  # noqa: E402
-from mjx_radar.simulation import runner  # noqa: E402
+from mjx_radar.engine import runner  # noqa: E402
+from mjx_radar.scenario.reader import ScenarioError, load_scenario  # noqa: E402
 from mjx_radar.task.method import parse_method  # noqa: E402
 
 CONTINUOUS = ("rmse_pos", "crlb_pos", "nees")

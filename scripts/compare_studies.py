@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mjx_radar.io.results import METRIC_COLUMNS
+from mjx_radar.rundir.results import METRIC_COLUMNS
 
 KEYS = ["scenario", "method", "trial", "step"]
 

@@ -4,7 +4,7 @@
   rotated rectangles, L shapes, one courtyard block with a hole, one MultiPolygon)
   on a 100 m street grid (streets along x, y = 0, ±100, ±200, ±300 stay free),
   heights 8-45 m, in WGS84 lon/lat about ``ORIGIN`` (the inverse of
-  ``world.buildings.lonlat_to_local``, rounded to 1e-7 deg, ~1 cm).
+  ``scenario.buildings.lonlat_to_local``, rounded to 1e-7 deg, ~1 cm).
 * ``scenarios/maps/yard.pgm`` + ``yard.yaml``: a 128 x 128 ROS map_server
   occupancy grid at 2.5 m/cell (320 m square about the origin): container rows,
   an L-shaped warehouse, a round tank, a fence with gates, and a patch of unknown
@@ -26,8 +26,8 @@ ORIGIN = (11.5755, 48.1374)  # lon, lat [deg] of the town's local origin
 
 
 def local_to_lonlat(xy: np.ndarray) -> np.ndarray:
-    """Inverse of the first-order ENU map of ``world.buildings.lonlat_to_local``."""
-    from mjx_radar.world.buildings import WGS84_A, WGS84_E2
+    """Inverse of the first-order ENU map of ``scenario.buildings.lonlat_to_local``."""
+    from mjx_radar.scenario.buildings import WGS84_A, WGS84_E2
 
     lon0, lat0 = ORIGIN
     phi0 = math.radians(lat0)

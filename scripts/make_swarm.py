@@ -20,7 +20,7 @@ arguments give the same file bytes):
 * speed uniform in [10, 25] m/s, heading uniform in [-π, π), vz = 0.
 
 The radars are not fixed: each trial places them by the simulator's rejection rule
-(``mjx_radar.simulation.placement``), so the file sets ``n_radars`` and
+(``mjx_radar.env.placement``), so the file sets ``n_radars`` and
 ``placement_half_width`` only. Check a file with
 ``python -m mjx_radar validate scenarios/swarm_32r32t.toml``. Everything else takes the
 SPEC defaults (paper MPPI 200 × 5, horizon 15, 600 steps of 25 ms).
@@ -78,7 +78,7 @@ def swarm_toml(n_radars: int, n_targets: int, seed: int, half_width: float | Non
         "# random headings (issue 15). Generated, do not edit by hand:",
         f"#   {cmd}",
         "# Radars are placed per trial by the rejection rule (no `radars`); everything",
-        "# not listed takes the SPEC defaults (see mjx_radar/config.py).",
+        "# not listed takes the SPEC defaults (see mjx_radar/scenario/schema.py).",
         f'name = "{name}"',
         f'description = "{n_radars} radars, {n_targets} drones, random headings; {cmd}"',
         f"n_radars = {n_radars}",

@@ -1,6 +1,6 @@
-"""The memory estimate of ``simulation/resources.py`` against XLA's own numbers (issue 26).
+"""The memory estimate of ``engine/resources.py`` against XLA's own numbers (issue 26).
 
-Compiles the segment program of a scenario (``simulation.programs.compile_programs``,
+Compiles the segment program of a scenario (``engine.programs.compile_programs``,
 nothing is run) and prints one JSON line per scenario: the estimate's device terms,
 ``compiled.memory_analysis()`` of the step program (temporaries, arguments, outputs,
 donated aliases) and their ratio ``estimate / (temp + arg + out - alias)``::
@@ -30,8 +30,8 @@ def measure(path: str, trials: int, steps: int | None, structure, rollouts, full
     """Estimate and XLA's memory analysis of one scenario's step program."""
     import jax
 
-    from mjx_radar.io.scenario import load_with_overrides
-    from mjx_radar.simulation import programs, resources, runner
+    from mjx_radar.engine import programs, resources, runner
+    from mjx_radar.scenario.reader import load_with_overrides
 
     s, steps = load_with_overrides(path, rollouts, steps)
     if structure:

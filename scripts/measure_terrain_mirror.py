@@ -5,7 +5,7 @@ paper_4r4t (DDR-SFIM) on flat ground vs the same scenario on a gentle undulating
 heights without masking lines of sight (``visible_pairs`` is printed to check that).
 Mirror: a target's estimate on the other side of the ground plane than its truth
 (``z_hat * z < 0``) for >= 40 consecutive filter steps (1 s), as the lost-track
-detector defines it (simulation/track_health.py); with terrain the radars are no
+detector defines it (env/track_health.py); with terrain the radars are no
 longer coplanar, so the mirror of the range geometry is no longer z -> -z.
 
 Usage: ``python scripts/measure_terrain_mirror.py [TRIALS] [STEPS] [ROLLOUTS]``
@@ -56,11 +56,14 @@ def main(trials: int, steps: int, rollouts: str) -> None:
             m = run.metrics
             last = m[m.step == m.step.max()]
             z = np.asarray(run.arrays["radar"])[..., 2]
-            print(f"{s.name}: trials {trials}, mirror {mirror_trials(run).mean():.3f}, "
-                  f"lost at last step {last.lost.mean():.3f}, ever lost "
-                  f"{m.groupby('trial').lost.max().mean():.3f}, rmse_pos median "
-                  f"{m.rmse_pos.median():.2f} m, visible_pairs min {m.visible_pairs.min()}, "
-                  f"radar z {z.min():.1f}..{z.max():.1f} m", flush=True)
+            print(
+                f"{s.name}: trials {trials}, mirror {mirror_trials(run).mean():.3f}, "
+                f"lost at last step {last.lost.mean():.3f}, ever lost "
+                f"{m.groupby('trial').lost.max().mean():.3f}, rmse_pos median "
+                f"{m.rmse_pos.median():.2f} m, visible_pairs min {m.visible_pairs.min()}, "
+                f"radar z {z.min():.1f}..{z.max():.1f} m",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -11,9 +11,9 @@ import argparse
 import jax
 from bench_timing import median_seconds  # scripts/, on the path when run
 
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation.placement import initial_conditions
-from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.env.placement import initial_conditions
+from mjx_radar.env.streams import trial_streams
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task import objective
 from mjx_radar.task.costs import Horizon, information, radar_radar, radar_target
 from mjx_radar.task.task import build

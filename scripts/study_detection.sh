@@ -14,7 +14,7 @@ extra=()
 [[ -n ${STEPS:-} ]] && extra+=(--steps "$STEPS")
 [[ -n ${ROLLOUTS:-} ]] && extra+=(--rollouts "$ROLLOUTS")
 mkdir -p "$out/scenarios"
-src=$("$py" -c 'from mjx_radar.io.scenario import resolve_path; print(resolve_path("clutter_3r4t"))')
+src=$("$py" -c 'from mjx_radar.scenario.reader import resolve_path; print(resolve_path("clutter_3r4t"))')
 cp "$src" "$out/scenarios/clutter_3r4t.toml"
 sed -e 's/^name = "clutter_3r4t"/name = "clutter_3r4t_pd_blind"/' \
     -e 's/^planner = true .*/planner = false/' "$src" > "$out/scenarios/clutter_3r4t_pd_blind.toml"

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from mjx_radar.io.scenario import load_scenario
+from mjx_radar.scenario.reader import load_scenario
 
 
 @pytest.fixture

@@ -16,12 +16,12 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import mjx_radar
-from mjx_radar.config import Scenario
 from mjx_radar.errors import InputError
-from mjx_radar.io import bundle
 from mjx_radar.io.checks import Rows, Rule
-from mjx_radar.io.scenario import config_fields, load_scenario, toml_name
-from mjx_radar.io.scenario_edit import scenario_to_dict
+from mjx_radar.scenario import bundle
+from mjx_radar.scenario.edit import scenario_to_dict
+from mjx_radar.scenario.reader import config_fields, load_scenario, toml_name
+from mjx_radar.scenario.schema import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -199,7 +199,7 @@ def test_simulate_equals_cli(tmp_path):
            "--seed", "3", "--method", "ccr-sfim", "--out", str(out),
            "--cache-dir", str(cache)]  # fmt: skip
     subprocess.run(cmd, check=True, capture_output=True, cwd=tmp_path)
-    from mjx_radar.simulation import compile_cache
+    from mjx_radar.engine import compile_cache
 
     compile_cache.enable(cache)  # the same XLA programs, from the CLI's cache
     try:

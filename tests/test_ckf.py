@@ -10,9 +10,9 @@ import scipy.stats
 from filterpy.kalman import CubatureKalmanFilter
 from filterpy.kalman.CubatureKalmanFilter import spherical_radial_sigmas
 
-from mjx_radar.config import RadarEquation
 from mjx_radar.estimation import ckf, linalg, sensing
 from mjx_radar.physics import motion
+from mjx_radar.scenario.schema import RadarEquation
 
 DT, SIGMA_W2, P0 = 0.025, 10.0, 50.0
 SCENARIOS = {  # SPEC §2: (n_radars, target rows [x y z vx vy vz])

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
-from mjx_radar.config import RadarEquation
+from mjx_radar.env.track_health import min_pivot
 from mjx_radar.estimation import ckf, ckf_sqrt, filter_bank, ground_prior, measurement, sensing
 from mjx_radar.physics import motion
-from mjx_radar.simulation.track_health import min_pivot
+from mjx_radar.scenario.schema import RadarEquation
 
 DT = 0.025
 TOL = 1e-11  # relative, float64 (module docstring)
@@ -254,7 +254,7 @@ def test_float32_ill_conditioned_sqrt_stays_positive_definite():
 
 def test_form_option_and_dispatch():
     from mjx_radar.io.checks import ScenarioError
-    from mjx_radar.io.scenario import scenario_from_dict
+    from mjx_radar.scenario.reader import scenario_from_dict
 
     good = {"name": "t", "n_radars": 2, "targets": [[0.0, 0.0, 55.0, 20.0, 10.0, 0.0]]}
     assert scenario_from_dict(good).filter.form == "covariance"
@@ -269,14 +269,14 @@ def test_form_option_and_dispatch():
 
 @pytest.fixture(scope="module")
 def smoke():
-    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.scenario.reader import load_scenario
 
     sc = load_scenario("smoke")  # analytic planner rollouts: compiles faster (test_closed_loop)
     return dataclasses.replace(sc, mpc=dataclasses.replace(sc.mpc, rollout="analytic"))
 
 
 def _runs(sc, structure, methods=("stationary", "ddr-sfim")):
-    from mjx_radar.simulation import runner
+    from mjx_radar.engine import runner
 
     out = {}
     for form in ("covariance", "sqrt"):

@@ -24,8 +24,8 @@ import pytest
 
 from mjx_radar.cli import run as run_cmd
 from mjx_radar.cli.main import main
-from mjx_radar.io import results
-from mjx_radar.simulation import resources
+from mjx_radar.engine import resources
+from mjx_radar.rundir import results
 
 REPO = Path(__file__).resolve().parent.parent
 SMOKE = str(REPO / "scenarios" / "smoke.toml")
@@ -91,7 +91,7 @@ def test_million_samples_refused(tmp_path):
 def test_estimate_sampling_term_matches_xla():
     # XLA asked for 24001128036752 bytes for the planner of smoke with S = 10^6 (the run
     # before this check existed): the S x S proposal noise, 24 bytes per entry.
-    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.scenario.reader import load_scenario
 
     s = load_scenario(SMOKE)
     s = dataclasses.replace(s, mppi=dataclasses.replace(s.mppi, samples=10**6))
@@ -101,7 +101,7 @@ def test_estimate_sampling_term_matches_xla():
 
 def test_check_refuses_when_memory_is_short(monkeypatch):
     from mjx_radar.errors import InputError
-    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.scenario.reader import load_scenario
 
     s = load_scenario(SMOKE)
     monkeypatch.setattr(resources, "host_available", lambda: 2**30)  # 1 GiB
@@ -206,7 +206,7 @@ def _fake_trials(scenario, method, seed, trials, steps, full=True, progress=None
 
 @pytest.mark.parametrize("keep", [False, True])
 def test_diverged_trials_exit_1_with_results(tmp_path, capsys, monkeypatch, keep):
-    from mjx_radar.simulation import runner
+    from mjx_radar.engine import runner
 
     monkeypatch.setattr(runner, "run_trials", _fake_trials)
     out = tmp_path / "run"
@@ -257,8 +257,8 @@ def _mesh_scenario(root: Path) -> Path:
 
 
 def test_bundle_is_self_contained(tmp_path, monkeypatch):
-    from mjx_radar.io.bundle import bundle_scenario, dumps
-    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.scenario.bundle import bundle_scenario, dumps
+    from mjx_radar.scenario.reader import load_scenario
 
     src = _mesh_scenario(tmp_path / "src")
     written = bundle_scenario(src, tmp_path / "run")
@@ -279,7 +279,7 @@ def test_bundle_is_self_contained(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_run_dir_moves(tmp_path, monkeypatch):
-    from mjx_radar.io.scenario import load_scenario
+    from mjx_radar.scenario.reader import load_scenario
 
     src = _mesh_scenario(tmp_path / "src")
     proc = _cli("run", str(src), "--out", str(tmp_path / "run"), *FAST, timeout=600)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from mjx_radar import METHODS
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import runner
+from mjx_radar.engine import runner
+from mjx_radar.scenario.reader import load_scenario
 
 STEPS = 80  # 2 s: the first second is excluded from the keep-out checks
 TRIALS = 2

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
+from mjx_radar.engine import runner
 from mjx_radar.estimation import clutter, detection, pda
-from mjx_radar.simulation import runner
 
 STEPS = 40
 TRIALS = np.arange(4)
@@ -36,7 +36,8 @@ def test_clutter_counts_are_poisson_within_the_window(tiny):
     import jax
 
     z, valid, count = jax.vmap(lambda k: clutter.sample_clutter(k, p, 2, 8, 1))(
-        jax.random.split(jax.random.PRNGKey(0), 4000))
+        jax.random.split(jax.random.PRNGKey(0), 4000)
+    )
     lam = 0.002 * 500.0
     c = np.asarray(count)
     assert abs(c.mean() - lam) < 4 * math.sqrt(lam / c.size)

@@ -7,11 +7,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import DetectionConfig
+from mjx_radar.engine import runner
 from mjx_radar.estimation import detection
-from mjx_radar.io import results
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.simulation import runner
+from mjx_radar.rundir import results
+from mjx_radar.scenario.schema import DetectionConfig
 
 STEPS = 40  # ten control periods of the tiny scenario
 TRIALS = np.arange(4)

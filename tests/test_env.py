@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 
 import mjx_radar
-from mjx_radar.env import Observation, RadarEnv, make
+from mjx_radar.env import Observation, RadarEnv, closed_loop, make, runner
+from mjx_radar.env.streams import streams_of
 from mjx_radar.planners import PLANNERS, Planner, register_planner, unregister_planner
-from mjx_radar.simulation import closed_loop, runner
-from mjx_radar.simulation.streams import streams_of
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import make_task

@@ -5,9 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import RadarEquation
 from mjx_radar.estimation import ckf, filter_bank, sensing
 from mjx_radar.physics import motion
+from mjx_radar.scenario.schema import RadarEquation
 
 N, M = 3, 4
 

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import measurement
-from mjx_radar.io.scenario import scenario_from_dict
+from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import task_params
 
@@ -96,7 +96,7 @@ def test_overlay_draws_fixed_sites_waypoints_and_leaves_out_absent_drones():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mjx_radar.config import TargetMotion
+    from mjx_radar.scenario.schema import TargetMotion
     from mjx_radar.viz import overlays
 
     s = scenario_from_dict(BASE).replace(target_motion=(
@@ -138,11 +138,13 @@ def test_detection_snr_is_per_radar_in_a_mixed_fleet():
     from mjx_radar.estimation import detection
 
     s = mjx_radar.load_scenario("mixed_6r4t").replace(
-        detection={"model": "swerling1", "gain_db": 10.0})
+        detection={"model": "swerling1", "gain_db": 10.0}
+    )
     k = np.asarray(detection.detection_params(s).k_snr)
     m = s.n_targets
     want = [10.0 ** ((-15.0 + 10.0) / 10.0) / m * 1500.0**4] * 2 + [
-        10.0 ** ((s.radar_eq.snr_db + 10.0) / 10.0) / m * s.radar_eq.r_ref**4] * 4
+        10.0 ** ((s.radar_eq.snr_db + 10.0) / 10.0) / m * s.radar_eq.r_ref**4
+    ] * 4
     assert k.shape == (6, 1)
     np.testing.assert_allclose(k[:, 0], want, rtol=1e-6)
     d2 = np.full((6, m), 400.0**2)

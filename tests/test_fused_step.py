@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from mjx_radar import physics
-from mjx_radar.config import RadarLimits
 from mjx_radar.physics import fused_step
 from mjx_radar.physics.kinematics import unicycle_rollout
 from mjx_radar.physics.scene import build_scene
+from mjx_radar.scenario.schema import RadarLimits
 
 LIM = RadarLimits()
 
@@ -72,7 +72,7 @@ def test_plants_use_the_fused_step_where_fast():
 
 
 def _one_box():
-    from mjx_radar.config import Obstacle
+    from mjx_radar.scenario.schema import Obstacle
 
     return (Obstacle(kind="box", pos=(0.0, 50.0, 2.0), size=(5.0, 5.0, 2.0)),)
 

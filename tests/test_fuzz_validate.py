@@ -20,7 +20,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mjx_radar.io.scenario import ScenarioError, load_scenario, scenario_from_dict
+from mjx_radar.scenario.reader import ScenarioError, load_scenario, scenario_from_dict
 
 CORPUS = sorted((Path(__file__).parent / "bad_inputs").glob("*.toml"))
 GOOD = {

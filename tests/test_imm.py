@@ -12,8 +12,8 @@ import pytest
 
 from mjx_radar.estimation import filter_bank, imm
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.io.scenario import load_scenario
 from mjx_radar.physics import motion
+from mjx_radar.scenario.reader import load_scenario
 
 DT = 0.1
 
@@ -179,7 +179,7 @@ def test_appearing_targets_restart_their_modes():
     estimate and uniform probabilities; the other drones' modes are untouched."""
     import dataclasses
 
-    from mjx_radar.simulation import filter_ops
+    from mjx_radar.env import filter_ops
     from mjx_radar.task.task import build
 
     s = load_scenario("waypoints_3r4t")
@@ -221,7 +221,7 @@ def test_closed_loop_waypoints_imm_tracks(method):
     (measured: 61 -> 0.3 m^2 with DDR-SFIM)."""
     import dataclasses
 
-    from mjx_radar.simulation import runner
+    from mjx_radar.engine import runner
 
     s = load_scenario("waypoints_3r4t")
     late = dataclasses.replace(s.target_motion[3], appear=0.5)

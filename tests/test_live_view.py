@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import mjx_radar
+from mjx_radar.engine import runner
 from mjx_radar.errors import InputError
-from mjx_radar.simulation import runner
 from mjx_radar.viz import live as live_mod
 from mjx_radar.viz.viewer_traces import LAYERS
 
@@ -76,8 +76,9 @@ def test_scene_advances_between_two_reads(live_run, tiny):
                                    atol=1e-3)  # fmt: skip
         np.testing.assert_allclose(layer(s, "radars"), res["radar"][1, k - 1, :, :3], atol=1e-3)
         m = tiny.n_targets
-        np.testing.assert_allclose(layer(s, "estimates"),
-                                   res["mean"][1, k - 1].reshape(m, 6)[:, :3], atol=1e-3)
+        np.testing.assert_allclose(
+            layer(s, "estimates"), res["mean"][1, k - 1].reshape(m, 6)[:, :3], atol=1e-3
+        )
         np.testing.assert_allclose(s["rmse"], res["rmse_pos"][1, :k], rtol=1e-4, atol=1e-4)
         # 2-sigma axes: the x segment of drone 0 spans mean_x -/+ 2 sqrt(P_xx)
         axes = layer(s, "2-sigma axes")
@@ -240,22 +241,29 @@ def test_live_counts_panel_and_absent_drones():
     """clutter_3r4t with drone 1 leaving at 0.05 s: the live figure has the counts panel, a
     state's counts are the records' own, and the absent drone is not drawn (no closed loop:
     synthetic records, as the runner hands them over)."""
-    from mjx_radar.simulation.closed_loop import ControlRecord, StepRecord
+    from mjx_radar.env.closed_loop import ControlRecord, StepRecord
 
     s = mjx_radar.load_scenario("clutter_3r4t").replace(
-        target_motion=[{"target": 1, "model": "cv", "leave": 0.05}])
+        target_motion=[{"target": 1, "model": "cv", "leave": 0.05}]
+    )
     t, p, n, m, h = 1, 8, 3, 4, 4
     rng = np.random.default_rng(0)
-    count = {c: rng.integers(0, 12, (t, p)).astype(np.int32)
-             for c in ("detections", "visible_pairs", "false_alarms", "targets_present")}
+    count = {
+        c: rng.integers(0, 12, (t, p)).astype(np.int32)
+        for c in ("detections", "visible_pairs", "false_alarms", "targets_present")
+    }
     zero = np.zeros((t, p), np.float32)
     target = rng.normal(0, 50, (t, p, m, 6)).astype(np.float32)
     steps = StepRecord(**{f: zero for f in StepRecord._fields} | count | dict(
         target=target, mean=target.reshape(t, p, 6 * m), radar=np.zeros((t, p, n, 6), np.float32),
         cov_diag=np.ones((t, p, 6 * m), np.float32)))  # fmt: skip
-    controls = ControlRecord(np.zeros((t, 1, n, 2), np.float32), np.zeros((t, 1, h, n, 2),
-                             np.float32), np.zeros((t, 1, 2, h, n, 2), np.float32),
-                             np.ones((t, 1, 2), np.float32), np.zeros((t, 1, 2), np.float32))
+    controls = ControlRecord(
+        np.zeros((t, 1, n, 2), np.float32),
+        np.zeros((t, 1, h, n, 2), np.float32),
+        np.zeros((t, 1, 2, h, n, 2), np.float32),
+        np.ones((t, 1, 2), np.float32),
+        np.zeros((t, 1, 2), np.float32),
+    )
     view = live_mod.LiveView(s, [0], 80, port=0)
     try:
         fig = get_json(view.url + "figure.json")

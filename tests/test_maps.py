@@ -11,11 +11,12 @@ import pytest
 import shapely
 from PIL import Image
 
-from mjx_radar.config import RadarLimits
-from mjx_radar.io.scenario import ScenarioError, load_scenario
 from mjx_radar.physics import plant as physics
-from mjx_radar.world import buildings, obstacles, occupancy
-from mjx_radar.world.buildings import MapError
+from mjx_radar.scenario import buildings, occupancy
+from mjx_radar.scenario.buildings import MapError
+from mjx_radar.scenario.reader import ScenarioError, load_scenario
+from mjx_radar.scenario.schema import RadarLimits
+from mjx_radar.world import obstacles
 
 HEAD = """name = "t"
 n_radars = 2
@@ -300,7 +301,7 @@ def test_bad_occupancy_maps(tmp_path):
 
 
 def test_bundle_copies_map_files(tmp_path):
-    from mjx_radar.io.bundle import bundle_scenario
+    from mjx_radar.scenario.bundle import bundle_scenario
 
     root = Path(__file__).parent.parent / "scenarios"
     for name in ("town_4r4t", "yard_3r4t"):

@@ -7,9 +7,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import MeasurementConfig, RadarEquation, Scenario
 from mjx_radar.estimation import ckf, fisher, sensing
 from mjx_radar.estimation import measurement as me
+from mjx_radar.scenario.schema import MeasurementConfig, RadarEquation, Scenario
 
 RADARS = np.array([[0.0, 0.0, 0.0], [200.0, 100.0, 0.0], [-150.0, 250.0, 0.0]])
 TARGETS = np.array([[10.0, 20.0, 50.0], [-300.0, 5.0, 60.0], [40.0, -80.0, 70.0], [5, 300, 45]])

@@ -10,8 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import MovingObstacle, Obstacle
-from mjx_radar.io.scenario import ScenarioError, load_scenario
+from mjx_radar.scenario.reader import ScenarioError, load_scenario
+from mjx_radar.scenario.schema import MovingObstacle, Obstacle
 from mjx_radar.task import costs
 from mjx_radar.world import moving
 from mjx_radar.world.obstacles import footprint_sdf
@@ -55,7 +55,7 @@ def test_pose_closed_form_loop_and_stop():
 
 
 def test_keep_out_cost_follows_path(tiny):
-    from mjx_radar.simulation import presence
+    from mjx_radar.env import presence
     from mjx_radar.task.task import build
 
     task, params = build(_scenario(tiny, CAR))
@@ -116,8 +116,8 @@ def test_plan_visibility_uses_horizon_times(tiny):
 
 def test_truth_plant_stops_radar_at_vehicle():
     """A radar driving at full throttle into a slow vehicle's side stops at its hull."""
-    from mjx_radar.config import RadarLimits
     from mjx_radar.physics import moving_bodies, plant
+    from mjx_radar.scenario.schema import RadarLimits
     from mjx_radar.world.obstacles import HULL_RADIUS, contact_envelope
 
     van = MovingObstacle(kind="box", size=(4.0, 1.5), height=2.5,
@@ -148,7 +148,7 @@ def test_truth_plant_stops_radar_at_vehicle():
 
 def test_scenario_table_and_town(tiny):
     s = _scenario(tiny, CAR, POLE)
-    from mjx_radar.io import scenario_edit
+    from mjx_radar.scenario import edit as scenario_edit
 
     assert scenario_edit.validate(s) == s  # the TOML rules round trip
     with pytest.raises(ScenarioError, match=r"moving_obstacles\[0\]\.size"):

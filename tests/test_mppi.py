@@ -7,8 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import MPPIConfig
 from mjx_radar.control.mppi import MPPIResult, optimize, sample_weights, shift
+from mjx_radar.scenario.schema import MPPIConfig
 
 H, D = 15, 6
 LOWER = -jnp.array([3.0, 2.0, 3.0, 2.0, 3.0, 2.0])

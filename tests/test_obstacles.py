@@ -8,11 +8,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import MPCConfig, Obstacle, RadarLimits, Scenario
 from mjx_radar.estimation import ckf, fisher
 from mjx_radar.estimation.sensing import ddr_noise_cov, range_model
-from mjx_radar.io.scenario import ScenarioError, load_scenario, scenario_from_dict
 from mjx_radar.physics import plant as physics
+from mjx_radar.scenario.reader import ScenarioError, load_scenario, scenario_from_dict
+from mjx_radar.scenario.schema import MPCConfig, Obstacle, RadarLimits, Scenario
 from mjx_radar.task import objective
 from mjx_radar.task.task import build
 from mjx_radar.world import obstacles, occlusion
@@ -113,7 +113,7 @@ def _inside(obs, p):
         depth = np.min(np.asarray(obs.size) - np.abs(q), axis=-1)
     else:  # convex mesh: inside every face plane (normals from the triangles)
         v = obstacles.mesh_vertices(obs)
-        tri = v[obstacles._mesh_local(obs.path, obs.scale)[1]]
+        tri = v[obstacles.mesh_local(obs.path, obs.scale)[1]]
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         n /= np.linalg.norm(n, axis=-1, keepdims=True)
         depth = np.min(np.einsum("fi,fi->f", n, tri[:, 0]) - p @ n.T, axis=-1)

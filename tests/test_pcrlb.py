@@ -5,9 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import RadarEquation
 from mjx_radar.estimation import fisher, linalg, pcrlb, sensing
 from mjx_radar.physics import motion
+from mjx_radar.scenario.schema import RadarEquation
 
 C4 = sensing.noise_constant(RadarEquation(), 4)
 DT, SIGMA_W2, P0 = 0.025, 10.0, 50.0

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from mjx_radar import physics
-from mjx_radar.config import RadarLimits, Scenario
 from mjx_radar.physics.kinematics import cv_step, sample_white_accel, unicycle_rollout
+from mjx_radar.scenario.schema import RadarLimits, Scenario
 
 LIM = RadarLimits()
 

@@ -9,9 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.io.scenario import scenario_from_dict
-from mjx_radar.simulation import placement
-from mjx_radar.simulation.streams import trial_streams
+from mjx_radar.env import placement
+from mjx_radar.env.streams import trial_streams
+from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task.method import METHODS
 from mjx_radar.task.params import shape_key, task_params
 

@@ -5,9 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from mjx_radar.env import closed_loop
 from mjx_radar.estimation import ckf
-from mjx_radar.io.scenario import scenario_from_dict
-from mjx_radar.simulation import closed_loop
+from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task import objective
 from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build, process_noise

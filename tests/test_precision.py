@@ -18,8 +18,9 @@ from jax.sharding import NamedSharding
 import mjx_radar.ckf
 import mjx_radar.fisher
 from mjx_radar import precision
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import closed_loop, programs
+from mjx_radar.engine import programs
+from mjx_radar.env import closed_loop
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task import objective
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params

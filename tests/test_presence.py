@@ -8,8 +8,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import TargetMotion
-from mjx_radar.simulation import presence
+from mjx_radar.env import presence
+from mjx_radar.scenario.schema import TargetMotion
 from mjx_radar.task import costs
 from mjx_radar.task.costs import Horizon
 from mjx_radar.task.task import build

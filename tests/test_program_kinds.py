@@ -5,8 +5,9 @@ import dataclasses
 import jax
 import pytest
 
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import closed_loop, runner
+from mjx_radar.engine import runner
+from mjx_radar.env import closed_loop
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task.method import METHODS, parse_method
 from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import make_task

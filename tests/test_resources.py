@@ -1,4 +1,4 @@
-"""The memory estimate (``simulation/resources.py``) against XLA's own figures (issue 26).
+"""The memory estimate (``engine/resources.py``) against XLA's own figures (issue 26).
 
 XLA's figure for a program is ``compiled.memory_analysis()`` of the segment ("step")
 program: temporaries + arguments + outputs - donated aliases (what XLA allocates at
@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mjx_radar.engine import resources
 from mjx_radar.errors import InputError
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import resources
+from mjx_radar.scenario.reader import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 LO, HI = resources.MEASURED_FACTOR
@@ -123,7 +123,7 @@ def test_estimate_within_factor_of_bundled_scenarios(platform, case):
 @pytest.mark.parametrize("structure", ["joint", pytest.param("per-target", marks=pytest.mark.slow)])
 def test_estimate_matches_a_fresh_compilation(tmp_path, structure):
     """Compiles a small shape's step program now and compares with XLA's figure."""
-    from mjx_radar.simulation import programs, runner
+    from mjx_radar.engine import programs, runner
 
     s = _shape(tmp_path, 4, 2, 64, 8, structure, "analytic", False, False)
     progs, _ = programs.compile_programs(s, 2, runner.segment_periods(s, 8), full=True)

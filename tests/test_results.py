@@ -1,4 +1,4 @@
-"""Result files (mjx_radar.io.results, mjx_radar.io.atomic): schema, round trips, atomicity."""
+"""Result files (mjx_radar.rundir.results, mjx_radar.io.atomic): schema, round trips, atomicity."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 
 from mjx_radar.errors import InputError
-from mjx_radar.io import atomic, results
+from mjx_radar.io import atomic
+from mjx_radar.rundir import results
 
 T, K = 3, 4
 KEYS = ("scenario", "method", "trial", "step", "time_s")

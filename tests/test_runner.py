@@ -1,13 +1,13 @@
-"""Batched trials on the host (simulation.runner, simulation.programs)."""
+"""Batched trials on the host (engine.runner, engine.programs)."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from mjx_radar.io import results
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import compile_cache, programs, runner
+from mjx_radar.engine import compile_cache, programs, runner
+from mjx_radar.rundir import results
+from mjx_radar.scenario.reader import load_scenario
 
 STEPS = 8  # two control periods of 4 filter steps
 TRIALS = np.arange(2)

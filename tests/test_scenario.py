@@ -11,15 +11,23 @@ from pathlib import Path
 
 import pytest
 
-from mjx_radar.config import RadarEquation, Scenario
-from mjx_radar.io import plausibility, scenario_doc
 from mjx_radar.io.checks import ScenarioError, choice, flag, rule, table
-from mjx_radar.io.scenario import _read, load_scenario, scenario_from_dict
+from mjx_radar.scenario import doc as scenario_doc
+from mjx_radar.scenario import plausibility
+from mjx_radar.scenario.reader import _read, load_scenario, scenario_from_dict
+from mjx_radar.scenario.schema import RadarEquation, Scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 GOOD = {"name": "t", "n_radars": 2, "targets": [[0.0, 0.0, 55.0, 20.0, 10.0, 0.0]]}
-BUNDLED = ["smoke", "paper_3r4t", "paper_4r4t", "paper_6r3t", "city_4r4t", "forest_4r4t",
-           "clutter_3r4t"]
+BUNDLED = [
+    "smoke",
+    "paper_3r4t",
+    "paper_4r4t",
+    "paper_6r3t",
+    "city_4r4t",
+    "forest_4r4t",
+    "clutter_3r4t",
+]
 
 
 def _err(raw, base=Path(".")) -> str:
@@ -41,7 +49,7 @@ def test_bundled_name_resolves_from_any_folder(tmp_path, monkeypatch):
 
 
 def test_new_table_needs_only_a_dataclass():
-    # A config with a new table and fields is validated without touching io.scenario.
+    # A config with a new table and fields is validated without touching scenario.reader.
     @dataclass(frozen=True)
     class Filter:
         q: float = field(default=1.0, metadata=rule(float, 0.0, 10.0, lo_open=True))
@@ -162,7 +170,7 @@ def test_docs_field_table_in_sync(tmp_path):
     doc = ROOT / "docs" / "scenarios.md"
     copy = tmp_path / "scenarios.md"
     copy.write_text(doc.read_text())
-    assert not scenario_doc.sync(copy), "run: python -m mjx_radar.io.scenario_doc docs/scenarios.md"
+    assert not scenario_doc.sync(copy), "run: python -m mjx_radar.scenario.doc docs/scenarios.md"
     for f in dataclasses.fields(Scenario):
         if f.metadata:
             assert f.metadata.get("toml", f.name) in doc.read_text()
@@ -171,7 +179,7 @@ def test_docs_field_table_in_sync(tmp_path):
 def test_pure_validation_imports_no_jax():
     mods = "('jax', 'mujoco', 'numpy', 'trimesh')"
     code = (
-        "import sys; from mjx_radar.io.scenario import load_scenario; "
+        "import sys; from mjx_radar.scenario.reader import load_scenario; "
         "load_scenario('scenarios/paper_4r4t.toml'); "
         f"print(sorted(m for m in {mods} if m in sys.modules))"
     )

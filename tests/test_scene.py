@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from mjx_radar.config import Obstacle
 from mjx_radar.physics.scene import (
     CONTACT_SOLIMP,
     DRONE_ACTUATORS,
@@ -15,6 +14,7 @@ from mjx_radar.physics.scene import (
     SOLVER_ITERATIONS,
     build_scene,
 )
+from mjx_radar.scenario.schema import Obstacle
 
 DT = 0.025
 RADAR_MASS, RADAR_IZZ, DRONE_MASS = 2000.0, 2500.0, 2.0  # models/radar.xml, drone.xml

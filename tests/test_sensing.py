@@ -8,8 +8,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import RadarEquation
 from mjx_radar.estimation import sensing
+from mjx_radar.scenario.schema import RadarEquation
 
 P = RadarEquation()
 RADARS = np.array([[-200.0, 150.0, 0.0], [300.0, -50.0, 0.0], [10.0, -350.0, 0.0]])

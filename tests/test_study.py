@@ -59,8 +59,8 @@ def test_trial_independent_of_batch_mates(study_dir):
     """Trial i's numbers do not depend on the other trials of its (same-size) batch."""
     import dataclasses
 
-    from mjx_radar.io.scenario import load_scenario
-    from mjx_radar.simulation import runner
+    from mjx_radar.engine import runner
+    from mjx_radar.scenario.reader import load_scenario
 
     s = load_scenario("smoke")
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout="analytic"))

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from mjx_radar.io.scenario import load_scenario
-from mjx_radar.simulation import placement
+from mjx_radar.env import placement
+from mjx_radar.scenario.reader import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 SIZES = (8, 16, 32)

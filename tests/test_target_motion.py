@@ -17,10 +17,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.config import TargetMotion
-from mjx_radar.io.scenario import load_scenario
 from mjx_radar.physics import kinematics, target_motion
 from mjx_radar.physics import plant as physics
+from mjx_radar.scenario.reader import load_scenario
+from mjx_radar.scenario.schema import TargetMotion
 
 DT = 0.025
 
@@ -87,7 +87,7 @@ def test_waypoints_pass_within_capture_in_order_with_bounded_acceleration():
     assert all(d[:, j].min() <= cap for j in range(3))
     assert first[0] < first[1] < first[2]  # in order
     # the loop brings it back to the first waypoint after the last
-    assert (d[first[2]:, 0] <= cap).any()
+    assert (d[first[2] :, 0] <= cap).any()
     acc = np.linalg.norm(np.diff(traj[:, 3:], axis=0), axis=-1) / DT
     assert acc.max() <= 8.0 * (1 + 1e-3)
     speed = np.linalg.norm(traj[:, 3:], axis=-1)
@@ -104,7 +104,7 @@ def test_track_reproduces_its_csv(tmp_path):
     toml = tmp_path / "s.toml"
     toml.write_text(
         'name = "trk"\nn_radars = 2\ntargets = [[1, 1, 50, 0, 0, 0], [0, 50, 55, 20, 10, 0]]\n'
-        "[timing]\nsteps = 240\n[[target_motion]]\ntarget = 0\nmodel = \"track\"\n"
+        '[timing]\nsteps = 240\n[[target_motion]]\ntarget = 0\nmodel = "track"\n'
         'path = "track.csv"\n'
     )
     s = load_scenario(toml)
@@ -168,7 +168,7 @@ def test_presence_and_appearance_times():
 
 
 def test_track_csv_is_bundled_and_scenarios_round_trip(tmp_path):
-    from mjx_radar.io.bundle import bundle_scenario
+    from mjx_radar.scenario.bundle import bundle_scenario
 
     (tmp_path / "tracks").mkdir()
     (tmp_path / "tracks" / "d.csv").write_text("0,0,0,50\n2,40,0,50\n")
@@ -176,7 +176,7 @@ def test_track_csv_is_bundled_and_scenarios_round_trip(tmp_path):
     src.write_text(
         'name = "trk"\nn_radars = 2\ntargets = [[1, 1, 50, 0, 0, 0], [0, 50, 55, 20, 10, 0]]\n'
         '[[target_motion]]\ntarget = 0\nmodel = "track"\npath = "tracks/d.csv"  # recorded\n'
-        "[[target_motion]]\ntarget = 1\nmodel = \"waypoints\"\nwaypoints = [[0, 0, 60], "
+        '[[target_motion]]\ntarget = 1\nmodel = "waypoints"\nwaypoints = [[0, 0, 60], '
         "[100, 0, 60]]\nloop = true\nappear = 1.5\n"
     )
     s = load_scenario(src)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from mjx_radar.estimation import fisher, sensing
-from mjx_radar.io.scenario import scenario_from_dict
 from mjx_radar.physics import motion
+from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task import objective
 from mjx_radar.task.method import METHODS, Method, parse_method
 from mjx_radar.task.params import shape_key, task_params

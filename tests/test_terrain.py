@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import RegularGridInterpolator
 
-from mjx_radar.config import RadarLimits, Terrain
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.io.scenario import load_scenario, scenario_from_dict
+from mjx_radar.scenario.reader import load_scenario, scenario_from_dict
+from mjx_radar.scenario.schema import RadarLimits, Terrain
 from mjx_radar.world import terrain, terrain_los
 
 HILLS = Path(__file__).resolve().parents[1] / "scenarios" / "hills_4r4t.toml"
@@ -224,7 +224,7 @@ def test_bad_terrain_files_give_one_line(tmp_path, array, kw, expect):
 def test_png_terrain_and_colour_image(tmp_path):
     from PIL import Image
 
-    codes = (np.arange(12, dtype=np.uint16).reshape(3, 4) * 5000)
+    codes = np.arange(12, dtype=np.uint16).reshape(3, 4) * 5000
     Image.fromarray(codes).save(tmp_path / "g.png")
     t = Terrain(path=str(tmp_path / "g.png"), height_scale=65.535)
     np.testing.assert_allclose(terrain.node_heights(t), codes[::-1] / 1000.0)  # north row first
@@ -248,7 +248,7 @@ def test_targets_below_ground_refused_or_lifted(tmp_path):
 
 
 def test_python_api_round_trip_and_bundle(tmp_path):
-    from mjx_radar.io.bundle import bundle_scenario
+    from mjx_radar.scenario.bundle import bundle_scenario
 
     s = load_scenario(HILLS)
     assert s.terrain is not None and s.terrain.path.endswith("hills.png")
@@ -306,15 +306,16 @@ def test_planner_rollouts_and_terms_know_the_terrain():
 
 def test_placement_stands_on_gentle_ground():
     """Random placement on hills_4r4t: z = ground + antenna, no start on a steep flank."""
-    from mjx_radar.simulation.placement import place_radars
-    from mjx_radar.simulation.streams import trial_streams
+    from mjx_radar.env.placement import place_radars
+    from mjx_radar.env.streams import trial_streams
     from mjx_radar.task.method import METHODS
     from mjx_radar.task.params import shape_key, task_params
 
     s = load_scenario(HILLS)
     shape, params = shape_key(s), task_params(s, METHODS["stationary"])
-    place = jax.jit(jax.vmap(lambda t: place_radars(shape, params,
-                                                    trial_streams(params.seed, t).placement)))
+    place = jax.jit(
+        jax.vmap(lambda t: place_radars(shape, params, trial_streams(params.seed, t).placement))
+    )
     states, ok = (np.asarray(a) for a in place(jnp.arange(32)))
     assert ok.all()
     xy = states[..., :2].astype(float)

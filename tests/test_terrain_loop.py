@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mjx_radar.io.scenario import load_scenario
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.world import terrain
 
 pytestmark = pytest.mark.slow

@@ -1,6 +1,6 @@
 """The offline HTML viewer (``mjx-radar view``, ``Run.view``) on synthetic run directories.
 
-The run directories are written by :func:`mjx_radar.io.run_writer.write_run` from
+The run directories are written by :func:`mjx_radar.rundir.writer.write_run` from
 synthetic arrays of the right schema (no closed loop is compiled), for the bundled
 ``smoke`` scenario and, for the sizes, ``paper_3r4t`` (600 steps).
 """
@@ -18,8 +18,8 @@ import pytest
 
 import mjx_radar
 from mjx_radar.errors import InputError
-from mjx_radar.io.results import METRIC_COLUMNS
-from mjx_radar.io.run_writer import write_run
+from mjx_radar.rundir.results import METRIC_COLUMNS
+from mjx_radar.rundir.writer import write_run
 from mjx_radar.viz import viewer
 from mjx_radar.viz.viewer_traces import LAYERS
 
@@ -28,7 +28,7 @@ CHROMIUM = Path("/usr/bin/chromium")
 
 
 def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0, radar_z=None) -> Path:
-    """A run directory of synthetic arrays (schema of io.results) for ``scenario``
+    """A run directory of synthetic arrays (schema of rundir.results) for ``scenario``
     (position and velocity variances ``var``; radar z 1 m, or ``radar_z(xy [..., 2])``);
     the count metrics are random integers, ``targets_present`` the scenario's presence."""
     s = scenario
@@ -290,8 +290,12 @@ def test_fixed_sites_drawn_apart(tmp_path):
     traces = {d.name: d for d in fig.data}
     assert traces["fixed sites"].marker.symbol == "cross" != traces["radars"].marker.symbol
     assert traces["fixed sites"].showlegend is not False
-    smoke_fig, _ = viewer.build_figure(viewer.load_run(synthetic_run(
-        tmp_path / "smoke", mjx_radar.load_scenario("smoke"), steps=40)), max_frames=3)
+    smoke_fig, _ = viewer.build_figure(
+        viewer.load_run(
+            synthetic_run(tmp_path / "smoke", mjx_radar.load_scenario("smoke"), steps=40)
+        ),
+        max_frames=3,
+    )
     assert {d.name: d for d in smoke_fig.data}["fixed sites"].showlegend is False
 
 
@@ -316,8 +320,9 @@ def test_absent_drones_hidden_and_counts_panel(tmp_path):
         np.testing.assert_allclose(truth[here[i]], rd.arrays["target"][0, k, here[i], :3],
                                    atol=1e-3)  # fmt: skip
         los = _xyz(f["lines of sight"]).reshape(s.n_radars, s.n_targets, 3, 3)
-        np.testing.assert_array_equal(np.isfinite(los[:, :, 1]).all(-1),
-                                      np.broadcast_to(here[i], (s.n_radars, s.n_targets)))
+        np.testing.assert_array_equal(
+            np.isfinite(los[:, :, 1]).all(-1), np.broadcast_to(here[i], (s.n_radars, s.n_targets))
+        )
         assert np.isfinite(_xyz(f["2-sigma axes"])).all(1).sum() == 3 * 2 * here[i].sum()
     import pandas as pd
 
@@ -348,14 +353,22 @@ def test_detection_counts_equal_the_metrics(tmp_path):
             assert tr.xaxis == "x2" and tr.yaxis == "y2" and tr.visible == (j == 0)
         for i, k in enumerate(ks):
             cursor = _frame(fig, f"t{j}:{i}")["current step (counts)"]
-            np.testing.assert_array_equal(cursor.y, rows[["detections", "visible_pairs",
-                                                          "false_alarms"]].to_numpy()[k])
+            np.testing.assert_array_equal(
+                cursor.y, rows[["detections", "visible_pairs", "false_alarms"]].to_numpy()[k]
+            )
     menu = [m for m in fig.layout.updatemenus if m.name == "trial"][0]
     shown = dict(zip(menu.buttons[1].args[1], menu.buttons[1].args[0]["visible"], strict=True))
     idx = [i for i, t in enumerate(fig.data) if t.name in names]
     assert [shown[i] for i in idx] == [False] * 3 + [True] * 3  # trial 1 shows its own
-    assert "xaxis2" not in viewer.build_figure(viewer.load_run(synthetic_run(
-        tmp_path / "smoke", mjx_radar.load_scenario("smoke"), steps=40)), max_frames=3)[0].layout
+    assert (
+        "xaxis2"
+        not in viewer.build_figure(
+            viewer.load_run(
+                synthetic_run(tmp_path / "smoke", mjx_radar.load_scenario("smoke"), steps=40)
+            ),
+            max_frames=3,
+        )[0].layout
+    )
 
 
 def test_waypoint_routes(tmp_path):

@@ -83,7 +83,7 @@ def project(state: dict, points: np.ndarray) -> np.ndarray:
 def colour_near(rgb: np.ndarray, xy, colour, r: int = 3, tol: int = 60) -> int:
     """Pixels within ``r`` of ``xy`` whose colour is within ``tol`` (L1) of ``colour``."""
     x, y = (int(round(v)) for v in xy)
-    patch = rgb[max(y - r, 0):y + r + 1, max(x - r, 0):x + r + 1].astype(int)
+    patch = rgb[max(y - r, 0) : y + r + 1, max(x - r, 0) : x + r + 1].astype(int)
     return int((np.abs(patch - np.asarray(colour)).sum(-1) < tol).sum())
 
 
@@ -103,8 +103,9 @@ def check_scene(page, rd, trial: int, ks) -> None:
     np.testing.assert_allclose(np.array(data["drones (truth)"]).T, drone, atol=1e-3)
     np.testing.assert_allclose(np.array(data["estimates"]).T, mean, atol=1e-3)
     axes = np.array(data["2-sigma axes"]).T.reshape(-1, 3, 3)[:, :2]  # [M * 3, end, xyz]
-    np.testing.assert_allclose(axes[0], mean[0] + [[-2 * sigma[0, 0], 0, 0],
-                                                   [2 * sigma[0, 0], 0, 0]], atol=1e-2)
+    np.testing.assert_allclose(
+        axes[0], mean[0] + [[-2 * sigma[0, 0], 0, 0], [2 * sigma[0, 0], 0, 0]], atol=1e-2
+    )
     rgb = page.screenshot(type="png")
     rgb = iio.imread(rgb)[..., :3]
     for i, xy in enumerate(project(state, radar)):
@@ -143,19 +144,26 @@ def test_offline_html_slider_and_trial_menu(browser, run_dir, tmp_path):
     page.route("**/*", route)
     page.on("request", lambda r: requests.append(r.url))
     page.goto(html.resolve().as_uri())
-    page.wait_for_function("() => { var g = document.querySelector('.js-plotly-plot');"
-                           " return g && g._fullLayout && g._fullLayout.scene._scene; }")
-    page.evaluate("(h) => Plotly.restyle(document.querySelector('.js-plotly-plot'), "
-                  "{visible: false}, document.querySelector('.js-plotly-plot').data"
-                  ".map((d, i) => h.includes(d.name) ? i : -1).filter(i => i >= 0))", list(HIDE))
+    page.wait_for_function(
+        "() => { var g = document.querySelector('.js-plotly-plot');"
+        " return g && g._fullLayout && g._fullLayout.scene._scene; }"
+    )
+    page.evaluate(
+        "(h) => Plotly.restyle(document.querySelector('.js-plotly-plot'), "
+        "{visible: false}, document.querySelector('.js-plotly-plot').data"
+        ".map((d, i) => h.includes(d.name) ? i : -1).filter(i => i >= 0))",
+        list(HIDE),
+    )
 
     def click_slider(trial: int, i: int) -> None:
         rail = page.locator(".slider-rail-rect").bounding_box()  # only the visible one is drawn
         # plotly insets the steps by the grip's half width (10 px) on both ends
         x = rail["x"] + 10 + (rail["width"] - 20) * i / (FRAMES - 1)
         page.mouse.click(x, rail["y"] + rail["height"] / 2)
-        page.wait_for_function(f"() => document.querySelector('.js-plotly-plot')"
-                               f"._fullLayout.sliders[{trial}].active === {i}")
+        page.wait_for_function(
+            f"() => document.querySelector('.js-plotly-plot')"
+            f"._fullLayout.sliders[{trial}].active === {i}"
+        )
         page.wait_for_timeout(300)  # the frame's redraw
 
     assert page.evaluate(STATE_JS)["active"][0] == 0
@@ -163,8 +171,9 @@ def test_offline_html_slider_and_trial_menu(browser, run_dir, tmp_path):
     check_scene(page, rd, 0, ks)
     page.locator("g.updatemenu-header-group", has_text="trial 0").click()
     page.locator("g.updatemenu-dropdown-button", has_text="trial 1").click()
-    page.wait_for_function("() => document.querySelector('.js-plotly-plot')"
-                           "._fullLayout.sliders[1].visible")
+    page.wait_for_function(
+        "() => document.querySelector('.js-plotly-plot')._fullLayout.sliders[1].visible"
+    )
     page.wait_for_timeout(300)
     check_scene(page, rd, 1, ks)  # the other trial, at its first frame
     click_slider(1, 8)
@@ -176,7 +185,7 @@ def test_offline_html_slider_and_trial_menu(browser, run_dir, tmp_path):
 def _records(seg: int, t: int = 2, p: int = 4, m: int = 2, n: int = 2, h: int = 8, s: int = 8):
     """Synthetic ``(StepRecord, ControlRecord)`` of segment ``seg`` (numpy, ``[T, ...]``):
     drone j at x = k + 30 j, radar i at x = -50 + 60 i + k / 4 (k: filter step)."""
-    from mjx_radar.simulation.closed_loop import ControlRecord, StepRecord
+    from mjx_radar.env.closed_loop import ControlRecord, StepRecord
 
     k = seg * p + np.arange(1, p + 1, dtype=np.float32)[None, :, None]
     target = np.zeros((t, p, m, 6), np.float32)
@@ -246,11 +255,15 @@ def test_terrain_surface_renders(browser, tmp_path):
     page.set_default_timeout(15_000)
     try:
         page.goto(html.resolve().as_uri())
-        page.wait_for_function("() => { var g = document.querySelector('.js-plotly-plot');"
-                               " return g && g._fullLayout && g._fullLayout.scene._scene; }")
-        page.evaluate("() => { var g = document.querySelector('.js-plotly-plot');"
-                      " return Plotly.restyle(g, {visible: false}, g.data.map((d, i) => "
-                      "d.type === 'surface' ? -1 : i).filter(i => i >= 0)); }")
+        page.wait_for_function(
+            "() => { var g = document.querySelector('.js-plotly-plot');"
+            " return g && g._fullLayout && g._fullLayout.scene._scene; }"
+        )
+        page.evaluate(
+            "() => { var g = document.querySelector('.js-plotly-plot');"
+            " return Plotly.restyle(g, {visible: false}, g.data.map((d, i) => "
+            "d.type === 'surface' ? -1 : i).filter(i => i >= 0)); }"
+        )
         page.wait_for_timeout(500)
         state = page.evaluate(STATE_JS)
         shot = iio.imread(page.screenshot(type="png"))[..., :3].astype(int)

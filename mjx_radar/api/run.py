@@ -2,7 +2,7 @@
 
 ``simulate`` validates the scenario by the rules of a TOML file, checks that the
 radars can be placed and that the run fits in memory, and runs the same compiled
-program as ``mjx-radar run`` (:func:`mjx_radar.simulation.runner.run_trials`), so a
+program as ``mjx-radar run`` (:func:`mjx_radar.engine.runner.run_trials`), so a
 fixed seed gives the same numbers from either. A :class:`Run` holds the result:
 
 - ``metrics``: a pandas DataFrame with the columns of ``metrics.parquet``
@@ -40,8 +40,8 @@ class Run:
         trials: ``[T]`` trial indices.
         steps: filter steps K per trial.
         metrics: long-format table, one row per (trial, step): scenario, method, trial,
-            step, time_s and :data:`mjx_radar.io.results.METRIC_COLUMNS`.
-        arrays: the arrays of ``trajectories.npz`` (schema in :mod:`mjx_radar.io.results`).
+            step, time_s and :data:`mjx_radar.rundir.results.METRIC_COLUMNS`.
+        arrays: the arrays of ``trajectories.npz`` (schema in :mod:`mjx_radar.rundir.results`).
         meta: the contents of ``run.json``.
         path: the run directory it was saved to or loaded from (``None``: not saved).
     """
@@ -96,7 +96,7 @@ class Run:
         """
         from mjx_radar.io.atomic import create_dir
         from mjx_radar.io.lock import lock_dir
-        from mjx_radar.io.run_writer import write_run
+        from mjx_radar.rundir.writer import write_run
 
         if self._res is None:
             raise InputError("Run.save: this run was loaded from a directory; copy that instead")
@@ -237,8 +237,8 @@ def _simulate(req, progress: bool, view=(False, None)) -> Run:
     from tqdm import tqdm
 
     from mjx_radar.api import run_case
-    from mjx_radar.io import results
-    from mjx_radar.io.run_writer import TRAJECTORY_KEYS, run_meta
+    from mjx_radar.rundir import results
+    from mjx_radar.rundir.writer import TRAJECTORY_KEYS, run_meta
     from mjx_radar.viz import live as live_view
 
     s, ids, steps, method = req.scenario, req.trials, req.steps, req.method.name

@@ -100,9 +100,9 @@ def request(scenario, **options) -> RunRequest:
     Raises:
         ScenarioError: one line naming the option and its allowed values.
     """
-    from mjx_radar.io.scenario import load_scenario
-    from mjx_radar.io.scenario_edit import validate
     from mjx_radar.planners import PLANNERS
+    from mjx_radar.scenario.edit import validate
+    from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.task.method import parse_method
 
     unknown = sorted(set(options) - set(RUN_DEFAULTS))
@@ -148,7 +148,7 @@ def request(scenario, **options) -> RunRequest:
 def process_options(req: RunRequest) -> None:
     """The process-wide settings a run asks for: the persistent compilation cache and
     deterministic GPU kernels (XLA's flag must be set before JAX starts its backend)."""
-    from mjx_radar.simulation import compile_cache
+    from mjx_radar.engine import compile_cache
 
     if req.cache and not compile_cache.enabled():
         compile_cache.enable(req.cache_dir)
@@ -181,8 +181,8 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
     Raises:
         InputError: the radars cannot be placed or the run does not fit in memory.
     """
-    from mjx_radar.simulation import resources, runner
-    from mjx_radar.simulation.placement import check_placeable
+    from mjx_radar.engine import resources, runner
+    from mjx_radar.env.placement import check_placeable
 
     process_options(req)
     with precision_scope(req):

@@ -92,7 +92,7 @@ def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=N
         ...                             trials=4, chunk=2, out="studies/s")  # doctest: +SKIP
         >>> study.summary()[["scenario", "method", "median_rmse_pos"]]  # doctest: +SKIP
     """
-    from mjx_radar.io.scenario_edit import validate
+    from mjx_radar.scenario.edit import validate
     from mjx_radar.study import execute
     from mjx_radar.task.method import METHODS, normalise_methods
 

@@ -1,6 +1,6 @@
 """The trajectories of a run as an ``xarray.Dataset``: named dimensions and units.
 
-Built from the arrays of ``trajectories.npz`` (schema: :mod:`mjx_radar.io.results`).
+Built from the arrays of ``trajectories.npz`` (schema: :mod:`mjx_radar.rundir.results`).
 Dimensions: ``trial`` (trial index), ``step`` (filter step, coordinate ``time_s``),
 ``target`` (M), ``radar`` (N), ``state`` (``x y z vx vy vz``), ``radar_state``
 (``x y z theta v omega``), ``control_step`` (MPPI call, coordinate ``control_time_s``),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from mjx_radar.errors import InputError
-from mjx_radar.io.scenario import load_scenario, load_with_overrides  # noqa: F401
+from mjx_radar.scenario.reader import load_scenario, load_with_overrides  # noqa: F401
 from mjx_radar.task.method import METHODS
 
 
@@ -61,7 +61,7 @@ def seed(text: str) -> int:
 
 
 def check_placement(scenario, seed: int, trials: int) -> None:
-    from mjx_radar.simulation.placement import check_placeable
+    from mjx_radar.env.placement import check_placeable
 
     try:
         check_placeable(scenario, seed, trials)

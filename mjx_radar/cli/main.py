@@ -70,7 +70,7 @@ def _quiet():
 
 
 def _version() -> str:
-    from mjx_radar import __version__
+    from mjx_radar.version import __version__
 
     return f"mjx-radar {__version__}"
 
@@ -97,7 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from mjx_radar.io.scenario import ScenarioError
+    from mjx_radar.scenario.reader import ScenarioError
     from mjx_radar.viz import gl
 
     # imageio-ffmpeg starts ffmpeg with preexec_fn=os.setpgrp, which runs Python in a
@@ -128,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
                 importlib.import_module("mujoco")
         gl.restore()
         if args.command in COMPILING and not args.no_cache:
-            from mjx_radar.simulation import compile_cache
+            from mjx_radar.engine import compile_cache
 
             compile_cache.enable(args.cache_dir)
         return int(args.handler(args) or 0)

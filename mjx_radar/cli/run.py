@@ -5,7 +5,7 @@ the scenario and options, that ``--out`` can be created and written (a probe fil
 that no other process is writing there (it holds ``--out``'s lock until it is done:
 :mod:`mjx_radar.io.lock`; ``--force`` does not override a live writer), that it does
 not hold a complete run (unless ``--force``), that the radars can be placed, and
-that the run fits in memory (:mod:`mjx_radar.simulation.resources`).
+that the run fits in memory (:mod:`mjx_radar.engine.resources`).
 The simulation runs in a worker thread so Ctrl-C is honoured at once, even in the
 middle of a long compilation: one line, exit 130, no result file. Results are
 written atomically, ``run.json`` last; an interrupted write removes what it wrote.
@@ -147,7 +147,7 @@ def simulate(fn):
         except BaseException as err:  # re-raised in the main thread
             box["error"] = err
 
-    from mjx_radar.simulation.programs import compile_thread
+    from mjx_radar.engine.programs import compile_thread
 
     worker = compile_thread(work, name="closed-loop")
     worker.start()
@@ -185,7 +185,7 @@ def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
 
 def main(args) -> int:
     from mjx_radar.api import run_case
-    from mjx_radar.simulation import resources
+    from mjx_radar.engine import resources
 
     req = run_case.request(
         args.scenario, method=args.method, planner=args.planner, trials=args.trials,
@@ -286,9 +286,9 @@ def _run(req, live=None):
 
 
 def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
-    """Writes the run directory (:func:`mjx_radar.io.run_writer.write_run`)."""
-    from mjx_radar.io.run_writer import write_run
-    from mjx_radar.io.scenario import resolve_path
+    """Writes the run directory (:func:`mjx_radar.rundir.writer.write_run`)."""
+    from mjx_radar.rundir.writer import write_run
+    from mjx_radar.scenario.reader import resolve_path
 
     write_run(
         out, s, args.method, seed_, trials, steps, res, source=resolve_path(args.scenario),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from mjx_radar.cli.args import check_placement
-from mjx_radar.io.scenario import load_scenario
+from mjx_radar.scenario.reader import load_scenario
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -14,7 +14,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args) -> int:
     s = load_scenario(args.scenario)
-    if not s.radar_init:  # fixed starts are checked by the loader (io.plausibility)
+    if not s.radar_init:  # fixed starts are checked by the loader (scenario.plausibility)
         check_placement(s, s.seed, 1)
     print(
         f"ok: {s.name}: {s.n_radars} radars, {s.n_targets} targets, {s.timing.steps} steps "

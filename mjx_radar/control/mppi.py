@@ -45,8 +45,8 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-from mjx_radar.config import MPPIConfig
 from mjx_radar.control.shrinkage import ESTIMATORS
+from mjx_radar.scenario.schema import MPPIConfig
 
 CostFn = Callable[[Array], tuple[Array, Any]]
 

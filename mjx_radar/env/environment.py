@@ -24,13 +24,13 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar import precision
+from mjx_radar.env import filter_ops, placement, presence, track_health
+from mjx_radar.env.period import make_filter_step
 from mjx_radar.env.state import LoopState, State
+from mjx_radar.env.streams import streams_of, trial_key
 from mjx_radar.estimation import ckf_sqrt, linalg
 from mjx_radar.physics import plant as physics
 from mjx_radar.planners.base import Observation
-from mjx_radar.simulation import filter_ops, placement, presence, track_health
-from mjx_radar.simulation.period import make_filter_step
-from mjx_radar.simulation.streams import streams_of, trial_key
 from mjx_radar.task import objective
 from mjx_radar.task.planner import control_box
 
@@ -223,7 +223,7 @@ def make(scenario, method="ddr-sfim", seed: int | None = None, steps: int | None
     from mjx_radar.task.task import make_task
 
     if isinstance(scenario, str):
-        from mjx_radar.io.scenario import load_scenario
+        from mjx_radar.scenario.reader import load_scenario
 
         scenario = load_scenario(scenario)
     method = parse_method(method)

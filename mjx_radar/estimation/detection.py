@@ -24,7 +24,7 @@ over the SNR that calibrates the range noise (coherent integration of a dwell);
 
 Draws: pair (n, m) at scan k is detected iff ``U_nmk < Pd_nm`` with
 ``U ~ Uniform[0, 1)`` from the trial's detection stream
-(:func:`mjx_radar.simulation.streams.detection_streams`), so ``Pd = 1`` detects
+(:func:`mjx_radar.env.streams.detection_streams`), so ``Pd = 1`` detects
 every pair and the filter sees exactly the paper's measurements.
 """
 
@@ -108,7 +108,7 @@ def detection_params(scenario, dtype=None) -> DetectionParams:
     dt = dtype or jnp.result_type(float)
     k = snr_constant(scenario.radar_eq, scenario.n_targets, det.gain_db)
     if any(ov.radar_eq for ov in scenario.radar_override):  # a mixed fleet: k_snr [N, 1]
-        from mjx_radar.io.scenario_fleet import radar_equation
+        from mjx_radar.scenario.fleet import radar_equation
 
         k = np.array([[snr_constant(radar_equation(scenario, i), scenario.n_targets,
                                     det.gain_db)] for i in range(scenario.n_radars)])  # fmt: skip

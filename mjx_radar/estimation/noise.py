@@ -21,8 +21,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import MeasurementConfig, RadarEquation, Scenario
 from mjx_radar.estimation import sensing
+from mjx_radar.scenario.schema import MeasurementConfig, RadarEquation, Scenario
 
 
 class NoiseParams(NamedTuple):
@@ -50,7 +50,7 @@ def noise_params(source, n_targets=None, r2t=None, measurement=None, dtype=None)
         ``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, ``SNR_ref = 10^(snr_db/10) / M``.
     """
     if isinstance(source, Scenario) and any(ov.radar_eq for ov in source.radar_override):
-        from mjx_radar.io.scenario_fleet import radar_equation
+        from mjx_radar.scenario.fleet import radar_equation
 
         each = [noise_params(radar_equation(source, i), source.n_targets, source.mpc.r2t,
                              source.measurement, dtype)

@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import RadarEquation
+from mjx_radar.scenario.schema import RadarEquation
 
 __all__ = [
     "SPEED_OF_LIGHT",

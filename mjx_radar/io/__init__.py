@@ -1,1 +1,1 @@
-"""Scenario files in, result files out."""
+"""Leaf file helpers: atomic writes, directory locks, value rules, terrain files, cache folders."""

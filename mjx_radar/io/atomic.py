@@ -14,7 +14,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from mjx_radar.errors import InputError
+from mjx_radar.io.checks import InputError
 
 
 def atomic_write(path: str | Path, write: Callable[[str], object], *, keep_suffix=False) -> None:

@@ -6,8 +6,8 @@ to the parameters they govern, as field metadata of the config dataclasses::
 
     snr_db: float = field(default=-20.0, metadata=rule(float, -200, 200, doc="SNR at r_ref"))
 
-and :mod:`mjx_radar.io.scenario` derives every table's checks from them, so a new
-parameter is one edit in :mod:`mjx_radar.config`. The helpers :func:`rule`,
+and :mod:`mjx_radar.scenario.reader` derives every table's checks from them, so a new
+parameter is one edit in :mod:`mjx_radar.scenario.schema`. The helpers :func:`rule`,
 :func:`flag`, :func:`choice`, :func:`table` and :func:`rows` build that metadata.
 Old-style tuples ``(type, low, high, low_inclusive)``, ``(bool,)`` and
 ``(str, choices)`` are still accepted by :func:`check`.
@@ -24,6 +24,10 @@ INF = math.inf
 
 class ScenarioError(ValueError):
     """A scenario file or value is invalid. ``str(err)`` is one line naming the field."""
+
+
+class InputError(Exception):
+    """Bad user input (an option, a path, a damaged file): one line, exit code 2."""
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ import errno
 import os
 from pathlib import Path
 
-from mjx_radar.errors import InputError
+from mjx_radar.io.checks import InputError
 
 LOCK_NAME = ".lock"
 

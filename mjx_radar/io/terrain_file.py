@@ -71,7 +71,7 @@ def _line(err: Exception) -> str:
 
 @functools.cache
 def node_heights(terrain) -> np.ndarray:
-    """``[ny, nx]`` heights [m] of a :class:`~mjx_radar.config.Terrain` (host, cached)."""
+    """``[ny, nx]`` heights [m] of a :class:`~mjx_radar.scenario.schema.Terrain` (host, cached)."""
     return terrain.height_scale * read_heights(terrain.path)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.config import RadarLimits
+from mjx_radar.scenario.schema import RadarLimits
 
 
 def control_bounds(limits: RadarLimits) -> tuple[jax.Array, jax.Array]:

@@ -31,12 +31,12 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from mjx_radar.config import RadarLimits, Scenario
 from mjx_radar.physics import contacts, fused_step, mjx_module
 from mjx_radar.physics.contacts import obstacle_contacts  # noqa: F401 (plant API)
 from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
 from mjx_radar.physics.terrain_follow import slope_stop
+from mjx_radar.scenario.schema import RadarLimits, Scenario
 from mjx_radar.world import terrain as ground
 from mjx_radar.world.obstacles import contact_envelope
 
@@ -94,7 +94,7 @@ def make_plant(
 ) -> Plant:
     """Builds the scene and puts it on the device (see :func:`scene.build_scene`).
 
-    ``terrain`` (a :class:`~mjx_radar.config.Terrain`): the scene's ground becomes its
+    ``terrain`` (a :class:`~mjx_radar.scenario.schema.Terrain`): the scene's ground becomes its
     hfield and the radars follow the grid kinematically (module docstring). ``moving``:
     moving obstacles as mocap bodies (:mod:`~mjx_radar.physics.moving_bodies`).
     """
@@ -272,4 +272,3 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
     if idx.obstacle_geoms.size:
         data = contacts.contact_speed(plant, data, rc[:, 2])
     return data
-

@@ -12,7 +12,6 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.config import Scenario
 from mjx_radar.physics import fused_step
 from mjx_radar.physics.plant import (
     Plant,
@@ -26,6 +25,7 @@ from mjx_radar.physics.plant import (
     radar_state,
     step,
 )
+from mjx_radar.scenario.schema import Scenario
 from mjx_radar.world import terrain as ground
 
 ROLLOUT_UNROLL: int = 1

@@ -41,8 +41,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mjx_radar.config import Obstacle
 from mjx_radar.physics import moving_bodies as mb
+from mjx_radar.scenario.schema import Obstacle
 
 RADAR_ACTUATORS = ("speed", "turn", "drive", "lateral", "steer")
 CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
@@ -143,7 +143,7 @@ def build_scene(
         dt: physics timestep [s] = one Euler step of the unicycle / CV model.
         obstacles: static obstacles; contacts are enabled only if there are any.
         hull_margin: growth of each radar's collision sphere [m] (with obstacles only).
-        terrain: a :class:`~mjx_radar.config.Terrain`: the ground becomes its ``hfield``
+        terrain: a :class:`~mjx_radar.scenario.schema.Terrain`: the ground becomes its ``hfield``
             (no contacts: radars follow it kinematically, :func:`add_terrain`).
         radar_z_joint: give each radar an unactuated slide-z joint ``z`` (rendering on
             terrain writes the ground height there; the physics plants never set it).

@@ -34,7 +34,7 @@ Nominal paths:
   last segment's velocity after its end), ``V_k`` the central difference of ``P``.
 
 Presence (``appear <= t < leave``): an absent target gives no measurement, no planner
-cost and no error in the metrics (:mod:`mjx_radar.simulation.closed_loop`).
+cost and no error in the metrics (:mod:`mjx_radar.env.closed_loop`).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import Scenario, TargetMotion
+from mjx_radar.scenario.schema import Scenario, TargetMotion
 
 
 class MotionParams(NamedTuple):
@@ -262,4 +262,3 @@ def present(mp: MotionParams, t) -> jax.Array:
 def appears_between(mp: MotionParams, t0, t1) -> jax.Array:
     """[M] bool: targets absent at ``t0`` and present at ``t1`` (a track starts)."""
     return present(mp, t1) & ~present(mp, t0)
-

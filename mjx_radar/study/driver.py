@@ -3,7 +3,7 @@
 The trials ``0..T-1`` of every scenario x method are cut into *chunks* of ``chunk``
 trials (the last one padded by repeating its last trial; padding is dropped). A chunk
 is the unit of work and of the files: every device runs one chunk per call with the
-same per-device program (:func:`mjx_radar.simulation.runner.run_trials` over a mesh of
+same per-device program (:func:`mjx_radar.engine.runner.run_trials` over a mesh of
 the local devices), so a trial's numbers depend only on the configuration and the
 chunk size -- never on the number of devices, processes or shards, nor on where a
 run was cut. Work is split between workers (``jax.distributed`` processes or
@@ -77,7 +77,7 @@ class StudyTimes:
 
 def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precision="float32"):
     """Scenarios with the command-line overrides and the study configuration."""
-    from mjx_radar.io.scenario import load_with_overrides, resolve_path
+    from mjx_radar.scenario.reader import load_with_overrides, resolve_path
 
     methods = list(methods)
     for i, m in enumerate(methods):  # before anything runs: duplicates break consolidation
@@ -165,8 +165,8 @@ def rounds(todo: list[Chunk], n_dev: int) -> list[list[Chunk]]:
 
 def run_round(group: list[Chunk], chunk: int, n_dev: int, mesh, progress, times: StudyTimes):
     """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files."""
-    from mjx_radar.io import results
-    from mjx_radar.simulation import runner
+    from mjx_radar.engine import runner
+    from mjx_radar.rundir import results
 
     c0 = group[0]
     ids = []
@@ -201,7 +201,7 @@ def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:
 
 def start_manifest(out: Path, scenarios, config: dict, manifest: dict | None) -> dict:
     """Creates (or extends) ``manifest.json`` and the scenario copies."""
-    from mjx_radar.io import results
+    from mjx_radar.rundir import results
 
     if manifest is None:
         for s, src, _, _ in scenarios:
@@ -228,7 +228,7 @@ def remove_temporaries(chunks: list[Chunk]) -> None:
 
 def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices: str, n_dev: int):
     """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``."""
-    from mjx_radar.io import results
+    from mjx_radar.rundir import results
     from mjx_radar.study.metrics import lost_counts
 
     frame = consolidate([c.path for c in chunks], [e["name"] for e in config["scenarios"]])

@@ -126,12 +126,12 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
 def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     from tqdm import tqdm
 
-    from mjx_radar.simulation import resources, runner
+    from mjx_radar.engine import resources, runner
     from mjx_radar.study import driver
 
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining, joining)
-    from mjx_radar.simulation.placement import check_placeable
+    from mjx_radar.env.placement import check_placeable
 
     for s, _, _, sd in scenarios:
         try:

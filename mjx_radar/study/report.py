@@ -44,7 +44,7 @@ def write_report(d: Path) -> Path:
     Returns:
         The path of ``report.md``.
     """
-    from mjx_radar.io.results import atomic_write
+    from mjx_radar.rundir.results import atomic_write
 
     d = Path(d)
     if not (d / "study.json").is_file() or not (d / "metrics.parquet").is_file():
@@ -154,7 +154,7 @@ def _figures(d: Path, scen: str, steps: pd.DataFrame, frame: pd.DataFrame) -> li
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mjx_radar.io.results import atomic_write
+    from mjx_radar.rundir.results import atomic_write
 
     out = []
     sub = steps[steps["scenario"].astype(str) == scen]

@@ -20,8 +20,8 @@ from typing import Any, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import DetectionConfig, RadarEquation, Scenario
 from mjx_radar.estimation import detection, measurement
+from mjx_radar.scenario.schema import DetectionConfig, RadarEquation, Scenario
 from mjx_radar.task.method import Method, MethodFlags
 from mjx_radar.world.moving import moving_params
 
@@ -106,8 +106,11 @@ def shape_key(scenario: Scenario) -> Scenario:
     blank_eq = RadarEquation(**{f.name: None for f in dataclasses.fields(RadarEquation)})
     meas = dataclasses.replace(scenario.measurement, beamwidth_deg=None, monopulse_slope=None)
     det = dataclasses.replace(  # numbers are DetectionParams; switches (fixed_pd < 1) stay
-        scenario.detection, pfa=None, gain_db=None,  # gate_probability: the IRF table
-        clutter_range_min=None, clutter_range_max=None,
+        scenario.detection,
+        pfa=None,
+        gain_db=None,  # gate_probability: the IRF table
+        clutter_range_min=None,
+        clutter_range_max=None,
         clutter_density=float(scenario.detection.clutter),
     )
     moving = tuple(dataclasses.replace(  # paths, speeds, offsets: MovingParams (end: the

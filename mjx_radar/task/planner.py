@@ -31,7 +31,7 @@ def control_box(scenario) -> tuple[jax.Array, jax.Array]:
     lower, upper = kinematics.control_bounds(scenario.limits)
     lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
     if scenario.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
-        from mjx_radar.io.scenario_fleet import control_bounds
+        from mjx_radar.scenario.fleet import control_bounds
 
         upper = jnp.asarray(control_bounds(scenario), lower.dtype).T.reshape(-1)
         lower = -upper

@@ -17,11 +17,11 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.config import Scenario
 from mjx_radar.estimation import measurement
 from mjx_radar.physics import kinematics, motion
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics.rollout import radar_rollout
+from mjx_radar.scenario.schema import Scenario
 from mjx_radar.task import costs
 from mjx_radar.world import obstacles, occlusion, terrain
 

@@ -2,7 +2,7 @@
 
 A :class:`LiveView` is a small HTTP server (standard library ``http.server`` in a
 daemon thread, bound to ``127.0.0.1`` only) and the runner's per-segment callback
-(:func:`mjx_radar.simulation.runner.run_trials`'s ``on_segment``). Between two
+(:func:`mjx_radar.engine.runner.run_trials`'s ``on_segment``). Between two
 segments of control periods the runner hands the segment's records, already on the
 host, to :meth:`LiveView.update`, which only keeps references (no copy, no host round
 trip inside the compiled loop); the server thread turns the latest state into JSON
@@ -34,8 +34,18 @@ from mjx_radar.viz.viewer_counts import count_columns
 
 DEFAULT_PORT = 8765
 SAMPLES = 16  # MPPI samples drawn per state (the highest weights)
-STEP_KEYS = ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "detections",
-             "visible_pairs", "false_alarms", "targets_present")
+STEP_KEYS = (
+    "target",
+    "mean",
+    "cov_diag",
+    "radar",
+    "rmse_pos",
+    "crlb_pos",
+    "detections",
+    "visible_pairs",
+    "false_alarms",
+    "targets_present",
+)
 
 
 def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> int:
@@ -125,8 +135,8 @@ class LiveView:
             self._seq += 1
 
     def runner_options(self) -> dict:
-        """``periods`` and ``on_segment`` for :func:`~mjx_radar.simulation.runner.run_trials`."""
-        from mjx_radar.simulation.runner import segment_periods
+        """``periods`` and ``on_segment`` for :func:`~mjx_radar.engine.runner.run_trials`."""
+        from mjx_radar.engine.runner import segment_periods
 
         default = segment_periods(self.scenario, self.steps)
         return {"periods": live_periods(self.scenario, self.steps, default),

@@ -1,7 +1,7 @@
 """Loading a run directory (``mjx-radar run --out DIR``) for ``render`` and ``snapshot``.
 
 One entry point, :func:`load_run`, reads ``DIR/run.json``, ``DIR/trajectories.npz``
-(schema in :mod:`mjx_radar.io.results`) and the scenario. The scenario is
+(schema in :mod:`mjx_radar.rundir.results`) and the scenario. The scenario is
 ``DIR/scenario.toml``, its mesh paths resolved relative to ``DIR``; if that file is
 missing or does not load (e.g. a run made before meshes were copied into
 ``DIR/meshes``), the original scenario named in ``run.json`` is used
@@ -45,7 +45,7 @@ class RunDir:
     path: Path
     meta: dict
     arrays: dict  # name -> numpy array (ARRAYS keys at least)
-    scenario: object  # mjx_radar.config.Scenario
+    scenario: object  # mjx_radar.scenario.schema.Scenario
 
     @property
     def trials(self) -> int:
@@ -57,7 +57,7 @@ class Trial:
     """One trial of a run directory (numpy arrays; K filter steps, C control steps)."""
 
     meta: dict
-    scenario: object  # mjx_radar.config.Scenario
+    scenario: object  # mjx_radar.scenario.schema.Scenario
     target: np.ndarray  # [K, M, 6] true drone states
     mean: np.ndarray  # [K, M, 3] CKF position estimates
     sigma: np.ndarray  # [K, M, 3] CKF position standard deviations
@@ -137,7 +137,7 @@ def _read_arrays(path: Path) -> dict:
 
 
 def _read_scenario(run_dir: Path, meta: dict):
-    from mjx_radar.io.scenario import ScenarioError, load_scenario
+    from mjx_radar.scenario.reader import ScenarioError, load_scenario
 
     local = run_dir / "scenario.toml"
     try:

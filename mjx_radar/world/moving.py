@@ -1,6 +1,6 @@
 """Moving obstacles: vehicles driving polylines at constant speed (pure JAX, docs/maps.md).
 
-A ``[[moving_obstacles]]`` table (:class:`~mjx_radar.config.MovingObstacle`) gives a
+A ``[[moving_obstacles]]`` table (:class:`~mjx_radar.scenario.schema.MovingObstacle`) gives a
 footprint (box of half extents ``(l, w)`` or disc of radius r), a height h, a path of
 waypoints ``w_0 .. w_{P-1}``, a speed c, an arc-length offset s0 and ``end``. With the
 segments ``w_i -> w_{i+1}`` (``end = "loop"`` adds ``w_{P-1} -> w_0``), their lengths
@@ -27,6 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from mjx_radar.scenario.geometry import moving_footprint_sdf, segments
+from mjx_radar.scenario.geometry import moving_geometry as geometry
 from mjx_radar.world import occlusion
 
 _PAD = 1e30  # start arc length of a padding segment (never reached)
@@ -50,17 +52,6 @@ class MovingParams(NamedTuple):
     speed: Any
     offset: Any
     loop: Any
-
-
-def segments(path, loop: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """``(start [S, 2], unit [S, 2], seg_s [S], total)`` of one path (host, float64)."""
-    w = np.asarray(path, np.float64)
-    if loop:
-        w = np.concatenate([w, w[:1]])
-    d = np.diff(w, axis=0)
-    length = np.linalg.norm(d, axis=-1)
-    seg_s = np.concatenate([[0.0], np.cumsum(length)[:-1]])
-    return w[:-1], d / length[:, None], seg_s, float(length.sum())
 
 
 def moving_params(moving, dtype) -> MovingParams | None:
@@ -100,26 +91,10 @@ def pose(mp: MovingParams, t):
     return mp.start[k, i] + (s - mp.seg_s[k, i])[..., None] * u, u
 
 
-def geometry(moving) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(half [K, 2], cylinder [K] bool, height [K])`` of the footprints (host, static):
-    a box's half length and half width, a cylinder's radius twice."""
-    cyl = np.array([m.kind == "cylinder" for m in moving])
-    half = np.array([(m.size[0], m.size[0]) if c else m.size[:2] for m, c in zip(moving, cyl,
-                                                                                strict=True)])
-    return half.astype(float), cyl, np.array([m.height for m in moving], float)
-
-
 def footprint_sdf(moving, xy, unit, p):
     """Exact 2-D signed distance ``[..., K]`` of points ``p [..., 2]`` to each footprint
     at centres ``xy [..., K, 2]`` with long axes ``unit [..., K, 2]`` (negative inside)."""
-    half, cyl, _ = geometry(moving)
-    d = p[..., None, :] - xy  # [..., K, 2]
-    c, s = unit[..., 0], unit[..., 1]
-    q = jnp.abs(jnp.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], -1))
-    q = q - jnp.asarray(half, q.dtype)
-    box = jnp.linalg.norm(jnp.maximum(q, 0.0), axis=-1) + jnp.minimum(q.max(-1), 0.0)
-    disc = jnp.linalg.norm(d, axis=-1) - jnp.asarray(half[:, 0], d.dtype)
-    return jnp.where(jnp.asarray(cyl), disc, box)
+    return moving_footprint_sdf(moving, xy, unit, p, jnp)
 
 
 def plan_times(task, params, h: int):
@@ -153,8 +128,16 @@ def occluders_at(moving, xy, unit) -> occlusion.Occluders:
            jnp.asarray(height[box] / 2, xy.dtype))  # fmt: skip
     rows = [jnp.concatenate([g * a, (g * jnp.sum(a * ctr, -1) + e)[:, None]], -1)
             for a, e in zip((ax, ay, az), ext, strict=True) for g in (1.0, -1.0)]  # fmt: skip
-    cyls = jnp.stack([xy[cy, 0], xy[cy, 1], jnp.asarray(half[cy, 0], xy.dtype),
-                      jnp.zeros(len(cy), xy.dtype), jnp.asarray(height[cy], xy.dtype)], -1)
+    cyls = jnp.stack(
+        [
+            xy[cy, 0],
+            xy[cy, 1],
+            jnp.asarray(half[cy, 0], xy.dtype),
+            jnp.zeros(len(cy), xy.dtype),
+            jnp.asarray(height[cy], xy.dtype),
+        ],
+        -1,
+    )
     return occlusion.Occluders(jnp.stack(rows, 1).reshape(len(box), 6, 4), cyls)
 
 

@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.config import Obstacle
+from mjx_radar.scenario.schema import Obstacle
 from mjx_radar.world import terrain_los
 from mjx_radar.world.obstacles import mesh_vertices, rotation_z
 

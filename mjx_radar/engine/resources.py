@@ -1,0 +1,254 @@
+"""Memory and compile-time estimate of a batch of closed-loop trials, before compiling.
+
+A run far too large for the machine is refused in a second with a line naming what
+is too big and what to change, not after minutes of compilation with XLA's
+``RESOURCE_EXHAUSTED`` traceback. :func:`estimate` adds up the device arrays of one
+segment program (:mod:`mjx_radar.engine.memory_model`: planner expectations, MPPI
+sampling, MJX rollouts, filter; within a documented factor of XLA's own figures) and
+the host's kept trajectories: ``T·K·(3D + 6N + 22)`` plus ``T·C·(2N + 2HN + 64·HN +
+64)`` numbers for ``K`` filter steps and ``C`` control steps (controls, plans and the
+32 kept MPPI samples; 12 metrics per step for a study), counted twice (per-segment
+chunks and their concatenation).
+
+A run is refused when the estimate exceeds the memory available: ``MemAvailable``
+of ``/proc/meminfo`` (``os.sysconf`` elsewhere) on the CPU, where device and host
+share it, and ``bytes_limit - bytes_in_use`` of ``jax.Device.memory_stats()`` on a
+GPU. The refusal names the dominant term and the change that shrinks it
+(``[filter] structure = "per-target"`` for the joint filter's expectations, fewer
+samples, a shorter horizon, fewer trials or a smaller ``--chunk``).
+
+Compile size: the packed Fisher information unrolls a loop over the N radars, the
+CKF and the objective unroll over the M targets, and the MJX model holds N bodies
+and every obstacle geom, so the program grows with ``N``, ``M`` and ``N·M``. A
+program with ``N > 64``, ``M > 64``, ``N·M > 1024`` or more than 256 obstacles is
+flagged large ("compiling a program this large can take minutes"). The compile-time
+guess ``compile_s`` is a rough linear fit (tens of seconds for the bundled scenarios on a
+CPU host, on the high side); it is printed so a long compile does not look like a hang.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+from mjx_radar.engine import memory_model
+from mjx_radar.engine.memory_model import FLOAT, MEASURED_FACTOR, float_bytes  # noqa: F401
+from mjx_radar.errors import InputError
+from mjx_radar.scenario.schema import Scenario
+
+KEEP = 32  # MPPI samples kept per control step (closed_loop.N_KEEP_SAMPLES)
+LARGE_N, LARGE_M, LARGE_NM, LARGE_OBSTACLES = 64, 64, 1024, 256
+
+
+@dataclasses.dataclass(frozen=True)
+class Estimate:
+    """Estimated memory [bytes] per term, where it lives, and the compile size.
+
+    Attributes:
+        device: term -> bytes on the compute device (planner, rollouts, filter).
+        host: term -> bytes in host memory (trajectories).
+        device_available: free device memory [bytes], ``None`` if unknown.
+        host_available: free host memory [bytes], ``None`` if unknown.
+        shared: device and host are the same memory (JAX on the CPU).
+        compile_s: rough compile-time guess [s].
+        large: the program exceeds the compile-size thresholds.
+        summary: ``"N radars x M targets, R rollouts"``.
+    """
+
+    device: dict
+    host: dict
+    device_available: int | None
+    host_available: int | None
+    shared: bool
+    compile_s: float
+    large: bool
+    summary: str
+
+    @property
+    def device_bytes(self) -> int:
+        return sum(self.device.values())
+
+    @property
+    def host_bytes(self) -> int:
+        return sum(self.host.values())
+
+    def compile_line(self) -> str:
+        """One line announcing the compilation and its rough duration."""
+        return f"compiling ({self.summary}): this can take ~{self.compile_s:.0f} s"
+
+    def large_line(self) -> str:
+        """Why the program is large (meaningful when :attr:`large`)."""
+        return (
+            f"{self.summary}: compiling a program this large can take minutes "
+            f"(~{self.compile_s:.0f} s; large means N > {LARGE_N}, M > {LARGE_M}, "
+            f"N*M > {LARGE_NM} or > {LARGE_OBSTACLES} obstacles)"
+        )
+
+
+def device_terms(scenario: Scenario, trials: int, platform: str | None = None) -> dict:
+    """:func:`memory_model.device_terms` on ``platform`` (default: this process's device)."""
+    return memory_model.device_terms(scenario, trials, platform or _platform())
+
+
+def estimate(
+    scenario: Scenario, trials: int, steps: int, devices: int = 1, full: bool = True
+) -> Estimate:
+    """Memory and compile size of ``trials`` closed-loop trials of ``steps`` filter steps.
+
+    Args:
+        scenario: the scenario (sizes N, M, S, H, obstacles, rollout kind, filter).
+        trials: T, the batch size (split evenly over ``devices`` for the device terms).
+        steps: K filter steps.
+        devices: number of devices the batch is sharded over.
+        full: trajectories are kept (``run``); False: only the metrics (``study``).
+
+    Returns:
+        The :class:`Estimate` (available memory queried from this machine).
+    """
+    n, m = scenario.n_radars, scenario.n_targets
+    h, d = scenario.mpc.horizon, 6 * scenario.n_targets
+    c = steps // scenario.timing.control_every
+    n_obs = len(scenario.obstacles)
+    device = device_terms(scenario, -(-trials // max(1, devices)))
+    per_step = 3 * d + 6 * n + 22 if full else 12
+    per_control = 2 * n + 2 * h * n + 2 * KEEP * h * n + 2 * KEEP if full else 0
+    traj = 2 * trials * (steps * per_step + c * per_control) * float_bytes()
+    host = {"trajectories": traj}
+    shared, dev_avail = _device_available()
+    host_avail = host_available()
+    if shared:
+        dev_avail = host_avail
+    # Rough linear fit of the compile time [s] in the program's unrolled size. Measured on
+    # the 2-core CPU with the fused physics step (issue 27): smoke (size 4.2) 9.6-11.5 s,
+    # paper_3r4t (7.6) 10.4 s, swarm_8r8t (19.2) 13.0 s; MJX and analytic rollouts now
+    # compile alike (smoke analytic 13.0 s). The slope is kept from the earlier fit, so
+    # that large, unmeasured programs are not promised a short compile.
+    size = n + m + 0.05 * n * m + 0.25 * n_obs
+    compile_s = 8.0 + 2.0 * size
+    large = n > LARGE_N or m > LARGE_M or n * m > LARGE_NM or n_obs > LARGE_OBSTACLES
+    summary = f"{n} radars x {m} targets, {scenario.mpc.rollout} rollouts"
+    return Estimate(device, host, dev_avail, host_avail, shared, compile_s, large, summary)
+
+
+def check(
+    scenario: Scenario,
+    trials: int,
+    steps: int,
+    devices: int = 1,
+    *,
+    full: bool = True,
+    batch_option: str = "--trials",
+) -> Estimate:
+    """:func:`estimate`, refusing a run whose arrays cannot fit in the available memory.
+
+    Args:
+        scenario, trials, steps, devices, full: as :func:`estimate`.
+        batch_option: the option that sets the batch, named in the refusal
+            (``"--trials"``, or ``"--chunk"``: trials per device).
+
+    Raises:
+        InputError: one line naming the dominant term, its size, the memory available
+            and the change that shrinks it.
+    """
+    est = estimate(scenario, trials, steps, devices, full)
+    need = est.device | est.host if est.shared else est.device
+    avail = est.host_available if est.shared else est.device_available
+    where = "in host RAM" if est.shared else "on the device"
+    batch = f"{batch_option} {-(-trials // devices) if batch_option == '--chunk' else trials}"
+    _refuse_if(scenario, batch, need, avail, where)
+    if not est.shared:
+        _refuse_if(scenario, batch, est.host, est.host_available, "in host RAM")
+    return est
+
+
+def _refuse_if(scenario: Scenario, batch: str, need: dict, avail: int | None, where: str):
+    if avail is None or sum(need.values()) <= avail:
+        return
+    term = max(need, key=need.get)
+    what, fix = _advice(scenario, term, batch, need[term])
+    verb = "need" if term.endswith("s") else "needs"
+    raise InputError(
+        f"{scenario.name}: {what}: the {term} {verb} ~{fmt_bytes(need[term])} (all arrays "
+        f"~{fmt_bytes(sum(need.values()))}), this machine has {fmt_bytes(avail)} free {where}; "
+        f"{fix}"
+    )
+
+
+def _advice(scenario: Scenario, term: str, batch: str, size: int) -> tuple[str, str]:
+    """``(the settings behind term, the change that shrinks it)`` for a refusal line."""
+    s, h, m = scenario.mppi.samples, scenario.mpc.horizon, scenario.n_targets
+    joint = scenario.filter.structure == "joint"
+    per_target = 'set [filter] structure = "per-target"'
+    if term == "planner expectations":
+        p = 12 * m if joint else 12
+        what = (f"mppi.samples = {s}, mpc.horizon = {h}, {m} targets x {p} cubature points "
+                f"({scenario.filter.structure} filter), {batch}")  # fmt: skip
+        fix = f"reduce mppi.samples, mpc.horizon or {batch.split()[0]}"
+        if joint:
+            alt = dataclasses.replace(
+                scenario, filter=dataclasses.replace(scenario.filter, structure="per-target")
+            )
+            ratio = device_terms(alt, 1)[term] / device_terms(scenario, 1)[term]
+            fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
+        return what, fix
+    if term == "filter":
+        what = f"{m} targets ({scenario.filter.structure} filter), {batch}"
+        fix = f"reduce the number of targets or {batch.split()[0]}"
+        return what, f"{per_target} or {fix}" if joint else fix
+    if term == "line of sight":
+        return f"{len(scenario.obstacles)} obstacles, mppi.samples = {s}, {batch}", (
+            f"reduce mppi.samples, mpc.horizon, the obstacles or {batch.split()[0]}"
+        )
+    if term == "trajectories":
+        return batch, f"reduce --steps or {batch.split()[0]}"
+    fix = f"reduce mppi.samples or {batch.split()[0]}"
+    if term == "MJX rollouts":
+        fix += ", or use --rollouts analytic"
+    return f"mppi.samples = {s}, {batch}", fix
+
+
+def fmt_bytes(b: float) -> str:
+    """``1.5e9`` -> ``"1.4 GiB"``."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if b < 1024 or unit == "TiB":
+            return f"{b:.0f} {unit}" if unit == "B" else f"{b:.1f} {unit}"
+        b /= 1024
+    return f"{b:.1f} TiB"
+
+
+def host_available() -> int | None:
+    """Free host memory [bytes]: ``MemAvailable`` of ``/proc/meminfo``, else ``os.sysconf``."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _platform() -> str:
+    """``"cpu"`` or ``"gpu"`` (``jax.Device.platform``) of this process's first device."""
+    import jax
+
+    return jax.local_devices()[0].platform
+
+
+def _device_available() -> tuple[bool, int | None]:
+    """``(shared with the host, free bytes on this process's first device or None)``."""
+    import jax
+
+    dev = jax.local_devices()[0]  # under jax.distributed, devices()[0] is process 0's
+    if dev.platform == "cpu":
+        return True, None
+    try:
+        stats = dev.memory_stats() or {}
+    except Exception:  # backends without memory statistics
+        return False, None
+    if "bytes_limit" not in stats:
+        return False, None
+    return False, int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))

@@ -1,0 +1,209 @@
+"""Batched execution of closed-loop trials on the host: vmap over trials, segments over time.
+
+A batch of trials is advanced in segments of control periods by one compiled call
+per segment (the loop inside a segment never leaves the device); between segments
+the host only updates the progress bar. Results come back as numpy arrays with
+leading axes ``[T, ...]``.
+
+One program per scenario *shape* (:func:`mjx_radar.task.params.shape_key`), program
+kind (the method's information kind: ``none``, ``sfim``, ``pfim``), segment length,
+output kind, batch and device mesh (:mod:`mjx_radar.engine.programs`): the noise
+model and the scenario's numbers are runtime arguments
+(:class:`~mjx_radar.task.params.TaskParams`), so the CCR and DDR methods of a kind,
+and every scenario that differs only in its numbers, share it; a run compiles only
+the information it needs (stationary radars: no planner). Compilation is ahead of
+time and timed apart from the simulation.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh
+
+from mjx_radar.engine import compile_cache
+from mjx_radar.engine.programs import (
+    COMPILE_LOG,
+    compile_programs,
+    device_mesh,
+    parallel,
+    record_template,
+)
+from mjx_radar.scenario.schema import Scenario
+from mjx_radar.task.method import METHODS, parse_method
+from mjx_radar.task.params import shape_key, task_params
+
+__all__ = ["COMPILE_LOG", "compile_programs", "device_mesh", "precompile", "run_trials"]
+
+
+def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> float:
+    """Compiles the programs of several scenarios concurrently; returns the wall time [s].
+
+    XLA compilation releases the GIL, so a thread pool compiles the programs of a
+    study's scenario shapes and program kinds in parallel on the host's cores.
+    ``jobs`` holds ``(scenario, method)`` pairs (a method or its name), or scenarios
+    alone (every method's kind); jobs of the same shape and kind share one program.
+    """
+    shapes = {}
+    for job in jobs:
+        s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
+        ms = [parse_method(m) for m in methods] or list(METHODS.values())
+        for kind, planner in dict.fromkeys((m.kind, m.planner) for m in ms):
+            shapes.setdefault((shape_key(s), kind, planner), (s, kind, planner))
+    todo = list(shapes.values())
+    devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
+    t0 = time.perf_counter()
+    parallel([  # one thread per shape and kind (big stacks: XLA's compiler recurses deeply)
+        lambda s=s, k=k, p=p: device_programs(s, batch // len(devices), segment_periods(s, steps),
+                                              full, devices, k, p)
+        for s, k, p in todo
+    ])  # fmt: skip
+    return time.perf_counter() - t0
+
+
+def segment_periods(scenario: Scenario, steps: int, target_segments: int = 20) -> int:
+    """Largest divisor of the number of control periods giving >= ``target_segments`` segments."""
+    total = steps // scenario.timing.control_every
+    for p in range(max(1, total // target_segments), 0, -1):
+        if total % p == 0:
+            return p
+    return 1
+
+
+def run_trials(
+    scenario: Scenario,
+    method,
+    seed: int,
+    trials,
+    steps: int,
+    full: bool = True,
+    progress: Callable[[int], None] | None = None,
+    periods: int | None = None,
+    mesh: Mesh | None = None,
+    phase: Callable[[str], None] | None = None,
+    on_segment: Callable[[int, tuple], None] | None = None,
+) -> dict:
+    """Runs the closed loop for a batch of trials.
+
+    Args:
+        scenario: scenario (its numbers are runtime arguments of the program).
+        method: a :class:`~mjx_radar.task.method.Method` or its name.
+        seed: base seed.
+        trials: [T] trial indices (common random numbers across methods).
+        steps: filter steps K (a multiple of the control period).
+        full: also return trajectories and MPPI samples (else only the metrics).
+        progress: called with the number of filter steps done after each segment.
+        periods: control periods per segment (default: :func:`segment_periods`).
+        mesh: devices to spread the trials over (:func:`device_mesh`); ``T`` must be a
+            multiple of their number. ``None``: the default device.
+        phase: called with ``"compiling"`` and ``"simulating"`` as the run moves on.
+        on_segment: called after each segment, in this thread, with the filter steps
+            done and the segment's records, already on the host: ``(StepRecord,
+            ControlRecord)`` of numpy arrays ``[T, steps or control steps of the
+            segment, ...]`` (if ``full``; else the metrics dict and ``None``). The next
+            segment waits for it: keep it cheap (e.g. :meth:`mjx_radar.viz.live.LiveView.update`).
+
+    Returns:
+        dict of numpy arrays: the metrics (:data:`mjx_radar.rundir.results.METRIC_COLUMNS`)
+        [T, K], and if ``full`` the fields of ``StepRecord`` / ``ControlRecord`` with
+        leading [T, ...]; plus ``placement_ok`` [T], ``compile_s`` (ahead-of-time
+        compilation, 0 if this process compiled it before), ``sim_s`` (the simulation),
+        ``wall_s`` (both) and ``control_hz`` (control periods per second of the batch).
+    """
+    every = scenario.timing.control_every
+    if steps % every:
+        raise ValueError(f"steps: {steps} must be a multiple of {every}")
+    periods = periods or segment_periods(scenario, steps)
+    method = parse_method(method)
+    params = task_params(scenario, method, seed)
+    trials = np.asarray(trials, np.int32)
+    devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
+    if trials.shape[0] % len(devices):
+        raise ValueError(f"{trials.shape[0]} trials are not a multiple of {len(devices)} devices")
+    if phase:
+        phase("compiling")
+    t0 = time.perf_counter()
+    progs = device_programs(
+        scenario,
+        trials.shape[0] // len(devices),
+        periods,
+        full,
+        devices,
+        method.kind,
+        method.planner,
+    )
+    compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0
+    if phase:
+        phase("simulating")
+    t0 = time.perf_counter()
+    # One worker per device: the same single-device program on each device's slice of
+    # the trials (dispatch is asynchronous, so the devices run concurrently).
+    workers = []
+    for (prog, _), ids in zip(progs, np.split(trials, len(devices)), strict=True):
+        p = [jax.device_put(x, prog.replicated) for x in jax.tree.leaves(params)]
+        ids = jax.device_put(jnp.asarray(ids), prog.trial_sharding)
+        *carry, ok = prog.init(ids, *p)
+        workers.append([prog, p, ids, carry, ok])
+    template = record_template(full)
+    chunks = []
+
+    def advance(w):  # one segment on one device; returns its records on the host
+        prog, p, _, carry, _ = w
+        out = prog.step(*p, *carry)
+        w[3] = list(out[: prog.n_carry])
+        return jax.device_get(out[prog.n_carry :])
+
+    for start in range(0, steps // every, periods):
+        # A GPU program with loops is driven by its host thread: one thread per device
+        # makes the devices run concurrently.
+        parts = parallel([lambda w=w: advance(w) for w in workers])
+        records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
+        chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
+        if progress is not None:
+            progress(periods * every)
+        if on_segment is not None:
+            on_segment((start + periods) * every, chunks[-1])
+    res: dict = {}
+    steps_t, controls_t = template
+    for k in steps_t._fields if full else steps_t:
+        res[k] = np.concatenate([_get(c[0], k) for c in chunks], axis=1)
+    if full:
+        for k in controls_t._fields:
+            res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
+    res["placement_ok"] = np.concatenate([np.asarray(w[4]) for w in workers])
+    sim_s = time.perf_counter() - t0
+    res |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
+    res["control_hz"] = (steps // every) / sim_s
+    return res
+
+
+def device_programs(scenario, batch: int, periods: int, full: bool, devices,
+                    kind: str = "all", planner: str = "mppi") -> list:  # fmt: skip
+    """``[(programs, seconds)]``: the single-device program of each device, each for
+    ``batch`` trials. Every device runs the same per-device program, so a trial's
+    numbers never depend on the number of devices.
+
+    On GPUs with the persistent compilation cache on, the first device compiles alone
+    and the others then load XLA's result from the cache in parallel threads (JAX's
+    GPU cache key holds the device kind, not the device id): one compilation for a
+    host's GPUs, where compiling the same program once per GPU in parallel had made
+    2 H200s compile longer than one (57 s vs 42 s). Elsewhere (CPU devices, whose key
+    holds the device, or no cache) every device compiles, in parallel threads.
+    """
+
+    def one(d):
+        return compile_programs(scenario, batch, periods, full, device_mesh([d]), kind, planner)
+
+    devices = list(devices)
+    if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:
+        return parallel([lambda d=d: one(d) for d in devices])
+    first = parallel([lambda: one(devices[0])])
+    return first + parallel([lambda d=d: one(d) for d in devices[1:]])
+
+
+def _get(rec, k):
+    return rec[k] if isinstance(rec, dict) else getattr(rec, k)

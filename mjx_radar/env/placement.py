@@ -1,0 +1,125 @@
+"""Initial conditions of a trial (SPEC §3, §4): radar placement and the initial estimate.
+
+Unless the scenario fixes them (``radars = [[x, y, theta], ...]``), radars
+are placed uniformly in ``[-w, w]^2`` at z = 0 by rejection sampling so
+that every radar-radar distance is >= R2R and every radar-target distance
+(3-D) is >= R2T; headings are uniform in (-pi, pi], v = omega = 0. Rejection is
+done with a fixed number of candidates per radar (static shapes under jit):
+radar i takes the first admissible of ``CANDIDATES`` draws given radars
+0..i-1. ``ok`` is False if some radar found no admissible candidate; callers
+check it on the host before running (``mjx-radar`` exits with code 2).
+On terrain (docs/terrain.md) a candidate stands at the ground height plus the
+antenna height (the 3-D R2T test uses it) and candidates on slopes steeper than
+``terrain.max_slope_deg`` are not admissible.
+
+The initial estimate is ``x_0 + e``, ``e ~ N(0, P0)``, ``P0 = p0 I`` (a consistent draw).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_radar.env.streams import trial_streams
+from mjx_radar.scenario.schema import Scenario
+
+CANDIDATES = 512
+
+
+class Init(NamedTuple):
+    radar_state: jax.Array  # [N, 6]
+    target_state: jax.Array  # [M, 6]
+    mean: jax.Array  # [6M] initial estimate
+    cov: jax.Array  # [6M, 6M] initial covariance
+    ok: jax.Array  # [] bool
+
+
+def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Rejection-samples radar states.
+
+    Args:
+        scenario: the scenario shape (``radar_init`` non-empty: fixed starts).
+        params: :class:`~mjx_radar.task.params.TaskParams` (box, keep-outs, starts).
+        key: the trial's placement stream.
+
+    Returns:
+        ``([N, 6] radar states, ok)``.
+    """
+    n, w = scenario.n_radars, params.placement_half_width
+    targets = params.target_init[:, :3]
+    k_xy, k_th = jax.random.split(key)
+    cand = jax.random.uniform(k_xy, (n, CANDIDATES, 2), minval=-w, maxval=w)
+    ground, steep = _ground(scenario, cand)
+    cand3 = jnp.concatenate([cand, ground[..., None]], axis=-1)
+    d_rt = jnp.linalg.norm(cand3[:, :, None] - targets[None, None], axis=-1).min(-1)
+    placed = jnp.zeros((n, 3))
+    all_ok = jnp.array(True)
+    for i in range(n):  # static loop over radars (N is small and static)
+        ok = (d_rt[i] >= params.r2t) & ~steep[i]
+        if i:
+            d_rr = jnp.linalg.norm(cand3[i][:, None] - placed[None, :i], axis=-1).min(-1)
+            ok &= d_rr >= params.r2r
+        first = jnp.argmax(ok)
+        placed = placed.at[i].set(cand3[i, first])
+        all_ok &= ok[first]
+    theta = jax.random.uniform(k_th, (n,), minval=-jnp.pi, maxval=jnp.pi)
+    theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
+    if scenario.radar_init:  # fixed start given by the scenario file
+        fixed = params.radar_init
+        placed = jnp.concatenate([fixed[:, :2], _ground(scenario, fixed[:, :2])[0][:, None]], -1)
+        theta = fixed[:, 2]
+        d_rt = jnp.linalg.norm(placed[:, None] - targets[None], axis=-1)
+        d_rr = jnp.linalg.norm(placed[:, None] - placed[None], axis=-1) + 1e9 * jnp.eye(n)
+        all_ok = jnp.all(d_rt >= params.r2t) & jnp.all(d_rr >= params.r2r)
+    zeros = jnp.zeros(n)
+    states = jnp.stack([placed[:, 0], placed[:, 1], placed[:, 2], theta, zeros, zeros], axis=-1)
+    return states, all_ok
+
+
+def _ground(scenario: Scenario, xy):
+    """``(z, steep)`` of radars at ``xy [..., 2]``: 0 and False on flat ground; on
+    terrain the ground height plus the antenna height, and grade beyond the limit."""
+    if scenario.terrain is None:
+        return jnp.zeros(xy.shape[:-1], xy.dtype), jnp.zeros(xy.shape[:-1], bool)
+    from mjx_radar.world import terrain
+
+    t = scenario.terrain
+    grid = terrain.terrain_grid(t)
+    z = terrain.height(grid, xy) + t.antenna_height
+    return z, terrain.slope(grid, xy) > terrain.max_grade(t)
+
+
+def initial_conditions(scenario: Scenario, params, streams) -> Init:
+    """Radar placement, true target states and the consistent initial estimate."""
+    radars, ok = place_radars(scenario, params, streams.placement)
+    targets = params.target_init
+    dim = 6 * scenario.n_targets
+    cov = params.p0 * jnp.eye(dim)
+    err = jnp.sqrt(params.p0) * jax.random.normal(streams.estimate, (dim,))
+    return Init(radars, targets, targets.reshape(-1) + err, cov, ok)
+
+
+def check_placeable(scenario: Scenario, seed: int, trials: int) -> None:
+    """Raises ValueError naming the placement fields if some trial cannot place its radars."""
+
+    from mjx_radar.task.method import METHODS
+    from mjx_radar.task.params import shape_key, task_params
+
+    shape = shape_key(scenario)
+    params = task_params(scenario, METHODS["stationary"], seed)
+
+    def ok(t):
+        return place_radars(shape, params, trial_streams(params.seed, t).placement)[1]
+
+    oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.arange(trials)))
+    if not oks.all():
+        bad = int(np.argmin(oks))
+        raise ValueError(
+            f"placement_half_width = {scenario.placement_half_width}: cannot place "
+            f"{scenario.n_radars} radars >= mpc.r2r = {scenario.mpc.r2r} m apart and >= "
+            f"mpc.r2t = {scenario.mpc.r2t} m from every target (trial {bad}); widen the box "
+            "or lower the keep-out distances"
+        )

@@ -1,0 +1,44 @@
+"""What the closed loop records per filter step and per control step (host-side shapes).
+
+Kept apart from :mod:`~mjx_radar.env.closed_loop` so that code which only reads
+the records (the runner, results, the live view) does not import the loop, and with it
+MJX: a warm start from the export cache never traces the loop.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+
+from mjx_radar.planners.base import (  # noqa: F401 (re-exported)
+    N_KEEP_SAMPLES,
+    ControlRecord,
+    kept_samples,
+)
+
+
+class StepRecord(NamedTuple):
+    """Per filter step outputs (leading axis K after the scan)."""
+
+    target: jax.Array  # [M, 6] true target states
+    mean: jax.Array  # [6M] posterior mean
+    cov_diag: jax.Array  # [6M] posterior variances
+    radar: jax.Array  # [N, 6] radar states
+    rmse_pos: jax.Array  # [] sqrt(mean_m |p_hat - p|^2)
+    rmse_state: jax.Array  # [] sqrt(mean_m |x_hat - x|^2)
+    nees: jax.Array  # [] normalised estimation error squared (6M dof)
+    crlb_pos: jax.Array  # [] sqrt(mean_m tr[J_m^-1]_pos), PFIM along the truth
+    obstacle_contacts: jax.Array  # [] int32 radars in contact with an obstacle
+    visible_pairs: jax.Array  # [] int32 radar-target pairs with line of sight (of N*M)
+    detections: jax.Array  # [] int32 visible pairs detected (= visible_pairs: perfect detection)
+    false_alarms: jax.Array  # [] int32 false alarms of all radars (0 without clutter)
+    lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
+    diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
+    targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
+
+
+class TrialResult(NamedTuple):
+    steps: StepRecord
+    controls: ControlRecord
+    placement_ok: jax.Array  # [] bool: the radars could be placed

@@ -1,0 +1,1 @@
+"""The result format: run directories (metrics, trajectories, metadata) written and read."""

@@ -1,0 +1,110 @@
+"""Result files: atomic writes, the metrics table and the trajectory archive.
+
+Run directory schema (``mjx-radar run ... --out DIR``)::
+
+    DIR/run.json           metadata: scenario, method, seed, trials, steps, dt_filter,
+                           dt_control, n_radars, n_targets, r2t, r2r, noise_constant,
+                           wall_s, control_hz
+    DIR/scenario.toml      the scenario file used (verbatim copy)
+    DIR/metrics.parquet    long format, one row per (trial, step): scenario, method,
+                           trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
+                           nees [-], crlb_pos [m], obstacle_contacts [-] (radars
+                           touching an obstacle), visible_pairs [-] (radar-target
+                           pairs with line of sight), detections [-] (visible
+                           pairs detected, docs/detection.md), false_alarms [-]
+                           (clutter returns of all radars), diverged [0/1] (numerical failure;
+                           values kept finite), lost [0/1] (lost-track flag of
+                           that step: env.track_health, docs/statistics.md),
+                           targets_present [-] (targets present at that step:
+                           M, fewer with [[target_motion]] appear / leave)
+    DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
+                           control steps, S kept MPPI samples, H horizon):
+                             time_s [K], target [T,K,M,6], mean [T,K,6M],
+                             cov_diag [T,K,6M], radar [T,K,N,6] ([x,y,z,theta,v,omega]),
+                             control [T,C,N,2], plan_xy [T,C,H,N,2],
+                             sample_xy [T,C,S,H,N,2], sample_weight [T,C,S],
+                             sample_cost [T,C,S]
+
+Every file is written to a temporary name in the same directory and renamed
+into place (atomic on POSIX), ``run.json`` last: a directory whose ``run.json``
+exists is complete.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mjx_radar.io.atomic import atomic_write  # also used as results.atomic_write
+
+METRIC_COLUMNS = (
+    "rmse_pos",
+    "rmse_state",
+    "nees",
+    "crlb_pos",
+    "obstacle_contacts",  # radars touching an obstacle (0 without obstacles)
+    "visible_pairs",  # radar-target pairs with line of sight (N*M without obstacles)
+    "detections",  # visible pairs detected (= visible_pairs with perfect detection)
+    "false_alarms",  # false alarms of all radars at that scan (0 without clutter)
+    "lost",  # 1.0 when the track is lost at that step (env.track_health), else 0.0
+    "diverged",  # 1.0 when the filter became non-finite / not positive definite, else 0.0
+    "targets_present",  # targets present at that step (M unless [[target_motion]] appear/leave)
+)
+
+
+def metrics_frame(
+    scenario: str, method: str, trials: np.ndarray, time_s: np.ndarray, metrics: dict
+) -> pd.DataFrame:
+    """Long-format metrics table.
+
+    Args:
+        scenario: scenario name.
+        method: method name.
+        trials: [T] trial indices.
+        time_s: [K] time of each step [s].
+        metrics: name -> [T, K] array for each of :data:`METRIC_COLUMNS`.
+    """
+    t, k = len(trials), len(time_s)
+    frame = pd.DataFrame(
+        {
+            "scenario": pd.Categorical([scenario] * (t * k)),
+            "method": pd.Categorical([method] * (t * k)),
+            "trial": np.repeat(np.asarray(trials, np.int32), k),
+            "step": np.tile(np.arange(1, k + 1, dtype=np.int32), t),
+            "time_s": np.tile(np.asarray(time_s, np.float64), t),
+        }
+    )
+    for name in METRIC_COLUMNS:
+        frame[name] = np.asarray(metrics[name], np.float64).reshape(-1)
+    return frame
+
+
+def write_parquet(path: Path, frame: pd.DataFrame) -> None:
+    atomic_write(path, lambda tmp: frame.to_parquet(tmp, index=False))
+
+
+def write_npz(path: Path, arrays: dict) -> None:
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+    atomic_write(path, write)
+
+
+def write_json(path: Path, obj: dict) -> None:
+    atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(obj, indent=2) + "\n"))
+
+
+def read_run(run_dir: Path) -> tuple[dict, dict]:
+    """Loads ``(run.json, trajectories.npz arrays)`` of a complete run directory."""
+    run_dir = Path(run_dir)
+    meta_path = run_dir / "run.json"
+    if not meta_path.exists():
+        raise ValueError(f"RUN_DIR = {str(run_dir)!r}: no run.json, not a complete run directory")
+    meta = json.loads(meta_path.read_text())
+    with np.load(run_dir / "trajectories.npz") as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    return meta, arrays

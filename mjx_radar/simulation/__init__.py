@@ -1,1 +1,0 @@
-"""The closed loop of paper Algorithm 1, initial placement and batched trial execution (SPEC §8)."""

@@ -1,0 +1,81 @@
+"""The package's layering (scripts/check_imports.py): floors in order, no cycles."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+SCRIPT = REPO / "scripts" / "check_imports.py"
+
+
+def _checker():
+    spec = importlib.util.spec_from_file_location("check_imports", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _tree(root: Path, files: dict[str, str]) -> Path:
+    pkg = root / "mjx_radar"
+    for rel, text in files.items():
+        path = pkg / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    for sub in {p.parent for p in pkg.rglob("*.py")}:
+        (sub / "__init__.py").touch()
+    return pkg
+
+
+def test_package_layout_is_clean():
+    proc = subprocess.run([sys.executable, str(SCRIPT)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.strip().endswith("0 problems")
+
+
+def test_upward_import_is_reported(tmp_path):
+    pkg = _tree(
+        tmp_path,
+        {
+            "io/a.py": "X = 1\n",
+            "world/w.py": "from mjx_radar.io.a import X\n",
+            # upward, inside a function: still reported
+            "scenario/s.py": "def f():\n    from mjx_radar.world import w\n    return w\n",
+        },
+    )
+    checker = _checker()
+    problems, _ = checker.check(pkg)
+    assert problems == [
+        "mjx_radar.scenario.s imports mjx_radar.world.w (floor 4 world > 3 scenario)"
+    ]
+    assert checker.main([str(pkg)]) == 1
+
+
+def test_cycles_private_names_and_cli_are_reported(tmp_path):
+    pkg = _tree(
+        tmp_path,
+        {
+            "world/a.py": "from mjx_radar.world.b import _hidden\n",
+            "world/b.py": "from mjx_radar.world import a\n_hidden = 1\n",
+            "task/t.py": "import mjx_radar.cli.main\n",
+            "cli/main.py": "\n" * 301,
+            "unknown/u.py": "",
+        },
+    )
+    problems, _ = _checker().check(pkg)
+    text = "\n".join(problems)
+    assert "module cycle: mjx_radar.world.a <-> mjx_radar.world.b" in text
+    assert "imports private _hidden from mjx_radar.world.b" in text
+    assert "mjx_radar.task.t: library module imports mjx_radar.cli.main" in text
+    assert "mjx_radar.cli.main: 301 lines (> 300)" in text
+    assert "mjx_radar.unknown: package not in FLOORS" in text
+
+
+def test_clean_synthetic_tree_passes(tmp_path):
+    pkg = _tree(
+        tmp_path,
+        {"io/a.py": "X = 1\n", "world/w.py": "from mjx_radar.io import a\n"},
+    )
+    assert _checker().main([str(pkg)]) == 0
