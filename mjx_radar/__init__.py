@@ -33,8 +33,8 @@ _LAZY = {
     "unregister_planner": "mjx_radar.planners.base",
     "register_tracker": "mjx_radar.env.filter_ops",
     "unregister_tracker": "mjx_radar.env.filter_ops",
-    "register_sensor": "mjx_radar.estimation.measurement",
-    "unregister_sensor": "mjx_radar.estimation.measurement",
+    "register_sensor": "mjx_radar.estimation.sensors",
+    "unregister_sensor": "mjx_radar.estimation.sensors",
 }
 _SUBPACKAGES = ("env", "planners")  # mjx_radar.env.make(...), mjx_radar.planners.PLANNERS
 

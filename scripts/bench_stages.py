@@ -2,7 +2,8 @@
 
 The runner compiles one ``step`` program per shape: a ``lax.scan`` over control periods,
 each the MPPI plan then ``control_every`` filter steps. Issue 27 asked whether compiling
-the two stages (:class:`mjx_radar.env.closed_loop.Stages`) as separate programs,
+the two stages of a control period (the planner's ``plan``, the environment's
+``transition``: :mod:`mjx_radar.env.closed_loop`) as separate programs,
 in parallel threads, driven by a host loop per control period, starts faster without
 slowing the simulation by more than 10 %. This measures, for one scenario and program
 kind, on a fresh compilation cache (one process per configuration, so no stage inherits
@@ -37,6 +38,7 @@ def _build(scenario_path: str, kind: str, batch: int, periods: int):
 
     from mjx_radar import precision
     from mjx_radar.env import closed_loop
+    from mjx_radar.env.streams import streams_of
     from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.task.method import parse_method
     from mjx_radar.task.params import shape_key, task_params
@@ -51,28 +53,36 @@ def _build(scenario_path: str, kind: str, batch: int, periods: int):
     carry = jax.tree.map(lambda x: jax.ShapeDtypeStruct((batch, *x.shape), x.dtype), carry)
 
     @precision.pinned
-    def plan(trials, j, p, c):
-        return jax.vmap(lambda t, c: closed_loop.stages(task, p, t).plan(c, j))(trials, c)
+    def plan(p, c):  # the planner's call of one control period
+        def one_trial(c):
+            env, planner = closed_loop.make_env(task, p)
+            info = c.state.info
+            key = jax.random.fold_in(streams_of(info["key"]).planner, info["period"])
+            u, pc = planner.plan(c.planner, c.state.obs, key)
+            return u, pc, planner.record(pc, u)
+
+        return jax.vmap(one_trial)(c)
 
     @precision.pinned
-    def period(trials, j, p, c, u, u_plan):
-        def one_trial(t, c, u, up):
-            return closed_loop.stages(task, p, t).period(c, j, u, up)
+    def period(p, c, u, pc):  # the environment's control period under u
+        def one_trial(c, u, pc):
+            env, _ = closed_loop.make_env(task, p)
+            state, srec = env.transition(c.state, u)
+            return closed_loop.LoopCarry(state, pc), srec
 
-        return jax.vmap(one_trial)(trials, c, u, u_plan)
+        return jax.vmap(one_trial)(c, u, pc)
 
-    def step(trials, j, p, c):
-        return jax.vmap(lambda t, c: closed_loop.advance(task, p, t, c, j, periods))(trials, c)
+    def step(p, c):
+        return jax.vmap(lambda c: closed_loop.advance(task, p, c, periods))(c)
 
     def init(trials, p):
         return jax.vmap(lambda t: closed_loop.init_carry(task, p, t)[0])(trials)
 
-    trials = jax.ShapeDtypeStruct((batch,), jnp.int32)
-    u = jax.eval_shape(plan, trials, one, params, carry)
+    u = jax.eval_shape(plan, params, carry)
     fns = {
-        "plan": (jax.jit(plan), (trials, one, params, carry)),
-        "period": (jax.jit(period, donate_argnums=3), (trials, one, params, carry, u[0], u[1])),
-        "step": (jax.jit(step, donate_argnums=3), (trials, one, params, carry)),
+        "plan": (jax.jit(plan), (params, carry)),
+        "period": (jax.jit(period, donate_argnums=1), (params, carry, u[0], u[1])),
+        "step": (jax.jit(step, donate_argnums=1), (params, carry)),
     }
     return fns, jax.jit(init), params, sc
 
@@ -109,16 +119,16 @@ def measure(scenario: str, kind: str, batch: int, periods: int, steps: int, part
 
     def staged(carry, j0, n):
         keep = []
-        for j in range(j0, j0 + n):
-            u, u_plan, crec = plan_c(trials, jnp.int32(j), params, carry)
-            carry, srec = period_c(trials, jnp.int32(j), params, carry, u, u_plan)
+        for _ in range(j0, j0 + n):
+            u, pc, crec = plan_c(params, carry)
+            carry, srec = period_c(params, carry, u, pc)
             keep.append((srec, crec))
         return carry, keep
 
     def whole(carry, j0, n):
         keep = []
-        for j in range(j0, j0 + n, periods):
-            carry, *rec = compiled(trials, jnp.int32(j), params, carry)
+        for _ in range(j0, j0 + n, periods):
+            carry, *rec = compiled(params, carry)
             keep.append(rec)
         return carry, keep
 

@@ -117,6 +117,29 @@ def test_run_smoke_end_to_end(tmp_path):
     assert again.returncode == 2 and "--force" in again.stderr
 
 
+def test_run_with_a_plugin_planner(tmp_path):
+    """``mjx-radar run --plugin FILE --planner NAME`` runs a planner registered by a script;
+    an unregistered name is one line and exit 2, before anything is compiled."""
+    out = tmp_path / "run"
+    base = [sys.executable, "-m", "mjx_radar", "run", "scenarios/smoke.toml", "--steps", "8",
+            "--rollouts", "analytic"]  # fmt: skip
+    bad = subprocess.run([*base, "--planner", "best-of-k", "--out", str(out)],
+                         capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert bad.returncode == 2 and "planner: 'best-of-k' is not one of mppi, hold" in bad.stderr
+    assert bad.stderr.count("\n") == 1 and not out.exists()
+    cmd = [*base, "--plugin", "examples/custom_planner.py", "--planner", "best-of-k",
+           "--out", str(out)]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    import json
+
+    import pandas as pd
+
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["method"] == "ddr-sfim+best-of-k" and meta["planner"] == "best-of-k"
+    assert set(pd.read_parquet(out / "metrics.parquet")["method"]) == {"ddr-sfim+best-of-k"}
+
+
 def test_public_python_interface():
     # SPEC §11: the top-level names users and outside checks rely on.
     import mjx_radar

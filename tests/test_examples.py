@@ -65,6 +65,15 @@ def test_custom_cost(tmp_path, cache_dir):
     assert "without stay_home" in out and "with stay_home" in out
 
 
+def test_custom_planner(tmp_path, cache_dir):
+    """A planner of the user's own, registered from the script, runs like MPPI (issue 32)."""
+    out = _run("custom_planner", tmp_path / "o", cache_dir)
+    lines = (tmp_path / "o" / "custom_planner.txt").read_text().splitlines()
+    assert [line.split(":")[0].strip() for line in lines] == ["mppi", "best-of-k"], out
+    rmse = [float(line.split("RMSE ")[1].split(" m")[0]) for line in lines]
+    assert all(0 < r < 100 for r in rmse) and rmse[0] != rmse[1]
+
+
 @pytest.mark.slow  # CI keeps compare_methods, custom_cost, video_and_snapshot (suite time)
 def test_scenario_in_code(tmp_path, cache_dir):
     import mjx_radar

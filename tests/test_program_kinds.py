@@ -52,7 +52,7 @@ def test_single_kind_programs_leave_out_the_other_branches(hlo):
 def test_precompile_compiles_one_program_per_shape_and_kind(tiny, monkeypatch):
     seen = []
 
-    def fake(scenario, batch, periods, full, devices, kind="all"):
+    def fake(scenario, batch, periods, full, devices, kind="all", planner="mppi"):
         seen.append((shape_key(scenario), kind))
         return []
 

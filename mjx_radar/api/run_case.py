@@ -89,11 +89,12 @@ def trial_ids(trials) -> np.ndarray:
     return ids.astype(np.int64)
 
 
-def request(scenario, **options) -> RunRequest:
+def request(scenario, *, cli: bool = False, **options) -> RunRequest:
     """Checks a run's options (:data:`RUN_DEFAULTS` for those not given).
 
     Args:
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
+        cli: name the options in messages as the command line does (``--steps``).
         **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
             ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``.
 
@@ -109,11 +110,17 @@ def request(scenario, **options) -> RunRequest:
     if unknown:
         raise ScenarioError(f"{unknown[0]}: not an option of a run ({', '.join(RUN_DEFAULTS)})")
     o = {**RUN_DEFAULTS, **options}
+
+    def label(name: str) -> str:
+        return f"--{name.replace('_', '-')}" if cli else name
+
     load_plugins(o["plugins"])
     s = validate(load_scenario(scenario) if isinstance(scenario, str | Path) else scenario)
     if o["rollouts"] is not None:
         if o["rollouts"] not in ROLLOUTS:
-            raise ScenarioError(f"rollouts = {o['rollouts']!r}: must be one of mjx, analytic")
+            raise ScenarioError(
+                f"{label('rollouts')} = {o['rollouts']!r}: must be one of mjx, analytic"
+            )
         s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=o["rollouts"]))
     try:
         name = o["method"].strip().lower() if isinstance(o["method"], str) else o["method"]
@@ -124,23 +131,32 @@ def request(scenario, **options) -> RunRequest:
     ids = trial_ids(o["trials"])
     steps = s.timing.steps if o["steps"] is None else o["steps"]
     if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps < 1:
-        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
+        raise ScenarioError(f"{label('steps')} = {steps!r}: must be an integer >= 1")
     if steps % s.timing.control_every:
         raise ScenarioError(
-            f"steps = {steps}: must be a multiple of dt_control/dt_filter = "
+            f"{label('steps')} = {steps}: must be a multiple of dt_control/dt_filter = "
             f"{s.timing.control_every} (scenario {s.name})"
         )
     seed = s.seed if o["seed"] is None else o["seed"]
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
-        raise ScenarioError(f"seed = {seed!r}: must be an integer in [0, 2^31 - 1]")
+        raise ScenarioError(f"{label('seed')} = {seed!r}: must be an integer in [0, 2^31 - 1]")
     if o["precision"] not in PRECISIONS:
-        raise ScenarioError(f"precision = {o['precision']!r}: must be one of float32, float64")
+        raise ScenarioError(
+            f"{label('precision')} = {o['precision']!r}: must be one of float32, float64"
+        )
     for flag in ("deterministic", "cache"):
         if not isinstance(o[flag], bool):
-            raise ScenarioError(f"{flag} = {o[flag]!r}: must be True or False")
+            raise ScenarioError(f"{label(flag)} = {o[flag]!r}: must be True or False")
     cache_dir = None if o["cache_dir"] is None else str(o["cache_dir"])
     return RunRequest(
-        s, method, ids, int(steps), int(seed), o["precision"], o["deterministic"], o["cache"],
+        s,
+        method,
+        ids,
+        int(steps),
+        int(seed),
+        o["precision"],
+        o["deterministic"],
+        o["cache"],
         cache_dir,
     )
 

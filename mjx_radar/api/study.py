@@ -64,7 +64,8 @@ class Study:
 
 def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=None,
               steps: int | None = None, seed: int | None = None, resume: bool = False,
-              rollouts: str | None = None, progress: bool = True) -> Study:  # fmt: skip
+              rollouts: str | None = None, progress: bool = True, *,
+              planners=None, plugins=()) -> Study:  # fmt: skip
     """Runs (or resumes) a Monte Carlo study and returns it (``mjx-radar study``).
 
     Args:
@@ -81,6 +82,9 @@ def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=N
             study is returned as it is.
         rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (default the scenario's).
         progress: show a progress bar on stderr.
+        planners: run every planning method with each of these planners
+            (``study --planners``): methods ``"METHOD+PLANNER"`` (``mppi`` keeps the name).
+        plugins: Python files run first, e.g. to register planners (``--plugin``).
 
     Raises:
         ScenarioError: an invalid scenario or argument (nothing compiled, nothing written).
@@ -105,8 +109,14 @@ def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=N
     for name, value, hi in (("trials", trials, 10**6), ("chunk", chunk, 10**6)):
         if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= hi:
             raise ScenarioError(f"{name} = {value!r}: must be an integer in [1, {hi}]")
+    from mjx_radar.api.run_case import load_plugins
+    from mjx_radar.task.method import with_planners
+
+    load_plugins(plugins)
     try:
         methods = normalise_methods(list(METHODS) if methods is None else list(methods))
+        if planners is not None:
+            methods = with_planners(methods, list(planners))
     except ValueError as err:
         raise ScenarioError(str(err)) from None
     if rollouts not in (None, "mjx", "analytic"):

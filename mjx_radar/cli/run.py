@@ -19,7 +19,6 @@ final state after the results are written, until Ctrl-C.
 
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 import sys
@@ -28,76 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli.args import (
-    check_placement,
-    method_name,
-    port,
-    positive_int,
-    seed,
-)
+from mjx_radar.cli.args import check_placement
+from mjx_radar.cli.run_args import add_arguments  # noqa: F401 (the sub-command's options)
 from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
 from mjx_radar.io.atomic import create_dir, remove_empty_dirs
 from mjx_radar.io.lock import DirLock, lock_dir
-from mjx_radar.task.method import METHODS
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
-    p.add_argument(
-        "--method",
-        type=method_name,
-        default="ddr-sfim",
-        metavar="METHOD",
-        help=f"one of {', '.join(METHODS)} (any case; default ddr-sfim)",
-    )
-    p.add_argument(
-        "--planner",
-        default=None,
-        metavar="NAME",
-        help="a registered planner moving the radars instead of the method's own (mppi, "
-        "hold, or one a --plugin file registers; docs/extending.md)",
-    )
-    p.add_argument(
-        "--plugin",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="a Python file run first, e.g. one that registers a planner or a cost term "
-        "(repeatable)",
-    )
-    p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
-    p.add_argument(
-        "--steps",
-        type=positive_int("--steps"),
-        default=None,
-        help="filter steps (default: scenario's)",
-    )
-    p.add_argument(
-        "--trials",
-        type=positive_int("--trials", 100_000),
-        default=1,
-        help="Monte Carlo trials, run as one vmapped batch (default 1)",
-    )
-    p.add_argument("--out", type=Path, default=None, help="output dir (default runs/NAME_METHOD)")
-    p.add_argument(
-        "--rollouts",
-        choices=("mjx", "analytic"),
-        default=None,
-        help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
-    )
-    p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
-    p.add_argument("--view", action="store_true",
-                   help="live 3-D view in a web browser while it simulates (URL printed; "
-                   "docs/viewer.md)")  # fmt: skip
-    p.add_argument("--view-port", type=port, default=None, metavar="PORT",
-                   help="port of the live view on 127.0.0.1 (default 8765, 0: any free "
-                   "port; implies --view)")  # fmt: skip
-    p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
-    p.add_argument(
-        "--keep-diverged",
-        action="store_true",
-        help="exit 0 (with a warning) even if some trials' filters diverged",
-    )
 
 
 def prepare_out(out: Path, force: bool) -> tuple[list[Path], DirLock]:
@@ -188,7 +122,7 @@ def main(args) -> int:
     from mjx_radar.engine import resources
 
     req = run_case.request(
-        args.scenario, method=args.method, planner=args.planner, trials=args.trials,
+        args.scenario, cli=True, method=args.method, planner=args.planner, trials=args.trials,
         steps=args.steps, seed=args.seed, rollouts=args.rollouts,
         precision=getattr(args, "precision", "float32"),
         deterministic=bool(getattr(args, "deterministic", False)),

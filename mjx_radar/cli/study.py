@@ -38,6 +38,11 @@ def _shard(text: str) -> tuple[int, int]:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario files or names")
     p.add_argument("--methods", type=method_list, default=list(METHODS), help="default: all")
+    p.add_argument("--planners", default=None, metavar="A,B",
+                   help="run every planning method with each of these planners (mppi, hold, "
+                   "or registered by a --plugin file): METHOD+PLANNER")  # fmt: skip
+    p.add_argument("--plugin", action="append", default=[], metavar="FILE",
+                   help="a Python file run first, e.g. one that registers a planner")  # fmt: skip
     p.add_argument("--trials", type=positive_int("--trials", 10**6), default=500,
                    help="Monte Carlo trials per scenario and method (default 500)")  # fmt: skip
     p.add_argument("--steps", type=positive_int("--steps"), default=None, help="filter steps")
@@ -82,10 +87,23 @@ def _worker(args):
 
 
 def main(args) -> int:
+    from mjx_radar.api.run_case import load_plugins
+    from mjx_radar.planners import PLANNERS
     from mjx_radar.study import execute
+    from mjx_radar.task.method import with_planners
 
+    load_plugins(args.plugin)
+    methods = args.methods
+    if args.planners is not None:
+        planners = [x.strip() for x in args.planners.split(",") if x.strip()]
+        try:
+            for name in planners:
+                PLANNERS.get(name)
+            methods = with_planners(methods, planners)
+        except ValueError as err:
+            raise InputError(f"--planners: {err}") from None
     opts = execute.StudyOptions(
-        scenarios=args.scenarios, methods=args.methods, trials=args.trials, steps=args.steps,
+        scenarios=args.scenarios, methods=methods, trials=args.trials, steps=args.steps,
         seed=args.seed, chunk=args.chunk, rollouts=args.rollouts, out=args.out,
         resume=args.resume, precision=args.precision,
     )  # fmt: skip

@@ -35,7 +35,8 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar import precision
-from mjx_radar.engine import compile_cache, records
+from mjx_radar.engine import compile_cache
+from mjx_radar.env import records
 from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
 from mjx_radar.task import costs

@@ -66,6 +66,7 @@ def rollout(env: RadarEnv, planner, carry: LoopCarry, periods: int):
         state = lc.state
         key = jax.random.fold_in(streams_of(state.info["key"]).planner, state.info["period"])
         action, pc = planner.plan(lc.planner, state.obs, key)
+        action = env.clip_action(action)  # what the radars apply (and the records show)
         crec = planner.record(pc, action)
         state, srec = env.transition(state, action)
         return LoopCarry(state, pc), (srec, crec)

@@ -148,10 +148,13 @@ class RadarEnv:
             info={"key": key, "period": period, "placement_ok": init.ok},
         )
 
-    def _transition(self, state: State, action):
-        n = self.n_radars
+    def clip_action(self, action) -> jax.Array:
+        """``action`` (``[N, 2]`` or ``[2N]``) as ``[N, 2]`` within ``action_bounds``."""
         lower, upper = self.action_bounds
-        u = jnp.clip(jnp.reshape(action, (n, 2)), lower, upper)
+        return jnp.clip(jnp.reshape(action, (self.n_radars, 2)), lower, upper)
+
+    def _transition(self, state: State, action):
+        u = self.clip_action(action)
         j = state.info["period"]
         key = state.info["key"]
         filter_step = make_filter_step(self.task, self.params, key, self._tracker)

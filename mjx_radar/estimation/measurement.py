@@ -41,10 +41,9 @@ import numpy as np
 
 from mjx_radar.estimation import fisher, sensing
 from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair, per_row
-from mjx_radar.registry import SENSORS
 
 __all__ = [  # noqa: RUF022
-    "RHO2_EPS", "NoiseParams", "MeasurementModel", "RangeModel", "RangeAzimuthModel", "MODELS",
+    "RHO2_EPS", "NoiseParams", "MeasurementModel", "RangeModel", "RangeAzimuthModel",
     "make_model", "noise_params", "wrap_angle", "information", "information_components",
     "information_dense",
     "measurement_function", "noise_cov_fn", "flat_residual",
@@ -200,37 +199,11 @@ class RangeAzimuthModel(MeasurementModel):
         return (xx + a * y * y, xy - a * x * y, xz, yy + a * x * x, yz, zz)
 
 
-MODELS = {"range": RangeModel, "range-azimuth": RangeAzimuthModel}  # the built-in sensors
-
-
-def register_sensor(name: str, model=None):
-    """Registers a sensor: a :class:`MeasurementModel` subclass (usable as a decorator).
-
-    Select it in a scenario with ``[measurement] model = "name"``; the truth sampler, the
-    trackers, the planner's information and the PCRLB all go through it. Its code is
-    part of the program cache key.
-
-    Raises:
-        TypeError: ``model`` is not a MeasurementModel subclass.
-    """
-
-    def add(cls):
-        if not (isinstance(cls, type) and issubclass(cls, MeasurementModel)):
-            raise TypeError(f"sensor {name!r}: a MeasurementModel subclass, not {cls!r}")
-        return SENSORS.register(name, cls)
-
-    return add if model is None else add(model)
-
-
-def unregister_sensor(name: str) -> None:
-    """Removes a registered sensor (built-ins stay)."""
-    SENSORS.unregister(name)
-
-
 def make_model(name: str) -> MeasurementModel:
-    """The sensor (measurement model) called ``name``: ``"range"``, ``"range-azimuth"`` or
-    one registered with :func:`mjx_radar.register_sensor`; one-line ValueError otherwise."""
-    return SENSORS.get(name)()
+    """The sensor called ``name`` (:func:`mjx_radar.estimation.sensors.make_sensor`)."""
+    from mjx_radar.estimation.sensors import make_sensor
+
+    return make_sensor(name)
 
 
 def information_components(model: MeasurementModel, radar_pos, target_xyz, params, ccr, mask=None):

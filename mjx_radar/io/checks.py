@@ -40,6 +40,8 @@ class Rule:
         lo, hi: closed bounds (``lo`` open if ``lo_open``), in the field's unit.
         lo_open: ``lo`` itself is excluded.
         choices: allowed strings of an enumeration.
+        registry: a plug-in registry (:mod:`mjx_radar.registry`) whose names are allowed
+            too (those registered from scripts at the time of the check).
         doc: one-line description (docs/scenarios.md).
         unit: the unit, e.g. ``"m"`` (``""`` for dimensionless).
     """
@@ -51,14 +53,20 @@ class Rule:
     choices: tuple[str, ...] = ()
     doc: str = ""
     unit: str = ""
+    registry: Any = None
+
+    def allowed(self) -> tuple[str, ...]:
+        """The allowed strings: ``choices`` and the registry's names."""
+        extra = tuple(self.registry.names()) if self.registry is not None else ()
+        return tuple(dict.fromkeys(self.choices + extra))
 
     def describe(self) -> str:
         """The allowed values in words, e.g. ``"a number in (0.0, 1.0]"``."""
         if self.kind is bool:
             return "true or false"
         if self.kind is str:
-            if self.choices:
-                return f"one of {', '.join(self.choices)}"
+            if self.allowed():
+                return f"one of {', '.join(self.allowed())}"
             return "a non-empty [A-Za-z0-9_] string"
         name = {int: "an integer", float: "a number"}[self.kind]
         if self.lo == -INF and self.hi == INF:
@@ -104,9 +112,9 @@ def flag(doc: str = "", toml: str | None = None) -> dict:
     return _meta(Rule(bool, doc=doc), toml)
 
 
-def choice(*choices: str, doc: str = "", toml: str | None = None) -> dict:
-    """Field metadata for an enumeration of strings."""
-    return _meta(Rule(str, choices=tuple(choices), doc=doc), toml)
+def choice(*choices: str, doc: str = "", toml: str | None = None, registry: Any = None) -> dict:
+    """Field metadata for an enumeration of strings (and a registry's names, if given)."""
+    return _meta(Rule(str, choices=tuple(choices), doc=doc, registry=registry), toml)
 
 
 def name_rule(doc: str = "") -> dict:
@@ -185,10 +193,11 @@ def check(field: str, value: Any, rule_: Rule | tuple) -> Any:
             raise bad
         return value
     if r.kind is str:
+        allowed = r.allowed()
         ok = isinstance(value, str) and (
-            value in r.choices if r.choices else bool(value) and value.replace("_", "").isalnum()
+            value in allowed if allowed else bool(value) and value.replace("_", "").isalnum()
         )
-        if not ok or (not r.choices and not value.isascii()):
+        if not ok or (not allowed and not value.isascii()):
             raise bad
         return value
     ok_type = isinstance(value, int | float) and not isinstance(value, bool)

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, table
+from mjx_radar.registry import SENSORS
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
 from mjx_radar.scenario.schema_terrain import Terrain
@@ -182,7 +183,13 @@ class MeasurementConfig:
     """
 
     model: str = field(
-        default="range", metadata=choice("range", "range-azimuth", doc="measurement model")
+        default="range",
+        metadata=choice(
+            "range",
+            "range-azimuth",
+            registry=SENSORS,
+            doc="measurement model (or a sensor registered with mjx_radar.register_sensor)",
+        ),
     )
     beamwidth_deg: float = field(
         default=3.0, metadata=positive("3 dB beamwidth theta_3dB", "deg", hi=90.0)

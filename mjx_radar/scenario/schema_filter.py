@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import choice, flag, rule
+from mjx_radar.registry import TRACKERS
 
 
 @dataclass(frozen=True)
@@ -65,5 +66,16 @@ class FilterConfig:
             0.0,
             1.0,
             doc="IMM: probability of leaving the current mode within one second (Markov chain)",
+        ),
+    )
+    tracker: str = field(
+        default="auto",
+        metadata=choice(
+            "auto",
+            registry=TRACKERS,
+            doc=(
+                "the tracker: auto (by the options above and [detection]: ckf, bank, imm or "
+                "pda), a built-in one, or one registered with mjx_radar.register_tracker"
+            ),
         ),
     )

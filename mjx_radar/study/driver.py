@@ -38,7 +38,8 @@ import numpy as np
 import pandas as pd
 
 from mjx_radar.errors import InputError
-from mjx_radar.task.method import METHODS
+from mjx_radar.registry import PLANNERS
+from mjx_radar.task.method import METHODS, parse_method
 
 #: settings that must be the same when a study is resumed (they change the numbers)
 CONFIG_KEYS = ("scenarios", "methods", "trials", "steps", "seed", "chunk", "rollouts", "precision")
@@ -81,8 +82,12 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
 
     methods = list(methods)
     for i, m in enumerate(methods):  # before anything runs: duplicates break consolidation
-        if m not in METHODS:
+        if m.partition("+")[0] not in METHODS:
             raise InputError(f"methods: {m!r} is not one of {', '.join(METHODS)}")
+        try:  # a planner of its own ("METHOD+PLANNER"): registered in this process
+            PLANNERS.get(parse_method(m).planner)
+        except ValueError as err:
+            raise InputError(f"methods: {err}") from None
         if m in methods[:i]:
             raise InputError(f"methods: {m!r} given twice")
     scenarios, entries = [], []

@@ -160,3 +160,20 @@ def normalise_methods(names) -> list[str]:
     if not out:
         raise ValueError("methods: empty list")
     return list(dict.fromkeys(out))
+
+
+def with_planners(names, planners) -> list[str]:
+    """Every method of ``names`` under every planner of ``planners`` (``study --planners``).
+
+    A method that never moves its radars (``stationary``) is kept once, as it is; the
+    planner ``mppi`` keeps the paper's names. Raises one-line ``ValueError`` as
+    :func:`parse_method`.
+    """
+    out = []
+    for name in names:
+        method = parse_method(name)
+        if not method.plans or not planners:
+            out.append(method.name)
+            continue
+        out += [parse_method(method, p).name for p in planners]
+    return list(dict.fromkeys(out))

@@ -1,0 +1,68 @@
+"""The options of ``mjx-radar run`` (those of :func:`mjx_radar.simulate`, and the terminal's)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mjx_radar.cli.args import method_name, port, positive_int, seed
+from mjx_radar.task.method import METHODS
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
+    p.add_argument(
+        "--method",
+        type=method_name,
+        default="ddr-sfim",
+        metavar="METHOD",
+        help=f"one of {', '.join(METHODS)} (any case; default ddr-sfim)",
+    )
+    p.add_argument(
+        "--planner",
+        default=None,
+        metavar="NAME",
+        help="a registered planner moving the radars instead of the method's own (mppi, "
+        "hold, or one a --plugin file registers; docs/extending.md)",
+    )
+    p.add_argument(
+        "--plugin",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a Python file run first, e.g. one that registers a planner or a cost term "
+        "(repeatable)",
+    )
+    p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
+    p.add_argument(
+        "--steps",
+        type=positive_int("--steps"),
+        default=None,
+        help="filter steps (default: scenario's)",
+    )
+    p.add_argument(
+        "--trials",
+        type=positive_int("--trials", 100_000),
+        default=1,
+        help="Monte Carlo trials, run as one vmapped batch (default 1)",
+    )
+    p.add_argument("--out", type=Path, default=None, help="output dir (default runs/NAME_METHOD)")
+    p.add_argument(
+        "--rollouts",
+        choices=("mjx", "analytic"),
+        default=None,
+        help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
+    )
+    p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
+    p.add_argument("--view", action="store_true",
+                   help="live 3-D view in a web browser while it simulates (URL printed; "
+                   "docs/viewer.md)")  # fmt: skip
+    p.add_argument("--view-port", type=port, default=None, metavar="PORT",
+                   help="port of the live view on 127.0.0.1 (default 8765, 0: any free "
+                   "port; implies --view)")  # fmt: skip
+    p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
+    p.add_argument(
+        "--keep-diverged",
+        action="store_true",
+        help="exit 0 (with a warning) even if some trials' filters diverged",
+    )

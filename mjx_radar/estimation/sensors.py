@@ -1,0 +1,44 @@
+"""Sensors (measurement models) by name: the built-ins and those registered from scripts.
+
+A scenario's ``[measurement] model`` names one (:data:`mjx_radar.registry.SENSORS`):
+``"range"`` (the paper's round-trip range) or ``"range-azimuth"`` (monopulse azimuth
+too, docs/measurement.md) or a :class:`~mjx_radar.estimation.measurement.MeasurementModel`
+subclass given to :func:`register_sensor`. The truth sampler, the trackers, the
+planner's information and the PCRLB all go through the model.
+"""
+
+from __future__ import annotations
+
+from mjx_radar.estimation.measurement import MeasurementModel, RangeAzimuthModel, RangeModel
+from mjx_radar.registry import SENSORS
+
+#: the built-in sensors
+MODELS = {"range": RangeModel, "range-azimuth": RangeAzimuthModel}
+
+
+def register_sensor(name: str, model=None):
+    """Registers a sensor: a :class:`MeasurementModel` subclass (usable as a decorator).
+
+    Select it in a scenario with ``[measurement] model = "name"``. Its code is part of
+    the program cache key.
+
+    Raises:
+        TypeError: ``model`` is not a MeasurementModel subclass.
+    """
+
+    def add(cls):
+        if not (isinstance(cls, type) and issubclass(cls, MeasurementModel)):
+            raise TypeError(f"sensor {name!r}: a MeasurementModel subclass, not {cls!r}")
+        return SENSORS.register(name, cls)
+
+    return add if model is None else add(model)
+
+
+def unregister_sensor(name: str) -> None:
+    """Removes a registered sensor (built-ins stay)."""
+    SENSORS.unregister(name)
+
+
+def make_sensor(name: str) -> MeasurementModel:
+    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name)."""
+    return SENSORS.get(name)()
