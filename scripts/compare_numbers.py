@@ -18,7 +18,7 @@ import argparse
 import os
 import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -75,21 +75,26 @@ def main(argv=None) -> int:
         f.stem for f in (args.new / "scenarios").glob("*.toml"))  # fmt: skip
     methods = args.methods.split(",")
     trees = {"base": args.base.resolve(), "new": args.new.resolve()}
-    jobs = [(k, t, s, m) for s in names for m in methods for k, t in trees.items()]
-    with ThreadPoolExecutor(args.jobs) as pool:
-        done = list(pool.map(lambda j: run_one(j[1], args.out / j[0], j[2], j[3], args), jobs))
     bad = 0
-    for (k, _, s, m), status in zip(jobs, done, strict=True):
-        if status.startswith("failed"):
-            print(f"{k} {s}/{m}: {status}")
-            bad += 1
-    for s in names:
-        for m in methods:
-            fa, fb = (args.out / k / s / m / "metrics.parquet" for k in ("base", "new"))
-            if fa.exists() and fb.exists():
-                line = compare(fa, fb)
-                bad += line != "identical"
-                print(f"{s}/{m}: {line}")
+
+    def pair(s_m):  # both trees' runs of one scenario and method, then their comparison
+        s, m = s_m
+        status = {k: run_one(t, args.out / k, s, m, args) for k, t in trees.items()}
+        failed = [f"{k} {v}" for k, v in status.items() if v.startswith("failed")]
+        if failed:
+            return f"{s}/{m}: " + "; ".join(failed)
+        fa, fb = (args.out / k / s / m / "metrics.parquet" for k in trees)
+        return f"{s}/{m}: {compare(fa, fb)}"
+
+    # the largest scenarios first (their compilations take longest), each line as soon as
+    # its pair is done
+    names.sort(key=lambda n: (not n.startswith("swarm"), n))
+    with ThreadPoolExecutor(args.jobs) as pool:
+        futures = [pool.submit(pair, (s, m)) for s in names for m in methods]
+        for fut in as_completed(futures):
+            line = fut.result()
+            print(line, flush=True)
+            bad += not line.endswith("identical")
     print(f"{bad} differ or failed")
     return 1 if bad else 0
 
