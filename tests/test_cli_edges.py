@@ -335,7 +335,7 @@ def test_video_encoding_does_not_warn_about_fork(tmp_path):
 import warnings, numpy as np, imageio.v2 as iio
 warnings.simplefilter("error")
 from mjx_radar.cli.main import main
-from mjx_radar.io import results
+from mjx_radar.rundir import results
 assert main(["validate", {SMOKE!r}]) == 0  # the CLI entry; JAX is running now
 with iio.get_writer({str(tmp_path / "v.mp4")!r}, fps=10) as w:
     for _ in range(3):

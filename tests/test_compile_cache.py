@@ -21,7 +21,7 @@ ENV.pop("JAX_COMPILATION_CACHE_DIR", None)
 JIT = """
 import sys
 import jax, jax.numpy as jnp
-from mjx_radar.env import compile_cache
+from mjx_radar.engine import compile_cache
 compile_cache.enable(sys.argv[1])
 for k in range(3):  # three programs, three cache entries
     print(float(jax.jit(lambda x, k=k: jnp.sin(x) * (k + 1))(1.0)))
@@ -55,7 +55,7 @@ def test_corrupt_entries_one_line(tmp_path):
 
 def test_other_warnings_pass_through(tmp_path):
     code = (
-        "import sys, warnings\nfrom mjx_radar.env import compile_cache\n"
+        "import sys, warnings\nfrom mjx_radar.engine import compile_cache\n"
         "compile_cache.enable(sys.argv[1])\nwarnings.warn('something else', UserWarning)\n"
     )
     proc = subprocess.run([sys.executable, "-c", code, str(tmp_path / "c")], env=ENV,
