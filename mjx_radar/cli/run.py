@@ -36,7 +36,8 @@ from mjx_radar.cli.args import (
     positive_int,
     seed,
 )
-from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
+from mjx_radar.cli.run_output import finish
+from mjx_radar.errors import EXIT_INTERRUPTED, InputError
 from mjx_radar.io.atomic import create_dir, remove_empty_dirs
 from mjx_radar.io.lock import DirLock, lock_dir
 from mjx_radar.task.method import METHODS
@@ -72,12 +73,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
     )
     p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
-    p.add_argument("--view", action="store_true",
-                   help="live 3-D view in a web browser while it simulates (URL printed; "
-                   "docs/viewer.md)")  # fmt: skip
-    p.add_argument("--view-port", type=port, default=None, metavar="PORT",
-                   help="port of the live view on 127.0.0.1 (default 8765, 0: any free "
-                   "port; implies --view)")  # fmt: skip
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="live 3-D view in a web browser while it simulates (URL printed; docs/viewer.md)",
+    )
+    p.add_argument(
+        "--view-port",
+        type=port,
+        default=None,
+        metavar="PORT",
+        help="port of the live view on 127.0.0.1 (default 8765, 0: any free port; implies --view)",
+    )
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
     p.add_argument(
         "--keep-diverged",
@@ -133,7 +140,7 @@ def simulate(fn):
         except BaseException as err:  # re-raised in the main thread
             box["error"] = err
 
-    from mjx_radar.engine.programs import compile_thread
+    from mjx_radar.engine.threads import compile_thread
 
     worker = compile_thread(work, name="closed-loop")
     worker.start()
@@ -142,31 +149,6 @@ def simulate(fn):
     if "error" in box:
         raise box["error"]
     return box["value"]
-
-
-def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
-    """The one-line report of diverged trials (``None`` if none diverged).
-
-    Args:
-        diverged: [T, K] bool, True from the step a trial's estimate or covariance
-            became non-finite or non-positive-definite.
-        trials: [T] trial indices.
-        out: the run directory.
-        keep: ``--keep-diverged`` (a warning instead of an error).
-    """
-    if diverged is None:
-        return None
-    div = np.asarray(diverged, bool).reshape(len(trials), -1)
-    bad = np.flatnonzero(div.any(axis=1))
-    if bad.size == 0:
-        return None
-    first_step = div[bad].argmax(axis=1)  # 0-based step of each diverged trial
-    j = int(np.argmin(first_step))  # earliest; ties -> lowest trial
-    where = f"first at trial {int(trials[bad[j]])}, step {int(first_step[j]) + 1}"
-    head = f"{bad.size} of {len(trials)} trials diverged ({where}); results in {out}"
-    if keep:
-        return f"warning: {head}; kept (--keep-diverged)"
-    return f"error: {head}; pass --keep-diverged to accept"
 
 
 def main(args) -> int:
@@ -215,7 +197,7 @@ def main(args) -> int:
             live.close()
         raise
     try:
-        return _finish(out, args, s, seed_, trials, steps, res)
+        return finish(out, args, s, seed_, trials, steps, res)
     finally:
         lock.release()
         if live is not None:
@@ -229,24 +211,6 @@ def _live_view(args, s, trials, steps):
     from mjx_radar.viz.live import start
 
     return start(s, trials, steps, args.view_port)
-
-
-def _finish(out: Path, args, s, seed_, trials, steps, res) -> int:
-    """Writes the run directory, prints the summary, renders the video; the exit code."""
-    try:
-        write_results(out, args, s, seed_, trials, steps, res)
-    except KeyboardInterrupt:
-        print("interrupted: no results written", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    _summary(s, args, res, out)
-    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged)
-    if line:
-        print(line, file=sys.stderr)
-    if args.video:
-        from mjx_radar.viz import render
-
-        render.render_run(out, trial=0, out_path=out / "video.mp4")
-    return EXIT_FAILURE if line and not args.keep_diverged else 0
 
 
 def _terminate(signum, frame):
@@ -270,27 +234,3 @@ def _run(s, method, seed_, trials, steps, live=None):
             phase=bar.set_description_str,
             **view,
         )
-
-
-def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
-    """Writes the run directory (:func:`mjx_radar.rundir.writer.write_run`)."""
-    from mjx_radar.rundir.writer import write_run
-    from mjx_radar.scenario.reader import resolve_path
-
-    write_run(
-        out, s, args.method, seed_, trials, steps, res, source=resolve_path(args.scenario),
-        precision=getattr(args, "precision", "float32"),
-        deterministic=bool(getattr(args, "deterministic", False)),
-    )  # fmt: skip
-
-
-def _summary(s, args, res, out: Path) -> None:
-    rmse = float(np.mean(res["rmse_pos"]))
-    print(
-        f"mean position RMSE {rmse:.3f} m (final step {np.mean(res['rmse_pos'][:, -1]):.3f} m), "
-        f"PCRLB {np.mean(res['crlb_pos']):.3f} m; control rate {res['control_hz']:.1f} Hz for "
-        f"the batch of {args.trials} (real time: {1 / s.timing.dt_control:g} Hz), "
-        f"compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
-        f"{int(np.asarray(res['lost']).any(axis=-1).sum())} of {args.trials} trial(s) lost track; "
-        f"results in {out}"
-    )

@@ -36,6 +36,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar import precision
 from mjx_radar.engine import compile_cache
+from mjx_radar.engine.threads import parallel
 from mjx_radar.env import records
 from mjx_radar.rundir import results
 from mjx_radar.task import costs
@@ -57,46 +58,6 @@ class Programs:
     trial_sharding: NamedSharding
     replicated: NamedSharding
     source: str  # "traced" | "export cache"
-
-
-#: stack size of threads that compile (XLA's compiler recurses deeply on large programs;
-#: the default 8 MiB thread stack overflowed compiling a 2-GPU program)
-COMPILE_THREAD_STACK = 512 * 1024 * 1024
-
-
-def compile_thread(target, name: str = "compile"):
-    """A daemon thread with a stack large enough for XLA compilation."""
-    old = threading.stack_size(COMPILE_THREAD_STACK)
-    try:
-        return threading.Thread(target=target, name=name, daemon=True)
-    finally:
-        threading.stack_size(old)
-
-
-def parallel(fns) -> list:
-    """``[f() for f in fns]``, each call in its own big-stack thread.
-
-    The caller joins with a timeout, so Ctrl-C is honoured at once even during an XLA
-    compilation; the first error of a call is raised in the caller's thread.
-    """
-    out: list = [None] * len(fns)
-    errors: list[BaseException] = []
-
-    def run(i, f):
-        try:
-            out[i] = f()
-        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
-            errors.append(err)
-
-    threads = [compile_thread(lambda i=i, f=f: run(i, f)) for i, f in enumerate(fns)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        while th.is_alive():
-            th.join(0.2)
-    if errors:
-        raise errors[0]
-    return out
 
 
 def device_mesh(devices=None) -> Mesh:
@@ -134,8 +95,10 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
     def step_flat(trial, start, *rest):
         params = jax.tree.unflatten(params_tree, rest[:n_params])
         given = iter(rest[n_params:])
-        leaves = [next(given) if keep else jnp.zeros(s.shape, s.dtype)
-                  for s, keep in zip(shapes, live, strict=True)]  # fmt: skip
+        leaves = [
+            next(given) if keep else jnp.zeros(s.shape, s.dtype)
+            for s, keep in zip(shapes, live, strict=True)
+        ]
         carry = jax.tree.unflatten(carry_tree, leaves)
         carry, steps, controls = closed_loop.advance(task, params, trial, carry, start, periods)
         if not full:
@@ -146,14 +109,19 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
 
     n_carry = sum(live)
     init = jax.shard_map(
-        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params), mesh=mesh,
-        in_specs=(SPLIT,) + (WHOLE,) * n_params, out_specs=SPLIT, check_vma=False,
-    )  # fmt: skip
+        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params),
+        mesh=mesh,
+        in_specs=(SPLIT,) + (WHOLE,) * n_params,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
     step = jax.shard_map(
         jax.vmap(step_flat, in_axes=(0, None) + (None,) * n_params + (0,) * n_carry),
-        mesh=mesh, in_specs=(SPLIT, WHOLE) + (WHOLE,) * n_params + (SPLIT,) * n_carry,
-        out_specs=SPLIT, check_vma=False,
-    )  # fmt: skip
+        mesh=mesh,
+        in_specs=(SPLIT, WHOLE) + (WHOLE,) * n_params + (SPLIT,) * n_carry,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
     donate = tuple(range(2 + n_params, 2 + n_params + n_carry))
     return jax.jit(init), jax.jit(step, donate_argnums=donate)
 
@@ -165,8 +133,18 @@ def _variant() -> tuple:
 
 def _key(shape, periods, full, batch, mesh, kind) -> str:
     dev = mesh.devices.flat[0]
-    parts = [repr(shape), periods, full, batch, mesh.size, dev.platform, dev.device_kind, kind,
-             *_variant(), compile_cache.code_fingerprint()]  # fmt: skip
+    parts = [
+        repr(shape),
+        periods,
+        full,
+        batch,
+        mesh.size,
+        dev.platform,
+        dev.device_kind,
+        kind,
+        *_variant(),
+        compile_cache.code_fingerprint(),
+    ]
     for obs in shape.obstacles:  # mesh files: their content, not only their path
         if obs.path and Path(obs.path).exists():
             parts.append(hashlib.sha256(Path(obs.path).read_bytes()).hexdigest())
@@ -179,8 +157,9 @@ _LOCK = threading.Lock()
 COMPILE_LOG: list[dict] = []
 
 
-def compile_programs(scenario, batch: int, periods: int, full: bool = False, mesh=None,
-                     kind: str = "all"):  # fmt: skip
+def compile_programs(
+    scenario, batch: int, periods: int, full: bool = False, mesh=None, kind: str = "all"
+):
     """Ahead-of-time compiled :class:`Programs` of a scenario's shape; ``(programs, seconds)``.
 
     Args:
@@ -223,8 +202,9 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
         task = make_task(shape, kind)
         carry_shapes = jax.eval_shape(
             lambda t, p: closed_loop.init_carry(task, p, t)[0],
-            jax.ShapeDtypeStruct((), jnp.int32), params,
-        )  # fmt: skip
+            jax.ShapeDtypeStruct((), jnp.int32),
+            params,
+        )
         c_specs = [
             jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh)
             for x in jax.tree.leaves(carry_shapes)
@@ -248,9 +228,18 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     t2 = time.perf_counter()
     with _LOCK:
         _CACHE[mem_key] = progs
-        COMPILE_LOG.append({"n_radars": scenario.n_radars, "n_targets": scenario.n_targets,
-                            "batch": batch, "devices": mesh.size, "kind": kind, "source": source,
-                            "trace_lower_s": t1 - t0, "xla_compile_s": t2 - t1})  # fmt: skip
+        COMPILE_LOG.append(
+            {
+                "n_radars": scenario.n_radars,
+                "n_targets": scenario.n_targets,
+                "batch": batch,
+                "devices": mesh.size,
+                "kind": kind,
+                "source": source,
+                "trace_lower_s": t1 - t0,
+                "xla_compile_s": t2 - t1,
+            }
+        )
     return progs, t2 - t0
 
 

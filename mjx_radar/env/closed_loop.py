@@ -83,8 +83,9 @@ def _idle_plan(task: RadarTask, u_plan):
     n, h = sc.n_radars, sc.mpc.horizon
     zeros = jnp.zeros((n, 2))
     s = kept_samples(sc)
-    rec = ControlRecord(zeros, jnp.zeros((h, n, 2)), jnp.zeros((s, h, n, 2)), jnp.zeros(s),
-                        jnp.zeros(s))  # fmt: skip
+    rec = ControlRecord(
+        zeros, jnp.zeros((h, n, 2)), jnp.zeros((s, h, n, 2)), jnp.zeros(s), jnp.zeros(s)
+    )
     return zeros, u_plan, rec
 
 
@@ -154,8 +155,9 @@ def stages(task: RadarTask, params, trial) -> Stages:
         data, mean0, cov0, pfim, health, modes0 = carry
         mean, cov, modes_p = fops.predict(mean0, cov0, modes0)
         accel_key = jax.random.fold_in(streams.drones, k)
-        data = target_motion.step_plant(plant, data, u, motion, accel_key, k, params.sigma_w2,
-                                        params.moving)  # fmt: skip
+        data = target_motion.step_plant(
+            plant, data, u, motion, accel_key, k, params.sigma_w2, params.moving
+        )
         radars = physics.radar_state(plant, data)
         truth = physics.target_state(plant, data)
         key = jax.random.fold_in(streams.measurement, k)
@@ -168,9 +170,14 @@ def stages(task: RadarTask, params, trial) -> Stages:
         )
         modes_p = fops.begin(modes_p, mean, cov, k)  # the IMM's modes of appearing targets
         obs = scan.observe(sc.detection, params, trial, k, radars[:, :3], truth[:, :3], z, vis)
-        post = ((*scan.pda_update(sc, params, model, flags.ccr, mean, cov, obs, radars[:, :3],
-                                  vis), modes_p) if sc.detection.clutter
-                else fops.update(mean, cov, modes_p, z, radars[:, :3], obs.seen))  # fmt: skip
+        post = (
+            (
+                *scan.pda_update(sc, params, model, flags.ccr, mean, cov, obs, radars[:, :3], vis),
+                modes_p,
+            )
+            if sc.detection.clutter
+            else fops.update(mean, cov, modes_p, z, radars[:, :3], obs.seen)
+        )
         # A diverged misspecified filter (CCR noise model) can overflow float32 in the
         # update; keep the prediction then (or, if that overflowed too, the last
         # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
@@ -195,10 +202,22 @@ def stages(task: RadarTask, params, trial) -> Stages:
         crlb, rmse_pos, rmse_state, nees = presence.metrics(bound, truth, mean, cov_p, everyone)
         contacts = physics.obstacle_contacts(plant, data)
         rec = StepRecord(
-            truth, mean, jnp.diagonal(cov_p), radars, rmse_pos, rmse_state, nees, crlb,
-            contacts, obs.n_vis, obs.n_det, obs.n_fa, flags_h.lost | diverged, diverged,
+            truth,
+            mean,
+            jnp.diagonal(cov_p),
+            radars,
+            rmse_pos,
+            rmse_state,
+            nees,
+            crlb,
+            contacts,
+            obs.n_vis,
+            obs.n_det,
+            obs.n_fa,
+            flags_h.lost | diverged,
+            diverged,
             jnp.sum(here).astype(jnp.int32),
-        )  # fmt: skip
+        )
         return (data, mean, cov, pfim, health, modes), rec
 
     def plan(loop, j, u_plan):

@@ -19,7 +19,13 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement
+from mjx_radar.estimation import (
+    ckf_sqrt,
+    filter_bank,
+    ground_prior,
+    imm,
+    measurement_filter,
+)
 from mjx_radar.physics import target_motion
 from mjx_radar.task.task import RadarTask, process_noise
 
@@ -50,8 +56,8 @@ def make(task: RadarTask, params) -> FilterOps:
     """The :class:`FilterOps` of ``task.scenario`` with the noise model of ``params.method``."""
     sc = task.scenario
     model = task.measurement
-    r_filter = measurement.noise_cov_fn(model, params.noise, params.method.ccr)
-    residual = measurement.flat_residual(model) if model.dim > 1 else None
+    r_filter = measurement_filter.noise_cov_fn(model, params.noise, params.method.ccr)
+    residual = measurement_filter.flat_residual(model) if model.dim > 1 else None
     per_target, form = sc.filter.structure == "per-target", sc.filter.form
     filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it
     a_f = task.a_filter
@@ -78,7 +84,7 @@ def make(task: RadarTask, params) -> FilterOps:
             mean, cov = filter_bank.bank_to_joint(*post)
         else:
             keep_ = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
-            h = measurement.measurement_function(model, radar_pos)
+            h = measurement_filter.measurement_function(model, radar_pos)
             kw = {} if residual is None else {"residual": residual}
             mean, cov = filt.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep_, **kw)
         if sc.filter.ground_prior:
