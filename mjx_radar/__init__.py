@@ -22,7 +22,7 @@ METHODS = tuple(_METHODS)  # method names (SPEC §9)
 
 # The scripting API (docs/api.md), imported on first use: ``import mjx_radar`` stays light.
 _LAZY = {
-    "simulate": "mjx_radar.api.run",
+    "simulate": "mjx_radar.api.simulate",
     "Run": "mjx_radar.api.run",
     "run_study": "mjx_radar.api.study",
     "Study": "mjx_radar.api.study",

@@ -92,7 +92,7 @@ def measure(scenario: str, kind: str, batch: int, periods: int, steps: int, part
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar.engine.programs import parallel
+    from mjx_radar.engine.threads import parallel
 
     fns, init, params, sc = _build(scenario, kind, batch, periods)
     out: dict = {}

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjx_radar.cli import run as run_cmd
+from mjx_radar.cli import run_output
 from mjx_radar.cli.main import main
 from mjx_radar.engine import resources
 from mjx_radar.rundir import results
@@ -182,16 +182,18 @@ def test_interrupted_overwrite_leaves_no_run_json(tmp_path):
 
 def test_diverged_line():
     div = np.zeros((4, 8), bool)
-    assert run_cmd.diverged_line(div, np.arange(4), Path("d"), False) is None
-    assert run_cmd.diverged_line(None, np.arange(4), Path("d"), False) is None
+    assert run_output.diverged_line(div, np.arange(4), Path("d"), False) is None
+    assert run_output.diverged_line(None, np.arange(4), Path("d"), False) is None
     div[3, 2:] = True  # trial 3 from step 3 (1-based)
     div[1, 5:] = True  # trial 1 from step 6
-    line = run_cmd.diverged_line(div, np.arange(10, 14), Path("d"), False)
+    line = run_output.diverged_line(div, np.arange(10, 14), Path("d"), False)
     assert line == (
         "error: 2 of 4 trials diverged (first at trial 13, step 3); results in d; "
         "pass --keep-diverged to accept"
     )
-    assert run_cmd.diverged_line(div, np.arange(4), Path("d"), True).startswith("warning: 2 of 4")
+    assert run_output.diverged_line(div, np.arange(4), Path("d"), True).startswith(
+        "warning: 2 of 4"
+    )
 
 
 def _fake_trials(scenario, method, seed, trials, steps, full=True, progress=None, **kw):
@@ -335,7 +337,7 @@ def test_video_encoding_does_not_warn_about_fork(tmp_path):
 import warnings, numpy as np, imageio.v2 as iio
 warnings.simplefilter("error")
 from mjx_radar.cli.main import main
-from mjx_radar.io import results
+from mjx_radar.rundir import results
 assert main(["validate", {SMOKE!r}]) == 0  # the CLI entry; JAX is running now
 with iio.get_writer({str(tmp_path / "v.mp4")!r}, fps=10) as w:
     for _ in range(3):

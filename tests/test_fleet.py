@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import measurement
+from mjx_radar.estimation import measurement, measurement_filter
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import task_params
@@ -54,7 +54,7 @@ def test_per_radar_constants_in_sfim_ckf_noise_and_ccr():
     z = 2 * r.reshape(-1)  # rows radar-major
     for ccr, var in ((False, np.repeat(c, 2) * r.reshape(-1) ** 4),
                      (True, np.repeat(c, 2) * s.mpc.r2t**4)):  # fmt: skip
-        big = measurement.noise_cov_fn(model, noise, ccr)(jnp.asarray(z, jnp.float32))
+        big = measurement_filter.noise_cov_fn(model, noise, ccr)(jnp.asarray(z, jnp.float32))
         np.testing.assert_allclose(np.diag(np.asarray(big)), var, rtol=1e-4)
     # the truth sampler: var(z - 2d) = C_n d⁴ (Monte Carlo, 4000 draws: 4.5% rel. s.e.)
     keys = jax.random.split(jax.random.PRNGKey(0), 4000)

@@ -62,6 +62,7 @@ def test_cycles_private_names_and_cli_are_reported(tmp_path):
             "task/t.py": "import mjx_radar.cli.main\n",
             "cli/main.py": "\n" * 301,
             "unknown/u.py": "",
+            "world/packed.py": "x = [1,\n  2]  # fmt: skip\n",
         },
     )
     problems, _ = _checker().check(pkg)
@@ -71,6 +72,7 @@ def test_cycles_private_names_and_cli_are_reported(tmp_path):
     assert "mjx_radar.task.t: library module imports mjx_radar.cli.main" in text
     assert "mjx_radar.cli.main: 301 lines (> 300)" in text
     assert "mjx_radar.unknown: package not in FLOORS" in text
+    assert "mjx_radar.world.packed: '# fmt: skip' on line(s) 2" in text
 
 
 def test_clean_synthetic_tree_passes(tmp_path):

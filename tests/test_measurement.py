@@ -9,6 +9,7 @@ import pytest
 
 from mjx_radar.estimation import ckf, fisher, sensing
 from mjx_radar.estimation import measurement as me
+from mjx_radar.estimation import measurement_filter as mf
 from mjx_radar.scenario.schema import MeasurementConfig, RadarEquation, Scenario
 
 RADARS = np.array([[0.0, 0.0, 0.0], [200.0, 100.0, 0.0], [-150.0, 250.0, 0.0]])
@@ -44,13 +45,13 @@ def test_range_model_reproduces_sensing_and_fisher():
     m, p = me.make_model("range"), _params()
     x = jnp.asarray(np.concatenate([TARGETS, np.ones_like(TARGETS)], 1).reshape(-1), jnp.float32)
     radars = jnp.asarray(RADARS, jnp.float32)
-    h_new, h_old = me.measurement_function(m, radars)(x), sensing.range_model(radars)(x)
+    h_new, h_old = mf.measurement_function(m, radars)(x), sensing.range_model(radars)(x)
     np.testing.assert_array_equal(h_new, h_old)
     np.testing.assert_array_equal(
-        me.noise_cov_fn(m, p, False)(h_old), sensing.ddr_noise_cov(h_old, p.c)
+        mf.noise_cov_fn(m, p, False)(h_old), sensing.ddr_noise_cov(h_old, p.c)
     )
     np.testing.assert_array_equal(
-        me.noise_cov_fn(m, p, jnp.asarray(True))(h_old), sensing.ccr_noise_cov(12, p.sigma_r2)
+        mf.noise_cov_fn(m, p, jnp.asarray(True))(h_old), sensing.ccr_noise_cov(12, p.sigma_r2)
     )
     key = jax.random.PRNGKey(3)
     targets = jnp.asarray(TARGETS, jnp.float32)
@@ -140,7 +141,7 @@ def test_residual_wraps_azimuth():
     a, b = jnp.array([[10.0, math.pi - 0.1]]), jnp.array([[4.0, -math.pi + 0.1]])
     np.testing.assert_allclose(RA.residual(a, b), [[6.0, -0.2]], atol=1e-6)
     assert float(me.wrap_angle(jnp.asarray(-math.pi))) == pytest.approx(math.pi)
-    r = me.flat_residual(RA)(a.reshape(-1), b.reshape(-1))
+    r = mf.flat_residual(RA)(a.reshape(-1), b.reshape(-1))
     np.testing.assert_allclose(r, [6.0, -0.2], atol=1e-6)
 
 
@@ -164,11 +165,11 @@ def test_ckf_azimuth_branch_cut_is_rotation_invariant():
         truth = np.array([-150.0, 1.0, 50.0, 3.0, -1.0, 0.0])
         mean = truth + np.array([2.0, -8.0, 1.0, 1.0, 0.5, 0.0])
         cov = np.diag([50.0, 50.0, 20.0, 5.0, 5.0, 5.0])
-        z = me.measurement_function(RA, radars)(truth) + jnp.array([0.05, 0.003, -0.3, -0.004])
+        z = mf.measurement_function(RA, radars)(truth) + jnp.array([0.05, 0.003, -0.3, -0.004])
         z = jnp.asarray(z).at[1].set(me.wrap_angle(z[1]))
-        R = me.noise_cov_fn(RA, params, False)
-        res = me.flat_residual(RA)
-        h = me.measurement_function(RA, radars)
+        R = mf.noise_cov_fn(RA, params, False)
+        res = mf.flat_residual(RA)
+        h = mf.measurement_function(RA, radars)
         zs = jax.vmap(h)(jnp.asarray(mean) + ckf.cubature_offsets(jnp.asarray(cov)))
         assert float(jnp.max(zs[:, 1])) > 3.0 and float(jnp.min(zs[:, 1])) < -3.0  # straddles
         m_a, P_a = ckf.update(mean, cov, z, h, R, residual=res)
@@ -181,7 +182,7 @@ def test_ckf_azimuth_branch_cut_is_rotation_invariant():
             .at[3]
             .set(me.wrap_angle(z[3] + math.pi / 2))
         )
-        h_b = me.measurement_function(RA, radars_b)
+        h_b = mf.measurement_function(RA, radars_b)
         m_b, P_b = ckf.update(r6 @ mean, r6 @ cov @ r6.T, z_b, h_b, R, residual=res)
         np.testing.assert_allclose(r6 @ m_a, m_b, atol=1e-8)
         np.testing.assert_allclose(r6 @ P_a @ r6.T, P_b, atol=1e-8 * float(jnp.max(P_b)))
@@ -196,11 +197,11 @@ def test_ckf_azimuth_branch_cut_is_rotation_invariant():
 def test_ckf_without_residual_is_unchanged_by_identity_residual():
     """An identity residual (plain subtraction) gives the same update up to round-off."""
     with jax.enable_x64(True):
-        h = me.measurement_function(RA, RADARS)
+        h = mf.measurement_function(RA, RADARS)
         x = np.concatenate([TARGETS[:2], np.zeros((2, 3))], 1).reshape(-1)
         cov = np.eye(12) * 30.0
         z = h(x + 1.0)
-        R = me.noise_cov_fn(RA, _params(), False)
+        R = mf.noise_cov_fn(RA, _params(), False)
         m0, P0 = ckf.update(x, cov, z, h, R)
         m1, P1 = ckf.update(x, cov, z, h, R, residual=lambda a, b: a - b)
         np.testing.assert_allclose(m0, m1, rtol=1e-12)
@@ -224,8 +225,8 @@ def test_ckf_range_azimuth_static_targets_converge():
         truth = jnp.concatenate([truth_pos, jnp.zeros((2, 3))], 1).reshape(-1)
         pos_mask = jnp.tile(jnp.array([1.0, 1, 1, 0, 0, 0]), 2)
         cov0 = jnp.diag(jnp.tile(jnp.array([50.0, 50, 50, 1e-6, 1e-6, 1e-6]), 2))
-        h = me.measurement_function(RA, radars)
-        R, res = me.noise_cov_fn(RA, params, False), me.flat_residual(RA)
+        h = mf.measurement_function(RA, radars)
+        R, res = mf.noise_cov_fn(RA, params, False), mf.flat_residual(RA)
 
         def run(key):
             mean0 = truth + jnp.sqrt(50.0) * jax.random.normal(key, (12,)) * pos_mask

@@ -20,7 +20,7 @@ import mjx_radar
 from mjx_radar.errors import InputError
 from mjx_radar.rundir.results import METRIC_COLUMNS
 from mjx_radar.rundir.writer import write_run
-from mjx_radar.viz import viewer
+from mjx_radar.viz import viewer, viewer_budget
 from mjx_radar.viz.viewer_traces import LAYERS
 
 cli_main = importlib.import_module("mjx_radar.cli.main")
@@ -97,7 +97,7 @@ def _anim(fig, name: str) -> int:
 def test_frames_hold_the_run_arrays(smoke2):
     rd = viewer.load_run(smoke2)
     fig, info = viewer.build_figure(rd, max_frames=30, samples=5)
-    ks = viewer.frame_steps(rd.arrays["radar"].shape[1], 30)
+    ks = viewer_budget.frame_steps(rd.arrays["radar"].shape[1], 30)
     assert info.frames == len(ks) <= 30 and ks[-1] == rd.arrays["radar"].shape[1] - 1
     assert info.trials == (0, 1) and len(fig.frames) == 2 * len(ks)
     i_radar, i_drone = _anim(fig, "radars"), _anim(fig, "drones (truth)")
@@ -280,7 +280,7 @@ def test_fixed_sites_drawn_apart(tmp_path):
     rd = viewer.load_run(synthetic_run(tmp_path / "mixed", s, steps=80))
     fig, _ = viewer.build_figure(rd, max_frames=5, samples=2)
     fixed = np.array([0, 1])  # mobile = false in the scenario file
-    for i, k in enumerate(viewer.frame_steps(80, 5)):
+    for i, k in enumerate(viewer_budget.frame_steps(80, 5)):
         f = _frame(fig, f"t0:{i}")
         want = rd.arrays["radar"][0, k, :, :3]
         sites, mobile = _xyz(f["fixed sites"]), _xyz(f["radars"])
@@ -306,7 +306,7 @@ def test_absent_drones_hidden_and_counts_panel(tmp_path):
     d = synthetic_run(tmp_path / "raid", s, steps=1600)
     rd = viewer.load_run(d)
     fig, _ = viewer.build_figure(rd, max_frames=40, samples=0)
-    ks = viewer.frame_steps(1600, 40)
+    ks = viewer_budget.frame_steps(1600, 40)
     t = s.timing.dt_filter * (ks + 1)
     here = _present(s, t)
     assert here.all(1).sum() < len(ks) and here[:, :4].any() and here[:, 4:].any()
@@ -339,7 +339,7 @@ def test_detection_counts_equal_the_metrics(tmp_path):
     d = synthetic_run(tmp_path / "clutter", s, trials=2, steps=120)
     metrics = pd.read_parquet(d / "metrics.parquet")
     fig, _ = viewer.build_figure(d, max_frames=12, samples=2)
-    ks = viewer.frame_steps(120, 12)
+    ks = viewer_budget.frame_steps(120, 12)
     traces = [t for t in fig.data if t.legendgroup == "counts" and t.name != "current step "
               "(counts)"]  # fmt: skip
     names = ["detections", "visible pairs", "false alarms"]

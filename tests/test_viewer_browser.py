@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import mjx_radar
-from mjx_radar.viz import viewer
+from mjx_radar.viz import viewer, viewer_budget
 from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -132,7 +132,7 @@ def check_scene(page, rd, trial: int, ks) -> None:
 def test_offline_html_slider_and_trial_menu(browser, run_dir, tmp_path):
     rd = viewer.load_run(run_dir)
     html = viewer.view(rd, tmp_path / "v.html", max_frames=FRAMES, samples=4).path
-    ks = viewer.frame_steps(rd.arrays["radar"].shape[1], FRAMES)
+    ks = viewer_budget.frame_steps(rd.arrays["radar"].shape[1], FRAMES)
     page = browser.new_page(viewport={"width": 1200, "height": 800})
     page.set_default_timeout(15_000)
     requests = []

@@ -1,9 +1,10 @@
-"""``mjx_radar.simulate`` and :class:`Run`: the closed loop from a Python script.
+""":class:`Run`: the result of the closed loop from a Python script.
 
-``simulate`` validates the scenario by the rules of a TOML file, checks that the
-radars can be placed and that the run fits in memory, and runs the same compiled
-program as ``mjx-radar run`` (:func:`mjx_radar.engine.runner.run_trials`), so a
-fixed seed gives the same numbers from either. A :class:`Run` holds the result:
+``mjx_radar.simulate`` (:mod:`mjx_radar.api.simulate`) validates the scenario by the
+rules of a TOML file, checks that the radars can be placed and that the run fits in
+memory, and runs the same compiled program as ``mjx-radar run``
+(:func:`mjx_radar.engine.runner.run_trials`), so a fixed seed gives the same numbers
+from either. A :class:`Run` holds the result:
 
 - ``metrics``: a pandas DataFrame with the columns of ``metrics.parquet``
   (one row per trial and step);
@@ -18,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 import tempfile
 from pathlib import Path
 
@@ -105,8 +105,16 @@ class Run:
         with lock_dir(path, "path", what="is writing a run there"):
             if (path / "run.json").exists() and not force:
                 raise InputError(f"path = {str(path)!r}: holds a complete run; pass force=True")
-            write_run(path, self.scenario, self.method, self.seed, self.trials, self.steps,
-                      self._res, precision=self.meta.get("precision", "float32"))  # fmt: skip
+            write_run(
+                path,
+                self.scenario,
+                self.method,
+                self.seed,
+                self.trials,
+                self.steps,
+                self._res,
+                precision=self.meta.get("precision", "float32"),
+            )
         self.path = path
         self.meta = json.loads((path / "run.json").read_text())
         return path
@@ -129,8 +137,17 @@ class Run:
             raise InputError(f"{where}: damaged metrics file ({first})") from None
         trials = np.asarray(rd.meta.get("trial_ids", sorted(metrics["trial"].unique())))
         steps = int(rd.meta.get("steps", rd.arrays["radar"].shape[1]))
-        return cls(rd.scenario, rd.meta.get("method", ""), int(rd.meta.get("seed", 0)),
-                   trials, steps, metrics, rd.arrays, rd.meta, rd.path)  # fmt: skip
+        return cls(
+            rd.scenario,
+            rd.meta.get("method", ""),
+            int(rd.meta.get("seed", 0)),
+            trials,
+            steps,
+            metrics,
+            rd.arrays,
+            rd.meta,
+            rd.path,
+        )
 
     def _saved(self) -> Path:
         if self.path is None:  # render and snapshot read a run directory
@@ -152,15 +169,21 @@ class Run:
         render_run(self._saved(), trial, Path(path), RenderOptions(camera=camera, **options))
         return Path(path)
 
-    def snapshot(self, step: int, path: str | Path | None = None, trial: int = 0,
-                 grid: int = 120) -> Path:  # fmt: skip
+    def snapshot(
+        self, step: int, path: str | Path | None = None, trial: int = 0, grid: int = 120
+    ) -> Path:
         """Two-panel figure at filter step ``step`` (``mjx-radar snapshot``); returns its path."""
         from mjx_radar.viz.snapshot import snapshot
 
         return Path(snapshot(self._saved(), step, trial, path, grid))
 
-    def view(self, path: str | Path | None = None, trial=None, max_frames: int = 150,
-             samples: int | None = None) -> Path:  # fmt: skip
+    def view(
+        self,
+        path: str | Path | None = None,
+        trial=None,
+        max_frames: int = 150,
+        samples: int | None = None,
+    ) -> Path:
         """Interactive 3-D view as one offline HTML file (``mjx-radar view``); returns its path.
 
         Args:
@@ -173,87 +196,3 @@ class Run:
         from mjx_radar.viz.viewer import view
 
         return view(self._saved(), path, trial, max_frames, samples).path
-
-
-def simulate(scenario, method: str = "ddr-sfim", trials=1, steps: int | None = None,
-             seed: int | None = None, progress: bool = True, cache: bool = True,
-             view: bool = False, view_port: int | None = None, *, planner: str | None = None,
-             rollouts: str | None = None, precision: str = "float32",
-             deterministic: bool = False, cache_dir: str | Path | None = None,
-             plugins=()) -> Run:  # fmt: skip
-    """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
-
-    Args:
-        scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
-        method: ``"stationary"``, ``"ccr-sfim"``, ``"ccr-pfim"``, ``"ddr-sfim"`` or
-            ``"ddr-pfim"`` (case-insensitive), or ``"METHOD+PLANNER"``.
-        trials: a count T (trials ``0..T-1``; default 1, as ``mjx-radar run``) or explicit
-            trial indices (common random numbers: trial i is the same world for every
-            method).
-        steps: filter steps (default the scenario's ``timing.steps``); a multiple of
-            ``dt_control / dt_filter``.
-        seed: base seed (default the scenario's).
-        progress: show a progress bar on stderr.
-        cache: use the persistent compilation cache (as the command line does).
-        view: a live 3-D view while it simulates (``run --view``, docs/viewer.md): URL on
-            stderr; the server stops when this returns (the page keeps the last state).
-        view_port: its port on 127.0.0.1 (default 8765; 0: any free one; implies ``view``).
-        planner: a registered planner moving the radars instead of the method's own
-            (``run --planner``; :func:`mjx_radar.register_planner`).
-        rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (``run --rollouts``;
-            default the scenario's).
-        precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
-        deterministic: deterministic GPU kernels (``--deterministic``; on a GPU, XLA's flag
-            must be set before JAX starts, else a one-line ``InputError``).
-        cache_dir: the persistent compilation cache's folder (``--cache-dir``).
-        plugins: Python files run first, e.g. to register planners (``--plugin``).
-
-    Returns:
-        The run (not saved; :meth:`Run.save` writes it).
-
-    Raises:
-        ScenarioError: an invalid scenario, method, trial list, step count or seed (one
-            line, the same message a TOML file or the command line gives); nothing is
-            compiled.
-        InputError: the radars cannot be placed, the run does not fit in memory, or a bad
-            or busy ``view_port``.
-
-    Example:
-        >>> import mjx_radar
-        >>> run = mjx_radar.simulate("smoke", trials=2, steps=40)  # doctest: +SKIP
-        >>> run.metrics.groupby("step")["rmse_pos"].mean().tail(1)  # doctest: +SKIP
-    """
-    from mjx_radar.api import run_case
-
-    req = run_case.request(
-        scenario, method=method, planner=planner, trials=trials, steps=steps, seed=seed,
-        rollouts=rollouts, precision=precision, deterministic=deterministic, cache=cache,
-        cache_dir=cache_dir, plugins=plugins,
-    )  # fmt: skip
-    return _simulate(req, progress, (view or view_port is not None, view_port))
-
-
-def _simulate(req, progress: bool, view=(False, None)) -> Run:
-    from tqdm import tqdm
-
-    from mjx_radar.api import run_case
-    from mjx_radar.rundir import results
-    from mjx_radar.rundir.writer import TRAJECTORY_KEYS, run_meta
-    from mjx_radar.viz import live as live_view
-
-    s, ids, steps, method = req.scenario, req.trials, req.steps, req.method.name
-    live = live_view.start(s, ids, steps, view[1], "view_port") if view[0] else None
-    try:
-        with tqdm(total=steps, unit="step", desc="closed loop", file=sys.stderr,
-                  disable=not progress) as bar:  # fmt: skip
-            res = run_case.execute(req, bar.update, bar.set_description_str, live)
-    finally:
-        if live is not None:
-            live.linger(False)
-    time_s = s.timing.dt_filter * np.arange(1, steps + 1)
-    frame = results.metrics_frame(s.name, method, ids, time_s, res)
-    arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}
-    arrays["time_s"] = time_s
-    meta = run_meta(s, method, req.seed, ids, steps, res, precision=req.precision,
-                    deterministic=req.deterministic)  # fmt: skip
-    return Run(s, method, req.seed, ids, steps, frame, arrays, meta, None, res)

@@ -209,5 +209,13 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
             except ValueError as err:
                 raise InputError(str(err)) from None
         view = {} if live is None else live.runner_options()
-        return runner.run_trials(req.scenario, req.method, req.seed, req.trials, req.steps,
-                                 progress=progress, phase=phase, **view)  # fmt: skip
+        return runner.run_trials(
+            req.scenario,
+            req.method,
+            req.seed,
+            req.trials,
+            req.steps,
+            progress=progress,
+            phase=phase,
+            **view,
+        )

@@ -62,10 +62,21 @@ class Study:
         return write_report(self.path)
 
 
-def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=None,
-              steps: int | None = None, seed: int | None = None, resume: bool = False,
-              rollouts: str | None = None, progress: bool = True, *,
-              planners=None, plugins=()) -> Study:  # fmt: skip
+def run_study(
+    scenarios,
+    methods=None,
+    trials: int = 500,
+    chunk: int = 50,
+    out=None,
+    steps: int | None = None,
+    seed: int | None = None,
+    resume: bool = False,
+    rollouts: str | None = None,
+    progress: bool = True,
+    *,
+    planners=None,
+    plugins=(),
+) -> Study:
     """Runs (or resumes) a Monte Carlo study and returns it (``mjx-radar study``).
 
     Args:
@@ -102,8 +113,11 @@ def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=N
 
     if out is None:
         raise ScenarioError("out: the study directory is required")
-    items = [scenarios] if isinstance(scenarios, str | Path) or hasattr(scenarios, "name") \
-        else list(scenarios)  # fmt: skip
+    items = (
+        [scenarios]
+        if isinstance(scenarios, str | Path) or hasattr(scenarios, "name")
+        else list(scenarios)
+    )
     if not items:
         raise ScenarioError("scenarios: must name at least one scenario")
     for name, value, hi in (("trials", trials, 10**6), ("chunk", chunk, 10**6)):
@@ -132,10 +146,18 @@ def run_study(scenarios, methods=None, trials: int = 500, chunk: int = 50, out=N
                 s.to_toml(path)
                 files.append(str(path))
         opts = execute.StudyOptions(
-            scenarios=files, methods=methods, trials=trials, steps=steps, seed=seed,
-            chunk=chunk, rollouts=rollouts, out=Path(out), resume=resume,
-            precision=_precision(), progress=progress,
-        )  # fmt: skip
+            scenarios=files,
+            methods=methods,
+            trials=trials,
+            steps=steps,
+            seed=seed,
+            chunk=chunk,
+            rollouts=rollouts,
+            out=Path(out),
+            resume=resume,
+            precision=_precision(),
+            progress=progress,
+        )
         execute.run_study(opts)
     return Study.load(out)
 

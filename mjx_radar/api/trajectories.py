@@ -27,24 +27,56 @@ STATE_UNITS = "m (x, y, z); m/s (vx, vy, vz)"
 # variable -> (array key, dims, units, description)
 VARIABLES = {
     "truth": ("target", ("trial", "step", "target", "state"), STATE_UNITS, "true drone states"),
-    "estimate": ("mean", ("trial", "step", "target", "state"), STATE_UNITS,
-                 "filter posterior mean"),
-    "variance": ("cov_diag", ("trial", "step", "target", "state"),
-                 "m^2 (x, y, z); m^2/s^2 (vx, vy, vz)", "filter posterior variances"),
-    "radar_states": ("radar", ("trial", "step", "radar", "radar_state"),
-              "m (x, y, z); rad (theta); m/s (v); rad/s (omega)", "radar vehicle states"),
-    "control": ("control", ("trial", "control_step", "radar", "input"),
-                "m/s^2 (a); rad/s^2 (alpha)", "applied accelerations"),
-    "plan_xy": ("plan_xy", ("trial", "control_step", "horizon", "radar", "xy"), "m",
-                "planned radar positions (MPPI mean sequence)"),
-    "sample_xy": ("sample_xy", ("trial", "control_step", "sample", "horizon", "radar", "xy"),
-                  "m", "kept MPPI sample trajectories"),
-    "sample_weight": ("sample_weight", ("trial", "control_step", "sample"), "1",
-                      "MPPI weights of the kept samples"),
-    "sample_cost": ("sample_cost", ("trial", "control_step", "sample"), "1",
-                    "MPPI costs of the kept samples"),
+    "estimate": (
+        "mean",
+        ("trial", "step", "target", "state"),
+        STATE_UNITS,
+        "filter posterior mean",
+    ),
+    "variance": (
+        "cov_diag",
+        ("trial", "step", "target", "state"),
+        "m^2 (x, y, z); m^2/s^2 (vx, vy, vz)",
+        "filter posterior variances",
+    ),
+    "radar_states": (
+        "radar",
+        ("trial", "step", "radar", "radar_state"),
+        "m (x, y, z); rad (theta); m/s (v); rad/s (omega)",
+        "radar vehicle states",
+    ),
+    "control": (
+        "control",
+        ("trial", "control_step", "radar", "input"),
+        "m/s^2 (a); rad/s^2 (alpha)",
+        "applied accelerations",
+    ),
+    "plan_xy": (
+        "plan_xy",
+        ("trial", "control_step", "horizon", "radar", "xy"),
+        "m",
+        "planned radar positions (MPPI mean sequence)",
+    ),
+    "sample_xy": (
+        "sample_xy",
+        ("trial", "control_step", "sample", "horizon", "radar", "xy"),
+        "m",
+        "kept MPPI sample trajectories",
+    ),
+    "sample_weight": (
+        "sample_weight",
+        ("trial", "control_step", "sample"),
+        "1",
+        "MPPI weights of the kept samples",
+    ),
+    "sample_cost": (
+        "sample_cost",
+        ("trial", "control_step", "sample"),
+        "1",
+        "MPPI costs of the kept samples",
+    ),
     "diverged": ("diverged", ("trial", "step"), "1", "filter numerically failed"),
-}  # fmt: skip
+}
 
 
 def to_dataset(arrays: dict, trials, scenario):
@@ -81,11 +113,16 @@ def to_dataset(arrays: dict, trials, scenario):
         c = np.asarray(arrays["control"]).shape[1]
         coords["control_step"] = np.arange(c)
         coords["control_time_s"] = (
-            "control_step", scenario.timing.dt_control * np.arange(c), {"units": "s"}
-        )  # fmt: skip
+            "control_step",
+            scenario.timing.dt_control * np.arange(c),
+            {"units": "s"},
+        )
         coords["input"] = ["a", "alpha"]
     if "plan_xy" in arrays or "sample_xy" in arrays:
         coords["xy"] = ["x", "y"]
-    attrs = {"scenario": scenario.name, "dt_filter": scenario.timing.dt_filter,
-             "dt_control": scenario.timing.dt_control}  # fmt: skip
+    attrs = {
+        "scenario": scenario.name,
+        "dt_filter": scenario.timing.dt_filter,
+        "dt_control": scenario.timing.dt_control,
+    }
     return xr.Dataset(data, coords=coords, attrs=attrs)

@@ -29,7 +29,8 @@ import numpy as np
 
 from mjx_radar.cli.args import check_placement
 from mjx_radar.cli.run_args import add_arguments  # noqa: F401 (the sub-command's options)
-from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED, InputError
+from mjx_radar.cli.run_output import finish
+from mjx_radar.errors import EXIT_INTERRUPTED, InputError
 from mjx_radar.io.atomic import create_dir, remove_empty_dirs
 from mjx_radar.io.lock import DirLock, lock_dir
 
@@ -81,7 +82,7 @@ def simulate(fn):
         except BaseException as err:  # re-raised in the main thread
             box["error"] = err
 
-    from mjx_radar.engine.programs import compile_thread
+    from mjx_radar.engine.threads import compile_thread
 
     worker = compile_thread(work, name="closed-loop")
     worker.start()
@@ -92,43 +93,25 @@ def simulate(fn):
     return box["value"]
 
 
-def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
-    """The one-line report of diverged trials (``None`` if none diverged).
-
-    Args:
-        diverged: [T, K] bool, True from the step a trial's estimate or covariance
-            became non-finite or non-positive-definite.
-        trials: [T] trial indices.
-        out: the run directory.
-        keep: ``--keep-diverged`` (a warning instead of an error).
-    """
-    if diverged is None:
-        return None
-    div = np.asarray(diverged, bool).reshape(len(trials), -1)
-    bad = np.flatnonzero(div.any(axis=1))
-    if bad.size == 0:
-        return None
-    first_step = div[bad].argmax(axis=1)  # 0-based step of each diverged trial
-    j = int(np.argmin(first_step))  # earliest; ties -> lowest trial
-    where = f"first at trial {int(trials[bad[j]])}, step {int(first_step[j]) + 1}"
-    head = f"{bad.size} of {len(trials)} trials diverged ({where}); results in {out}"
-    if keep:
-        return f"warning: {head}; kept (--keep-diverged)"
-    return f"error: {head}; pass --keep-diverged to accept"
-
-
 def main(args) -> int:
     from mjx_radar.api import run_case
     from mjx_radar.engine import resources
 
-    req = run_case.request(
-        args.scenario, cli=True, method=args.method, planner=args.planner, trials=args.trials,
-        steps=args.steps, seed=args.seed, rollouts=args.rollouts,
+    req = run_case.request(  # the checks and defaults of mjx_radar.simulate
+        args.scenario,
+        cli=True,
+        method=args.method,
+        planner=args.planner,
+        trials=args.trials,
+        steps=args.steps,
+        seed=args.seed,
+        rollouts=args.rollouts,
         precision=getattr(args, "precision", "float32"),
         deterministic=bool(getattr(args, "deterministic", False)),
-        cache=not getattr(args, "no_cache", False), cache_dir=getattr(args, "cache_dir", None),
+        cache=not getattr(args, "no_cache", False),
+        cache_dir=getattr(args, "cache_dir", None),
         plugins=args.plugin,
-    )  # the checks of mjx_radar.simulate, the same defaults  # fmt: skip
+    )
     s, steps, seed_ = req.scenario, req.steps, req.seed
     args.method = req.method.name  # "METHOD+PLANNER" with --planner
     out = args.out or Path("runs") / f"{s.name}_{args.method}"
@@ -172,7 +155,7 @@ def main(args) -> int:
             live.close()
         raise
     try:
-        return _finish(out, args, s, seed_, trials, steps, res)
+        return finish(out, args, s, seed_, trials, steps, res)
     finally:
         lock.release()
         if live is not None:
@@ -188,24 +171,6 @@ def _live_view(args, s, trials, steps):
     return start(s, trials, steps, args.view_port)
 
 
-def _finish(out: Path, args, s, seed_, trials, steps, res) -> int:
-    """Writes the run directory, prints the summary, renders the video; the exit code."""
-    try:
-        write_results(out, args, s, seed_, trials, steps, res)
-    except KeyboardInterrupt:
-        print("interrupted: no results written", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    _summary(s, args, res, out)
-    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged)
-    if line:
-        print(line, file=sys.stderr)
-    if args.video:
-        from mjx_radar.viz import render
-
-        render.render_run(out, trial=0, out_path=out / "video.mp4")
-    return EXIT_FAILURE if line and not args.keep_diverged else 0
-
-
 def _terminate(signum, frame):
     raise KeyboardInterrupt
 
@@ -217,27 +182,3 @@ def _run(req, live=None):
 
     with tqdm(total=req.steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
         return run_case.execute(req, bar.update, bar.set_description_str, live, checks=False)
-
-
-def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
-    """Writes the run directory (:func:`mjx_radar.rundir.writer.write_run`)."""
-    from mjx_radar.rundir.writer import write_run
-    from mjx_radar.scenario.reader import resolve_path
-
-    write_run(
-        out, s, args.method, seed_, trials, steps, res, source=resolve_path(args.scenario),
-        precision=getattr(args, "precision", "float32"),
-        deterministic=bool(getattr(args, "deterministic", False)),
-    )  # fmt: skip
-
-
-def _summary(s, args, res, out: Path) -> None:
-    rmse = float(np.mean(res["rmse_pos"]))
-    print(
-        f"mean position RMSE {rmse:.3f} m (final step {np.mean(res['rmse_pos'][:, -1]):.3f} m), "
-        f"PCRLB {np.mean(res['crlb_pos']):.3f} m; control rate {res['control_hz']:.1f} Hz for "
-        f"the batch of {args.trials} (real time: {1 / s.timing.dt_control:g} Hz), "
-        f"compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
-        f"{int(np.asarray(res['lost']).any(axis=-1).sum())} of {args.trials} trial(s) lost track; "
-        f"results in {out}"
-    )

@@ -54,12 +54,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
     )
     p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
-    p.add_argument("--view", action="store_true",
-                   help="live 3-D view in a web browser while it simulates (URL printed; "
-                   "docs/viewer.md)")  # fmt: skip
-    p.add_argument("--view-port", type=port, default=None, metavar="PORT",
-                   help="port of the live view on 127.0.0.1 (default 8765, 0: any free "
-                   "port; implies --view)")  # fmt: skip
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="live 3-D view in a web browser while it simulates (URL printed; docs/viewer.md)",
+    )
+    p.add_argument(
+        "--view-port",
+        type=port,
+        default=None,
+        metavar="PORT",
+        help="port of the live view on 127.0.0.1 (default 8765, 0: any free port; implies --view)",
+    )
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
     p.add_argument(
         "--keep-diverged",

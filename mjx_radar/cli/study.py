@@ -38,25 +38,50 @@ def _shard(text: str) -> tuple[int, int]:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario files or names")
     p.add_argument("--methods", type=method_list, default=list(METHODS), help="default: all")
-    p.add_argument("--planners", default=None, metavar="A,B",
-                   help="run every planning method with each of these planners (mppi, hold, "
-                   "or registered by a --plugin file): METHOD+PLANNER")  # fmt: skip
-    p.add_argument("--plugin", action="append", default=[], metavar="FILE",
-                   help="a Python file run first, e.g. one that registers a planner")  # fmt: skip
-    p.add_argument("--trials", type=positive_int("--trials", 10**6), default=500,
-                   help="Monte Carlo trials per scenario and method (default 500)")  # fmt: skip
+    p.add_argument(
+        "--planners",
+        default=None,
+        metavar="A,B",
+        help="run every planning method with each of these planners (mppi, hold, "
+        "or registered by a --plugin file): METHOD+PLANNER",
+    )
+    p.add_argument(
+        "--plugin",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a Python file run first, e.g. one that registers a planner",
+    )
+    p.add_argument(
+        "--trials",
+        type=positive_int("--trials", 10**6),
+        default=500,
+        help="Monte Carlo trials per scenario and method (default 500)",
+    )
     p.add_argument("--steps", type=positive_int("--steps"), default=None, help="filter steps")
     p.add_argument("--seed", type=seed, default=None, help="base seed (default: scenario's)")
-    p.add_argument("--chunk", type=positive_int("--chunk", 10**6), default=50,
-                   help="trials per device per call, and per result file (default 50)")  # fmt: skip
+    p.add_argument(
+        "--chunk",
+        type=positive_int("--chunk", 10**6),
+        default=50,
+        help="trials per device per call, and per result file (default 50)",
+    )
     p.add_argument("--rollouts", choices=("mjx", "analytic"), default=None, help="planner rollouts")
     p.add_argument("--out", type=Path, required=True, help="study directory")
     p.add_argument("--resume", action="store_true", help="continue the study in --out")
     g = p.add_argument_group("many processes")
-    g.add_argument("--shard", type=_shard, default=None, metavar="I/N",
-                   help="run only shard I of N (independent jobs sharing --out)")  # fmt: skip
-    g.add_argument("--distributed", action="store_true",
-                   help="jax.distributed.initialize() (SLURM / env auto-detection)")  # fmt: skip
+    g.add_argument(
+        "--shard",
+        type=_shard,
+        default=None,
+        metavar="I/N",
+        help="run only shard I of N (independent jobs sharing --out)",
+    )
+    g.add_argument(
+        "--distributed",
+        action="store_true",
+        help="jax.distributed.initialize() (SLURM / env auto-detection)",
+    )
     g.add_argument("--coordinator", default=None, help="HOST:PORT of process 0 (--distributed)")
     g.add_argument("--num-processes", type=int, default=None, help="(--distributed)")
     g.add_argument("--process-id", type=int, default=None, help="(--distributed)")
@@ -103,8 +128,15 @@ def main(args) -> int:
         except ValueError as err:
             raise InputError(f"--planners: {err}") from None
     opts = execute.StudyOptions(
-        scenarios=args.scenarios, methods=methods, trials=args.trials, steps=args.steps,
-        seed=args.seed, chunk=args.chunk, rollouts=args.rollouts, out=args.out,
-        resume=args.resume, precision=args.precision,
-    )  # fmt: skip
+        scenarios=args.scenarios,
+        methods=methods,
+        trials=args.trials,
+        steps=args.steps,
+        seed=args.seed,
+        chunk=args.chunk,
+        rollouts=args.rollouts,
+        out=args.out,
+        resume=args.resume,
+        precision=args.precision,
+    )
     return execute.run_study(opts, lambda: _worker(args))

@@ -7,7 +7,8 @@ import time
 from pathlib import Path
 
 from mjx_radar.cli.args import positive_int
-from mjx_radar.viz.viewer import MAX_FRAMES, view
+from mjx_radar.viz.viewer import view
+from mjx_radar.viz.viewer_budget import MAX_FRAMES
 
 
 def _trials(text: str) -> list[int]:
@@ -35,18 +36,26 @@ def _samples(text: str) -> int:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("run_dir", type=Path, help="a complete run directory (mjx-radar run --out)")
     p.add_argument("--out", type=Path, default=None, help="HTML file (RUN_DIR/view.html)")
-    p.add_argument("--trial", type=_trials, default=None,
-                   help="trial indices, e.g. 0 or 0,3 (default: the first ones that keep the "
-                   "file under about 14 MB, at most 8)")  # fmt: skip
+    p.add_argument(
+        "--trial",
+        type=_trials,
+        default=None,
+        help="trial indices, e.g. 0 or 0,3 (default: the first ones that keep the "
+        "file under about 14 MB, at most 8)",
+    )
     p.add_argument(
         "--max-frames",
         type=positive_int("--max-frames", 100_000),
         default=MAX_FRAMES,
         help=f"frames per trial: every k-th filter step (default {MAX_FRAMES})",
     )
-    p.add_argument("--samples", type=_samples, default=None,
-                   help="MPPI samples per frame, the highest weights (default up to 32, "
-                   "fewer if the file would exceed about 14 MB)")  # fmt: skip
+    p.add_argument(
+        "--samples",
+        type=_samples,
+        default=None,
+        help="MPPI samples per frame, the highest weights (default up to 32, "
+        "fewer if the file would exceed about 14 MB)",
+    )
 
 
 def main(args) -> int:

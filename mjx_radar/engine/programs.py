@@ -35,7 +35,8 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar import precision
-from mjx_radar.engine import compile_cache
+from mjx_radar.engine import compile_cache, export_cache
+from mjx_radar.engine.threads import parallel
 from mjx_radar.env import records
 from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
@@ -60,46 +61,6 @@ class Programs:
     source: str  # "traced" | "export cache"
 
 
-#: stack size of threads that compile (XLA's compiler recurses deeply on large programs;
-#: the default 8 MiB thread stack overflowed compiling a 2-GPU program)
-COMPILE_THREAD_STACK = 512 * 1024 * 1024
-
-
-def compile_thread(target, name: str = "compile"):
-    """A daemon thread with a stack large enough for XLA compilation."""
-    old = threading.stack_size(COMPILE_THREAD_STACK)
-    try:
-        return threading.Thread(target=target, name=name, daemon=True)
-    finally:
-        threading.stack_size(old)
-
-
-def parallel(fns) -> list:
-    """``[f() for f in fns]``, each call in its own big-stack thread.
-
-    The caller joins with a timeout, so Ctrl-C is honoured at once even during an XLA
-    compilation; the first error of a call is raised in the caller's thread.
-    """
-    out: list = [None] * len(fns)
-    errors: list[BaseException] = []
-
-    def run(i, f):
-        try:
-            out[i] = f()
-        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
-            errors.append(err)
-
-    threads = [compile_thread(lambda i=i, f=f: run(i, f)) for i, f in enumerate(fns)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        while th.is_alive():
-            th.join(0.2)
-    if errors:
-        raise errors[0]
-    return out
-
-
 def device_mesh(devices=None) -> Mesh:
     """A 1-D mesh (axis ``"trial"``) over ``devices`` (default: every local device)."""
     return Mesh(np.asarray(devices if devices is not None else jax.local_devices()), ("trial",))
@@ -113,8 +74,16 @@ def record_template(full: bool):
     return {k: 0 for k in results.METRIC_COLUMNS}, None
 
 
-def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tree, c_shapes,
-            planner: str = "mppi"):  # fmt: skip
+def _traced(
+    task,
+    periods: int,
+    full: bool,
+    mesh: Mesh,
+    n_params: int,
+    params_tree,
+    c_shapes,
+    planner: str = "mppi",
+):
     """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
 
     ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
@@ -137,8 +106,10 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
     def step_flat(*rest):
         params = jax.tree.unflatten(params_tree, rest[:n_params])
         given = iter(rest[n_params:])
-        leaves = [next(given) if keep else jnp.zeros(s.shape, s.dtype)
-                  for s, keep in zip(shapes, live, strict=True)]  # fmt: skip
+        leaves = [
+            next(given) if keep else jnp.zeros(s.shape, s.dtype)
+            for s, keep in zip(shapes, live, strict=True)
+        ]
         carry = jax.tree.unflatten(carry_tree, leaves)
         carry, steps, controls = closed_loop.advance(task, params, carry, periods, planner)
         if not full:
@@ -149,14 +120,19 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
 
     n_carry = sum(live)
     init = jax.shard_map(
-        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params), mesh=mesh,
-        in_specs=(SPLIT,) + (WHOLE,) * n_params, out_specs=SPLIT, check_vma=False,
-    )  # fmt: skip
+        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params),
+        mesh=mesh,
+        in_specs=(SPLIT,) + (WHOLE,) * n_params,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
     step = jax.shard_map(
         jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry),
-        mesh=mesh, in_specs=(WHOLE,) * n_params + (SPLIT,) * n_carry,
-        out_specs=SPLIT, check_vma=False,
-    )  # fmt: skip
+        mesh=mesh,
+        in_specs=(WHOLE,) * n_params + (SPLIT,) * n_carry,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
     donate = tuple(range(n_params, n_params + n_carry))
     return jax.jit(init), jax.jit(step, donate_argnums=donate)
 
@@ -164,14 +140,31 @@ def _traced(task, periods: int, full: bool, mesh: Mesh, n_params: int, params_tr
 def _variant(planner: str = "mppi") -> tuple:
     """What else a traced program depends on: x64, pinned precision, registered cost terms,
     the planner (and a registered planner's code)."""
-    return (bool(jax.config.jax_enable_x64), precision.describe(), costs.registry_key(),
-            planner, PLANNERS.key((planner,)), TRACKERS.key(), SENSORS.key())  # fmt: skip
+    return (
+        bool(jax.config.jax_enable_x64),
+        precision.describe(),
+        costs.registry_key(),
+        planner,
+        PLANNERS.key((planner,)),
+        TRACKERS.key(),
+        SENSORS.key(),
+    )
 
 
 def _key(shape, periods, full, batch, mesh, kind, planner="mppi") -> str:
     dev = mesh.devices.flat[0]
-    parts = [repr(shape), periods, full, batch, mesh.size, dev.platform, dev.device_kind, kind,
-             *_variant(planner), compile_cache.code_fingerprint()]  # fmt: skip
+    parts = [
+        repr(shape),
+        periods,
+        full,
+        batch,
+        mesh.size,
+        dev.platform,
+        dev.device_kind,
+        kind,
+        *_variant(planner),
+        compile_cache.code_fingerprint(),
+    ]
     for obs in shape.obstacles:  # mesh files: their content, not only their path
         if obs.path and Path(obs.path).exists():
             parts.append(hashlib.sha256(Path(obs.path).read_bytes()).hexdigest())
@@ -184,8 +177,15 @@ _LOCK = threading.Lock()
 COMPILE_LOG: list[dict] = []
 
 
-def compile_programs(scenario, batch: int, periods: int, full: bool = False, mesh=None,
-                     kind: str = "all", planner: str = "mppi"):  # fmt: skip
+def compile_programs(
+    scenario,
+    batch: int,
+    periods: int,
+    full: bool = False,
+    mesh=None,
+    kind: str = "all",
+    planner: str = "mppi",
+):
     """Ahead-of-time compiled :class:`Programs` of a scenario's shape; ``(programs, seconds)``.
 
     Args:
@@ -220,7 +220,7 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     store = compile_cache.program_dir()
     key = _key(shape, periods, full, batch, mesh, kind, planner)
     path = store / f"loop-{key}.jaxexport" if store else None
-    exported = _load(path) if path else None
+    exported = export_cache.load(path) if path else None
     source = "export cache" if exported else "traced"
     if exported is None:  # trace: the task, its plants and MJX are built only here
         from mjx_radar.env import closed_loop
@@ -229,25 +229,27 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
         task = make_task(shape, kind)
         carry_shapes = jax.eval_shape(
             lambda t, p: closed_loop.init_carry(task, p, t, planner)[0],
-            jax.ShapeDtypeStruct((), jnp.int32), params,
-        )  # fmt: skip
+            jax.ShapeDtypeStruct((), jnp.int32),
+            params,
+        )
         c_specs = [
             jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh)
             for x in jax.tree.leaves(carry_shapes)
             if x.size > 0
         ]
-        init, step = _traced(task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes,
-                             planner)  # fmt: skip
+        init, step = _traced(
+            task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes, planner
+        )
         exported = None
         if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
-            exported = _export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
+            exported = export_cache.export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
         if exported is None:  # not exportable: compile the traced programs directly
             init_l = init.lower(trials, *p_specs)
             step_l = step.lower(*p_specs, *c_specs)
         elif path:
-            _save(path, exported)
+            export_cache.save(path, exported)
     if exported is not None:
-        init_l, step_l = _lower(exported, trials, p_specs, mesh)
+        init_l, step_l = export_cache.lower(exported, trials, p_specs, mesh)
     n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
     t1 = time.perf_counter()
     init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
@@ -255,52 +257,16 @@ def compile_programs(scenario, batch: int, periods: int, full: bool = False, mes
     t2 = time.perf_counter()
     with _LOCK:
         _CACHE[mem_key] = progs
-        COMPILE_LOG.append({"n_radars": scenario.n_radars, "n_targets": scenario.n_targets,
-                            "batch": batch, "devices": mesh.size, "kind": kind, "source": source,
-                            "trace_lower_s": t1 - t0, "xla_compile_s": t2 - t1})  # fmt: skip
-    return progs, t2 - t0
-
-
-def _export(init, step, init_args, step_args):
-    """Both programs traced once into :class:`jax.export.Exported` form (None if impossible)."""
-    try:
-        return tuple(jax.export.export(f)(*a) for f, a in ((init, init_args), (step, step_args)))
-    except Exception:  # noqa: BLE001 -- an unexportable program still runs, traced directly
-        return None
-
-
-def _save(path: Path, exported) -> None:
-    """Serialises both programs beside the compilation cache (best effort)."""
-    from mjx_radar.io.atomic import atomic_write_bytes
-
-    try:
-        blobs = [e.serialize() for e in exported]
-        atomic_write_bytes(path, len(blobs[0]).to_bytes(8, "little") + blobs[0] + blobs[1])
-    except (OSError, ImportError, ValueError):
-        return
-
-
-def _load(path: Path):
-    """Both :class:`jax.export.Exported` programs from the cache, or None."""
-    try:
-        raw = path.read_bytes()
-        n = int.from_bytes(raw[:8], "little")
-        return jax.export.deserialize(bytearray(raw[8 : 8 + n])), jax.export.deserialize(
-            bytearray(raw[8 + n :])
+        COMPILE_LOG.append(
+            {
+                "n_radars": scenario.n_radars,
+                "n_targets": scenario.n_targets,
+                "batch": batch,
+                "devices": mesh.size,
+                "kind": kind,
+                "source": source,
+                "trace_lower_s": t1 - t0,
+                "xla_compile_s": t2 - t1,
+            }
         )
-    except Exception:  # noqa: BLE001 -- missing, stale or damaged entry: trace again
-        return None
-
-
-def _lower(exported, trials, p_specs, mesh):
-    """``(init, step)`` lowered from exported programs (no Python tracing of the loop)."""
-    e_init, e_step = exported
-    n_params = len(p_specs)
-    c_specs = [
-        jax.ShapeDtypeStruct(a.shape, a.dtype, sharding=NamedSharding(mesh, SPLIT))
-        for a in e_step.in_avals[n_params:]
-    ]
-    donate = tuple(range(n_params, n_params + len(c_specs)))
-    init = jax.jit(e_init.call).lower(trials, *p_specs)
-    step = jax.jit(e_step.call, donate_argnums=donate).lower(*p_specs, *c_specs)
-    return init, step
+    return progs, t2 - t0

@@ -181,8 +181,10 @@ def _advice(scenario: Scenario, term: str, batch: str, size: int) -> tuple[str, 
     per_target = 'set [filter] structure = "per-target"'
     if term == "planner expectations":
         p = 12 * m if joint else 12
-        what = (f"mppi.samples = {s}, mpc.horizon = {h}, {m} targets x {p} cubature points "
-                f"({scenario.filter.structure} filter), {batch}")  # fmt: skip
+        what = (
+            f"mppi.samples = {s}, mpc.horizon = {h}, {m} targets x {p} cubature points "
+            f"({scenario.filter.structure} filter), {batch}"
+        )
         fix = f"reduce mppi.samples, mpc.horizon or {batch.split()[0]}"
         if joint:
             alt = dataclasses.replace(

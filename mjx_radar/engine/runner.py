@@ -30,9 +30,9 @@ from mjx_radar.engine.programs import (
     COMPILE_LOG,
     compile_programs,
     device_mesh,
-    parallel,
     record_template,
 )
+from mjx_radar.engine.threads import parallel
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.task.method import METHODS, parse_method
 from mjx_radar.task.params import shape_key, task_params
@@ -57,11 +57,14 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     todo = list(shapes.values())
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     t0 = time.perf_counter()
-    parallel([  # one thread per shape and kind (big stacks: XLA's compiler recurses deeply)
-        lambda s=s, k=k, p=p: device_programs(s, batch // len(devices), segment_periods(s, steps),
-                                              full, devices, k, p)
-        for s, k, p in todo
-    ])  # fmt: skip
+    parallel(
+        [  # one thread per shape and kind (big stacks: XLA's compiler recurses deeply)
+            lambda s=s, k=k, p=p: device_programs(
+                s, batch // len(devices), segment_periods(s, steps), full, devices, k, p
+            )
+            for s, k, p in todo
+        ]
+    )
     return time.perf_counter() - t0
 
 
@@ -181,8 +184,15 @@ def run_trials(
     return res
 
 
-def device_programs(scenario, batch: int, periods: int, full: bool, devices,
-                    kind: str = "all", planner: str = "mppi") -> list:  # fmt: skip
+def device_programs(
+    scenario,
+    batch: int,
+    periods: int,
+    full: bool,
+    devices,
+    kind: str = "all",
+    planner: str = "mppi",
+) -> list:
     """``[(programs, seconds)]``: the single-device program of each device, each for
     ``batch`` trials. Every device runs the same per-device program, so a trial's
     numbers never depend on the number of devices.

@@ -35,8 +35,18 @@ from mjx_radar.task import objective
 from mjx_radar.task.planner import control_box
 
 #: the per-period metrics of ``State.metrics`` (the last filter step's values)
-METRICS = ("rmse_pos", "rmse_state", "nees", "crlb_pos", "lost", "diverged",
-           "visible_pairs", "detections", "false_alarms", "targets_present")  # fmt: skip
+METRICS = (
+    "rmse_pos",
+    "rmse_state",
+    "nees",
+    "crlb_pos",
+    "lost",
+    "diverged",
+    "visible_pairs",
+    "detections",
+    "false_alarms",
+    "targets_present",
+)
 
 
 class RadarEnv:
@@ -117,10 +127,15 @@ class RadarEnv:
         m = self.n_targets
         blocks = jnp.stack([obs.cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
         iu = jnp.triu_indices(6)
-        return jnp.concatenate([
-            obs.radar_state.reshape(-1), obs.mean, blocks[:, iu[0], iu[1]].reshape(-1),
-            obs.target_weight, obs.detections.reshape(-1).astype(obs.mean.dtype),
-        ])  # fmt: skip
+        return jnp.concatenate(
+            [
+                obs.radar_state.reshape(-1),
+                obs.mean,
+                blocks[:, iu[0], iu[1]].reshape(-1),
+                obs.target_weight,
+                obs.detections.reshape(-1).astype(obs.mean.dtype),
+            ]
+        )
 
     # -- internals ----------------------------------------------------------------------
 

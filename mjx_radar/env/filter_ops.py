@@ -182,8 +182,9 @@ def imm_bank(task: RadarTask, params) -> FilterOps:
         return (*joint(modes), modes)
 
     def update(mean, cov, modes, z, radar_pos, scan, los=None):
-        modes = imm.update_bank(modes, z, radar_pos, h_pair, r_filter, mask=scan.seen,
-                                residual=residual)  # fmt: skip
+        modes = imm.update_bank(
+            modes, z, radar_pos, h_pair, r_filter, mask=scan.seen, residual=residual
+        )
         if sc.filter.ground_prior:  # each mode reflected to z >= 0
             refl = jax.vmap(jax.vmap(ground_prior.apply_ground_prior))
             means, covs = refl(modes.means, modes.covs)

@@ -58,8 +58,9 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         )
         radars = physics.radar_state(plant, data)
         truth = physics.target_state(plant, data)
-        z = model.sample(jax.random.fold_in(streams.measurement, k), radars[:, :3], truth[:, :3],
-                         noise)  # fmt: skip
+        z = model.sample(
+            jax.random.fold_in(streams.measurement, k), radars[:, :3], truth[:, :3], noise
+        )
         # [N, M] line of sight (truth geometry, vehicles at t_k; None: all clear)
         vis = moving.truth_visibility(task, params, radars[:, :3], truth[:, :3], k * dt)
         # [M] present targets (absent: not measured); tracks start as targets appear
@@ -92,10 +93,22 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         everyone = None if motion is None else here
         crlb, rmse_pos, rmse_state, nees = presence.metrics(bound, truth, mean, cov_p, everyone)
         rec = StepRecord(
-            truth, mean, jnp.diagonal(cov_p), radars, rmse_pos, rmse_state, nees, crlb,
-            physics.obstacle_contacts(plant, data), obs.n_vis, obs.n_det, obs.n_fa,
-            flags_h.lost | diverged, diverged, jnp.sum(here).astype(jnp.int32),
-        )  # fmt: skip
+            truth,
+            mean,
+            jnp.diagonal(cov_p),
+            radars,
+            rmse_pos,
+            rmse_state,
+            nees,
+            crlb,
+            physics.obstacle_contacts(plant, data),
+            obs.n_vis,
+            obs.n_det,
+            obs.n_fa,
+            flags_h.lost | diverged,
+            diverged,
+            jnp.sum(here).astype(jnp.int32),
+        )
         seen = jnp.ones((n, m), bool) if obs.seen is None else obs.seen
         return type(loop)(data, mean, cov, pfim, health, modes), (rec, seen)
 

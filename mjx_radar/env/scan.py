@@ -61,8 +61,7 @@ def observe(det_cfg, params, key, k, radar_pos, target_pos, z, vis) -> Scan:
         zc, vc, counts = clutter.sample_clutter(
             key, params.detection, n, det_cfg.max_false_alarms, dim
         )
-        zs, valid = clutter.scan_buffer(z, jnp.ones((n, m), bool) if seen is None else seen,
-                                        zc, vc)  # fmt: skip
+        zs, valid = clutter.scan_buffer(z, jnp.ones((n, m), bool) if seen is None else seen, zc, vc)
         n_fa = jnp.sum(counts).astype(jnp.int32)
     return Scan(seen, n_vis, n_det, n_fa, zs, valid)
 
@@ -84,9 +83,19 @@ def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, l
     pd = pd if los is None else jnp.where(los, pd, 0.0)
     dp = params.detection
     post = pda.update_bank(
-        means, covs, scan.zs, scan.valid, radar_pos, model, params.noise, ccr, pd,
-        clutter.density(dp, model.dim), dp.gate, dp.gate_probability,
-    )  # fmt: skip
+        means,
+        covs,
+        scan.zs,
+        scan.valid,
+        radar_pos,
+        model,
+        params.noise,
+        ccr,
+        pd,
+        clutter.density(dp, model.dim),
+        dp.gate,
+        dp.gate_probability,
+    )
     mean, cov = filter_bank.bank_to_joint(*post)
     if scenario.filter.ground_prior:
         mean, cov = ground_prior.apply_ground_prior(mean, cov)

@@ -64,5 +64,7 @@ def scan_buffer(z, hit, z_clutter, valid_clutter):
     Returns:
         ``(zs[N, M + cap, dim], valid[N, M + cap])``.
     """
-    return (jnp.concatenate([z, z_clutter.astype(z.dtype)], axis=1),
-            jnp.concatenate([hit, valid_clutter], axis=1))  # fmt: skip
+    return (
+        jnp.concatenate([z, z_clutter.astype(z.dtype)], axis=1),
+        jnp.concatenate([hit, valid_clutter], axis=1),
+    )

@@ -110,13 +110,24 @@ def detection_params(scenario, dtype=None) -> DetectionParams:
     if any(ov.radar_eq for ov in scenario.radar_override):  # a mixed fleet: k_snr [N, 1]
         from mjx_radar.scenario.fleet import radar_equation
 
-        k = np.array([[snr_constant(radar_equation(scenario, i), scenario.n_targets,
-                                    det.gain_db)] for i in range(scenario.n_radars)])  # fmt: skip
+        k = np.array(
+            [
+                [snr_constant(radar_equation(scenario, i), scenario.n_targets, det.gain_db)]
+                for i in range(scenario.n_radars)
+            ]
+        )
     width = max(det.clutter_range_max - det.clutter_range_min, 0.0)
     dim = 1 if scenario.measurement.model == "range" else 2
-    vals = (k, det.pfa, det.fixed_pd, det.clutter_density * width, det.clutter_range_min,
-            det.clutter_range_max, chi2_quantile(det.gate_probability, dim),
-            det.gate_probability)  # fmt: skip
+    vals = (
+        k,
+        det.pfa,
+        det.fixed_pd,
+        det.clutter_density * width,
+        det.clutter_range_min,
+        det.clutter_range_max,
+        chi2_quantile(det.gate_probability, dim),
+        det.gate_probability,
+    )
     if not all(np.all(np.isfinite(v)) for v in vals):
         raise ValueError("detection parameters must be finite")
     return DetectionParams(*(jnp.asarray(v, dt) for v in vals))

@@ -139,8 +139,10 @@ def _const_congruence(A, X):
     Zeros of ``A`` are skipped at trace time (the CV transition is half zeros).
     """
     n = A.shape[0]
-    ax = [[sum(A[i, k] * X[k][j] for k in range(n) if A[i, k] != 0.0) for j in range(n)]
-          for i in range(n)]  # fmt: skip
+    ax = [
+        [sum(A[i, k] * X[k][j] for k in range(n) if A[i, k] != 0.0) for j in range(n)]
+        for i in range(n)
+    ]
     out = [[None] * n for _ in range(n)]
     for i in range(n):
         for j in range(i + 1):
@@ -178,13 +180,19 @@ def pfim_logdets(J0, A, W_unit, sigma_w2, jd, floor: float = INFO_FLOOR, unroll:
 
     def step(chol, jdt):
         prior = _const_congruence(a, linalg_small.inv_from_cholesky_entries(chol))
-        prior = [[prior[i][j] + sigma_w2 * w[i, j] if w[i, j] != 0.0 else prior[i][j]
-                  for j in range(n)] for i in range(n)]  # fmt: skip
+        prior = [
+            [prior[i][j] + sigma_w2 * w[i, j] if w[i, j] != 0.0 else prior[i][j] for j in range(n)]
+            for i in range(n)
+        ]
         new = linalg_small.inv_from_cholesky_entries(linalg_small.psd_cholesky_entries(prior))
-        new = [[new[i][j] + jdt[pos[(max(i, j), min(i, j))]] if max(i, j) < 3 else new[i][j]
-                for j in range(n)] for i in range(n)]  # fmt: skip
-        floored = [[new[i][j] + floor if i == j else new[i][j] for j in range(n)]
-                   for i in range(n)]  # fmt: skip
+        new = [
+            [
+                new[i][j] + jdt[pos[(max(i, j), min(i, j))]] if max(i, j) < 3 else new[i][j]
+                for j in range(n)
+            ]
+            for i in range(n)
+        ]
+        floored = [[new[i][j] + floor if i == j else new[i][j] for j in range(n)] for i in range(n)]
         chol_new = linalg_small.psd_cholesky_entries(new)
         return chol_new, linalg_small.logdet_from_cholesky_entries(
             linalg_small.psd_cholesky_entries(floored)

@@ -47,9 +47,20 @@ import numpy as np
 from mjx_radar.estimation import ckf, linalg
 
 __all__ = [
-    "N_MODES", "ImmState", "ct_transition", "mode_transitions", "markov_matrix", "init",
-    "mix", "combine", "predict", "update", "predict_bank", "update_bank", "combine_bank",
-]  # fmt: skip
+    "N_MODES",
+    "ImmState",
+    "ct_transition",
+    "mode_transitions",
+    "markov_matrix",
+    "init",
+    "mix",
+    "combine",
+    "predict",
+    "update",
+    "predict_bank",
+    "update_bank",
+    "combine_bank",
+]
 
 N_MODES = 3  # CV, CT(+w), CT(−w)
 

@@ -18,9 +18,13 @@ import functools
 import jax.numpy as jnp
 
 __all__ = [  # noqa: RUF022
-    "psd_cholesky_entries", "inv_from_cholesky_entries", "logdet_from_cholesky_entries",
-    "logdet_sym3", "entries", "from_entries",
-]  # fmt: skip
+    "psd_cholesky_entries",
+    "inv_from_cholesky_entries",
+    "logdet_from_cholesky_entries",
+    "logdet_sym3",
+    "entries",
+    "from_entries",
+]
 
 
 def _cholesky_entries(a, floor):

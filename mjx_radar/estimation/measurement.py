@@ -28,7 +28,7 @@ finite numbers (no NaN); azimuth information still grows like 1/ρ² there.
 
 Adding a model: subclass :class:`MeasurementModel` (frozen dataclass, new ``name``
 and ``dim``), implement ``predict``, ``variance``, ``sample``, ``residual``,
-``pair_information``, and register it in :data:`MODELS`.
+``pair_information``, and register it (:func:`mjx_radar.estimation.sensors.register_sensor`).
 """
 
 from __future__ import annotations
@@ -40,14 +40,21 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import fisher, sensing
-from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair, per_row
+from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair
 
 __all__ = [  # noqa: RUF022
-    "RHO2_EPS", "NoiseParams", "MeasurementModel", "RangeModel", "RangeAzimuthModel",
-    "make_model", "noise_params", "wrap_angle", "information", "information_components",
+    "RHO2_EPS",
+    "NoiseParams",
+    "MeasurementModel",
+    "RangeModel",
+    "RangeAzimuthModel",
+    "make_model",
+    "noise_params",
+    "wrap_angle",
+    "information",
+    "information_components",
     "information_dense",
-    "measurement_function", "noise_cov_fn", "flat_residual",
-]  # fmt: skip
+]
 
 RHO2_EPS = 1e-10
 """Floor [m²] on ρ² in ∇φ: bias < 1e-9 for ρ > 1 cm; float32-safe (ρ = 0: 1/ρ⁴ = 1e20)."""
@@ -167,8 +174,10 @@ class RangeAzimuthModel(MeasurementModel):
     def variance(self, z_hat, params, ccr):  # constants scalars or per row [R, 1]
         q = (jnp.asarray(z_hat)[..., :1] / 2.0) ** 4
         ddr = jnp.concatenate([params.c * q, params.c_az * q], axis=-1)
-        const = [jnp.broadcast_to(jnp.asarray(v, q.dtype), q.shape)
-                 for v in (params.sigma_r2, params.sigma_az2)]  # fmt: skip
+        const = [
+            jnp.broadcast_to(jnp.asarray(v, q.dtype), q.shape)
+            for v in (params.sigma_r2, params.sigma_az2)
+        ]
         return _select(ccr, ddr, jnp.concatenate(const, axis=-1))
 
     def sample(self, key, radar_pos, target_pos, params):
@@ -264,33 +273,3 @@ def information(model: MeasurementModel, radar_pos, target_pos, params, ccr, mas
 def information_dense(model: MeasurementModel, radar_pos, target_pos, params, ccr, mask=None):
     """:func:`information` unpacked to symmetric ``[..., M, 3, 3]``."""
     return fisher.unpack_sym3(information(model, radar_pos, target_pos, params, ccr, mask))
-
-
-def measurement_function(model: MeasurementModel, radar_pos):
-    """CKF measurement function ``h(x[6M]) -> [N·M·dim]`` (row-major n, m, component)."""
-    radar_pos = jnp.asarray(radar_pos)
-
-    def h(x):
-        return model.predict(radar_pos, jnp.reshape(x, (-1, 6))[:, :3]).reshape(-1)
-
-    return h
-
-
-def noise_cov_fn(model: MeasurementModel, params: NoiseParams, ccr):
-    """``R(ẑ[p]) -> [p, p]`` diagonal, ``p = N·M·dim``, for :func:`ckf.update`."""
-
-    def R(z_hat):  # rows radar-major: a mixed fleet's constants per row
-        z = z_hat.reshape(-1, model.dim)
-        return jnp.diag(model.variance(z, per_row(params, z.shape[0]), ccr).reshape(-1))
-
-    return R
-
-
-def flat_residual(model: MeasurementModel):
-    """Residual of flat stacked measurements ``(a[p], b[p]) -> [p]`` for :func:`ckf.update`."""
-
-    def residual(a, b):
-        a, b = jnp.asarray(a), jnp.broadcast_to(jnp.asarray(b), jnp.shape(a))
-        return model.residual(a.reshape(-1, model.dim), b.reshape(-1, model.dim)).reshape(-1)
-
-    return residual

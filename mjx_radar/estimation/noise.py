@@ -52,12 +52,20 @@ def noise_params(source, n_targets=None, r2t=None, measurement=None, dtype=None)
     if isinstance(source, Scenario) and any(ov.radar_eq for ov in source.radar_override):
         from mjx_radar.scenario.fleet import radar_equation
 
-        each = [noise_params(radar_equation(source, i), source.n_targets, source.mpc.r2t,
-                             source.measurement, dtype)
-                for i in range(source.n_radars)]  # fmt: skip
+        each = [
+            noise_params(
+                radar_equation(source, i),
+                source.n_targets,
+                source.mpc.r2t,
+                source.measurement,
+                dtype,
+            )
+            for i in range(source.n_radars)
+        ]
         dt = dtype or jnp.result_type(float)
-        return NoiseParams(*(jnp.asarray(np.stack([np.asarray(e[k]) for e in each]), dt)
-                             for k in range(4)))  # fmt: skip
+        return NoiseParams(
+            *(jnp.asarray(np.stack([np.asarray(e[k]) for e in each]), dt) for k in range(4))
+        )
     if isinstance(source, Scenario):
         n_targets = source.n_targets if n_targets is None else n_targets
         r2t = source.mpc.r2t if r2t is None else r2t

@@ -119,8 +119,9 @@ def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, densit
             def R(zh):
                 return jnp.diag(model.variance(zh, noise, ccr))
 
-            (x, P), _ = pda_update(x, P, zs[i], valid[i], h, R, pd_m[i], density, gate, pg,
-                                   residual=model.residual)  # fmt: skip
+            (x, P), _ = pda_update(
+                x, P, zs[i], valid[i], h, R, pd_m[i], density, gate, pg, residual=model.residual
+            )
         return x, P
 
     return jax.vmap(one, in_axes=(0, 0, 1))(means, covs, pd)
@@ -200,8 +201,12 @@ def irf(table, pd, lam_w):
     i0 = jnp.clip(jnp.floor(fi).astype(jnp.int32), 0, IRF_PD.size - 2)
     j0 = jnp.clip(jnp.floor(fj).astype(jnp.int32), 0, IRF_X.size - 2)
     a, b = fi - i0, fj - j0
-    return ((1 - a) * (1 - b) * t[i0, j0] + a * (1 - b) * t[i0 + 1, j0]
-            + (1 - a) * b * t[i0, j0 + 1] + a * b * t[i0 + 1, j0 + 1])  # fmt: skip
+    return (
+        (1 - a) * (1 - b) * t[i0, j0]
+        + a * (1 - b) * t[i0 + 1, j0]
+        + (1 - a) * b * t[i0, j0 + 1]
+        + a * b * t[i0 + 1, j0 + 1]
+    )
 
 
 def planner_factor(task, params):

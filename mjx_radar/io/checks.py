@@ -101,8 +101,16 @@ def _meta(value: Any, toml: str | None, **extra: Any) -> dict:
     return {"rule": value, **({"toml": toml} if toml else {}), **extra}
 
 
-def rule(kind: type, lo: float = -INF, hi: float = INF, *, lo_open: bool = False,
-         doc: str = "", unit: str = "", toml: str | None = None) -> dict:  # fmt: skip
+def rule(
+    kind: type,
+    lo: float = -INF,
+    hi: float = INF,
+    *,
+    lo_open: bool = False,
+    doc: str = "",
+    unit: str = "",
+    toml: str | None = None,
+) -> dict:
     """Field metadata for a number (``kind`` int or float) in ``[lo, hi]`` (``(lo, hi]``)."""
     return _meta(Rule(kind, lo, hi, lo_open, (), doc, unit), toml)
 
@@ -127,8 +135,13 @@ def table(doc: str = "", toml: str | None = None) -> dict:
     return {"table": doc, **({"toml": toml} if toml else {})}
 
 
-def rows(columns: tuple[tuple[str, Rule], ...], *, count: str = "", doc: str = "",
-         toml: str | None = None) -> dict:  # fmt: skip
+def rows(
+    columns: tuple[tuple[str, Rule], ...],
+    *,
+    count: str = "",
+    doc: str = "",
+    toml: str | None = None,
+) -> dict:
     """Field metadata for a list of numeric rows (see :class:`Rows`)."""
     return _meta(Rows(columns, count, doc), toml)
 

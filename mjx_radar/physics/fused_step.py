@@ -114,8 +114,11 @@ def data_step(xp, fm: FusedModel, qpos, qvel, act, ctrl):
     """One step of the whole scene on flat ``qpos, qvel [nq], act [na], ctrl [nu]``."""
     for b in fm.blocks:
         q, qd, a = block_step(xp, b, fm.dt, qpos[b.qpos], qvel[b.qpos], act[b.act], ctrl[b.ctrl])
-        qpos, qvel, act = (_set(xp, qpos, b.qpos, q), _set(xp, qvel, b.qpos, qd),
-                           _set(xp, act, b.act, a))  # fmt: skip
+        qpos, qvel, act = (
+            _set(xp, qpos, b.qpos, q),
+            _set(xp, qvel, b.qpos, qd),
+            _set(xp, act, b.act, a),
+        )
     return qpos, qvel, act
 
 
@@ -146,9 +149,12 @@ def _block(m: mujoco.MjModel, qpos, act, ctrl, yaw: int) -> BodyBlock | None:
     qpos, act, ctrl = (np.asarray(a, dtype=np.int32) for a in (qpos, act, ctrl))
     mom = {}
     for y in (0.0, 0.5 * math.pi, math.pi):
-        mom[y] = np.stack([_moment_columns(m, data, qpos[k], ctrl[k],
-                                           qpos[k, yaw] if yaw >= 0 else -1, y)
-                           for k in range(len(qpos))])  # fmt: skip
+        mom[y] = np.stack(
+            [
+                _moment_columns(m, data, qpos[k], ctrl[k], qpos[k, yaw] if yaw >= 0 else -1, y)
+                for k in range(len(qpos))
+            ]
+        )
     m0 = 0.5 * (mom[0.0] + mom[math.pi]) if yaw >= 0 else mom[0.0]
     mc = 0.5 * (mom[0.0] - mom[math.pi]) if yaw >= 0 else np.zeros_like(m0)
     ms = mom[0.5 * math.pi] - m0 if yaw >= 0 else np.zeros_like(m0)
@@ -171,10 +177,26 @@ def _block(m: mujoco.MjModel, qpos, act, ctrl, yaw: int) -> BodyBlock | None:
     arng = m.actuator_actrange[act_ids]
     full = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, data, full)
-    return BodyBlock(qpos, act, ctrl, yaw, m0, mc, ms, m.actuator_gainprm[ctrl, 0],
-                     m.actuator_biasprm[ctrl, 0], m.actuator_biasprm[ctrl, 2], lo, hi, integ,
-                     slot[0], driver[0], np.where(alim, arng[..., 0], -np.inf),
-                     np.where(alim, arng[..., 1], np.inf), np.diagonal(full)[qpos])  # fmt: skip
+    return BodyBlock(
+        qpos,
+        act,
+        ctrl,
+        yaw,
+        m0,
+        mc,
+        ms,
+        m.actuator_gainprm[ctrl, 0],
+        m.actuator_biasprm[ctrl, 0],
+        m.actuator_biasprm[ctrl, 2],
+        lo,
+        hi,
+        integ,
+        slot[0],
+        driver[0],
+        np.where(alim, arng[..., 0], -np.inf),
+        np.where(alim, arng[..., 1], np.inf),
+        np.diagonal(full)[qpos],
+    )
 
 
 def build(m: mujoco.MjModel, index) -> FusedModel | None:
@@ -211,8 +233,9 @@ def matches_mj_step(m: mujoco.MjModel, fm: FusedModel, tries: int = 6) -> bool:
         data.qvel[:] = rng.uniform(-20, 20, m.nv)
         data.act[:] = rng.uniform(-1.5, 1.5, m.na) * _span(m.actuator_actrange[owner])
         data.ctrl[:] = rng.uniform(-1.5, 1.5, m.nu) * _span(m.actuator_ctrlrange)
-        ours = data_step(np, fm, data.qpos.copy(), data.qvel.copy(), data.act.copy(),
-                         data.ctrl.copy())  # fmt: skip
+        ours = data_step(
+            np, fm, data.qpos.copy(), data.qvel.copy(), data.act.copy(), data.ctrl.copy()
+        )
         mujoco.mj_step(m, data)
         for a, ref in zip(ours, (data.qpos, data.qvel, data.act), strict=True):
             if not np.allclose(a, ref, rtol=CHECK_RTOL, atol=CHECK_RTOL * (1 + np.abs(ref).max())):

@@ -45,8 +45,9 @@ def moving_geoms(model: mujoco.MjModel, count: int) -> np.ndarray:
 
 def mocap_ids(model: mujoco.MjModel, count: int) -> np.ndarray:
     """``[K]`` mocap indices of the moving obstacles' bodies."""
-    return np.asarray([model.body_mocapid[model.body(f"moving{k}").id] for k in range(count)],
-                      np.int32)  # fmt: skip
+    return np.asarray(
+        [model.body_mocapid[model.body(f"moving{k}").id] for k in range(count)], np.int32
+    )
 
 
 def mocap_pose(moving, xy, unit):

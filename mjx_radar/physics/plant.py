@@ -102,8 +102,9 @@ def make_plant(
     # The most a radar moves in one step: the collision sphere grows by this much so
     # that the physical hull never enters an obstacle on the step of impact.
     margin = contact_envelope(limits, dt) if (obstacles or moving) else 0.0
-    mj_model, index = build_scene(n_radars, n_drones, dt, obstacles, margin, terrain,
-                                  moving=tuple(moving))  # fmt: skip
+    mj_model, index = build_scene(
+        n_radars, n_drones, dt, obstacles, margin, terrain, moving=tuple(moving)
+    )
     # Plants are cached and may first be built while a jit trace is running: keep the
     # device model concrete so it never captures a tracer. On this process's own device:
     # MJX's default, jax.devices()[0], belongs to process 0 under jax.distributed.
@@ -113,11 +114,22 @@ def make_plant(
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
     fused = fused_step.build(mj_model, index) if fast and FUSED_STEP else None
     if terrain is None:
-        return Plant(mj_model, model, index, float(dt), limits, fast, moving=tuple(moving),
-                     fused=fused)  # fmt: skip
+        return Plant(
+            mj_model, model, index, float(dt), limits, fast, moving=tuple(moving), fused=fused
+        )
     grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
-    return Plant(mj_model, model, index, float(dt), limits, fast, grid,
-                 float(terrain.antenna_height), grade, fused=fused)  # fmt: skip
+    return Plant(
+        mj_model,
+        model,
+        index,
+        float(dt),
+        limits,
+        fast,
+        grid,
+        float(terrain.antenna_height),
+        grade,
+        fused=fused,
+    )
 
 
 FUSED_STEP: bool = True
@@ -163,8 +175,15 @@ def truth_plant(scenario: Scenario) -> Plant:
     if scenario.n_targets < 1:
         raise ValueError(f"n_targets: {scenario.n_targets} is not allowed; need at least 1")
     sc = scenario
-    return make_plant(sc.n_radars, sc.n_targets, sc.timing.dt_filter, sc.limits, sc.obstacles,
-                      sc.terrain, sc.moving_obstacles)  # fmt: skip
+    return make_plant(
+        sc.n_radars,
+        sc.n_targets,
+        sc.timing.dt_filter,
+        sc.limits,
+        sc.obstacles,
+        sc.terrain,
+        sc.moving_obstacles,
+    )
 
 
 def check_finite(name: str, x) -> None:
@@ -234,8 +253,13 @@ def radar_ctrl(plant: Plant, va: jax.Array, u: jax.Array) -> jax.Array:
     return jnp.concatenate([u, mean_v[:, :1], jnp.zeros_like(u[:, :1]), mean_v[:, 1:]], -1)
 
 
-def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None = None,
-         drone_mean_v: jax.Array | None = None):  # fmt: skip
+def step(
+    plant: Plant,
+    data,
+    radar_u: jax.Array,
+    drone_accel: jax.Array | None = None,
+    drone_mean_v: jax.Array | None = None,
+):
     """One physics step.
 
     Args:
@@ -263,8 +287,9 @@ def step(plant: Plant, data, radar_u: jax.Array, drone_accel: jax.Array | None =
         ctrl = ctrl.at[idx.drone_ctrl].set(drone_ctrl.astype(data.ctrl.dtype))
     data = data.replace(ctrl=ctrl)
     if plant.fused is not None:
-        qpos, qvel, act = fused_step.data_step(jnp, plant.fused, data.qpos, data.qvel, data.act,
-                                               ctrl)  # fmt: skip
+        qpos, qvel, act = fused_step.data_step(
+            jnp, plant.fused, data.qpos, data.qvel, data.act, ctrl
+        )
         return data.replace(qpos=qpos, qvel=qvel, act=act, time=data.time + dt)
     if plant.fast:
         return _contact_free_step(plant.model, data)

@@ -79,8 +79,9 @@ def _fused_rollout(plant: Plant, state: jax.Array, controls: jax.Array, unroll: 
     def body(carry, u):
         q, qd, act = carry
         u = clip_controls(plant, u)
-        q, qd, act = fused_step.block_step(jnp, block, plant.dt, q, qd, act,
-                                           radar_ctrl(plant, act, u))  # fmt: skip
+        q, qd, act = fused_step.block_step(
+            jnp, block, plant.dt, q, qd, act, radar_ctrl(plant, act, u)
+        )
         return (q, qd, act), planar_state(q, act)
 
     return jax.lax.scan(body, (q, jnp.zeros_like(q), act), controls, unroll=unroll)[1]

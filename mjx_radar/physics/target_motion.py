@@ -192,8 +192,9 @@ def motion_params(scenario: Scenario, dtype) -> MotionParams:
     var = np.full(m, float(scenario.sigma_w2))
     appear, leave = np.zeros(m), np.full(m, np.inf)
     for tm in scenario.target_motion:
-        var[tm.target] = (scenario.sigma_w2 if tm.model == "cv" else 0.0) if tm.sigma_w2 < 0 \
-            else tm.sigma_w2  # fmt: skip
+        var[tm.target] = (
+            (scenario.sigma_w2 if tm.model == "cv" else 0.0) if tm.sigma_w2 < 0 else tm.sigma_w2
+        )
         appear[tm.target], leave[tm.target] = tm.appear, tm.leave
     arr = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     return MotionParams(
@@ -246,8 +247,9 @@ def step_plant(plant, data, radar_u, mp: MotionParams | None, key, k, sigma_w2, 
     if moving is not None:
         data = moving_bodies.pose_bodies(plant, data, moving, k * plant.dt)
     if mp is None:
-        return physics.step(plant, data, radar_u, kinematics.sample_white_accel(
-            key, plant.n_drones, sigma_w2))  # fmt: skip
+        return physics.step(
+            plant, data, radar_u, kinematics.sample_white_accel(key, plant.n_drones, sigma_w2)
+        )
     v_now = physics.target_state(plant, data)[:, 3:]
     unit = jax.random.normal(key, (plant.n_drones, 3))
     accel, vbar = drone_command(mp, k, v_now, unit, plant.dt)

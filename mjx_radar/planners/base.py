@@ -110,9 +110,6 @@ class Planner:
         return idle_record(self.env.scenario, action)
 
 
-
-
-
 def register_planner(name: str, planner=None):
     """Registers a planner class (or factory ``env -> planner``) under ``name``.
 

@@ -47,8 +47,9 @@ class MPPIPlanner(Planner):
     def _mppi(self, carry: MPPICarry, obs, key):
         sc = self.env.scenario
         params = self.env.planning_params(obs)  # presence weights, vehicles' time
-        res, mean_plan = self._optimize(obs.radar_state, obs.mean, obs.cov, carry.u_plan, key,
-                                        params)  # fmt: skip
+        res, mean_plan = self._optimize(
+            obs.radar_state, obs.mean, obs.cov, carry.u_plan, key, params
+        )
         keep = slice(0, kept_samples(sc))
         rec = ControlRecord(
             res.mean[0].reshape(sc.n_radars, 2),

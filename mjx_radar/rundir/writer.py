@@ -16,9 +16,17 @@ import numpy as np
 
 #: trajectory arrays of ``trajectories.npz`` (those present in the result)
 TRAJECTORY_KEYS = (
-    "target", "mean", "cov_diag", "radar", "control", "plan_xy", "sample_xy",
-    "sample_weight", "sample_cost", "diverged",
-)  # fmt: skip
+    "target",
+    "mean",
+    "cov_diag",
+    "radar",
+    "control",
+    "plan_xy",
+    "sample_xy",
+    "sample_weight",
+    "sample_cost",
+    "diverged",
+)
 
 
 def _planner_of(method: str) -> str:
@@ -63,16 +71,26 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
     if any(ov.radar_eq for ov in s.radar_override):  # a mixed fleet: C of each radar
         from mjx_radar.scenario.fleet import radar_equation
 
-        meta["noise_constants"] = [noise_constant(radar_equation(s, i), s.n_targets)
-                                   for i in range(s.n_radars)]  # fmt: skip
+        meta["noise_constants"] = [
+            noise_constant(radar_equation(s, i), s.n_targets) for i in range(s.n_radars)
+        ]
     div = res.get("diverged")
     if div is not None:
         meta["diverged_trials"] = [int(t) for t in trials[np.asarray(div).any(axis=-1)]]
     return meta | extra
 
 
-def write_run(out: Path, scenario, method: str, seed: int, trials, steps: int, res: dict,
-              source: Path | None = None, **extra) -> Path:  # fmt: skip
+def write_run(
+    out: Path,
+    scenario,
+    method: str,
+    seed: int,
+    trials,
+    steps: int,
+    res: dict,
+    source: Path | None = None,
+    **extra,
+) -> Path:
     """Writes a complete run directory; removes what it wrote on any error.
 
     Args:

@@ -47,8 +47,9 @@ def _table(cls: type, prefix: str) -> list[str]:
         if isinstance(r, Rows):
             count = f"{r.count} rows" if r.count else "1 to 1000 rows"
             cols = "; ".join(f"{n}: {c.describe()} {c.unit}".rstrip() for n, c in r.columns)
-            lines.append(f"| `{key}` | {_default(f)} | rows | {count} of [{r.names}]; {cols} | "
-                         f"{r.doc} |")  # fmt: skip
+            lines.append(
+                f"| `{key}` | {_default(f)} | rows | {count} of [{r.names}]; {cols} | {r.doc} |"
+            )
         else:
             lines.append(_row(key, f, r))
     for key, f, typ in tables:
@@ -80,13 +81,23 @@ def fields_markdown() -> str:
         *_HEAD,
         *_table(RadarOverride, ""),
     ]
-    lines += ["", "### `[terrain]` — height field the radars drive on (docs/terrain.md)", "",
-              *_HEAD, "| `path` | required | - | an existing .npy or .png file, relative to "
-              "the scenario file | height field (float/integer array, or grayscale PNG) |",
-              *_table(Terrain, "")]  # fmt: skip
-    lines += ["", "### `[[moving_obstacles]]` — a vehicle on a path (docs/maps.md; `size`: "
-              "box `[half length, half width]`, cylinder `[radius]`)", "", *_HEAD,
-              *_table(MovingObstacle, "")]  # fmt: skip
+    lines += [
+        "",
+        "### `[terrain]` — height field the radars drive on (docs/terrain.md)",
+        "",
+        *_HEAD,
+        "| `path` | required | - | an existing .npy or .png file, relative to "
+        "the scenario file | height field (float/integer array, or grayscale PNG) |",
+        *_table(Terrain, ""),
+    ]
+    lines += [
+        "",
+        "### `[[moving_obstacles]]` — a vehicle on a path (docs/maps.md; `size`: "
+        "box `[half length, half width]`, cylinder `[radius]`)",
+        "",
+        *_HEAD,
+        *_table(MovingObstacle, ""),
+    ]
     return "\n".join([BEGIN, *lines, END]) + "\n"
 
 

@@ -101,8 +101,9 @@ def scenario_to_dict(s: Scenario) -> dict:
         from mjx_radar.scenario.moving import to_dict
 
         mov = s.moving_obstacles
-        raw["moving_obstacles"] = [to_dict(m) for m in mov] if isinstance(mov, tuple | list) \
-            else mov  # fmt: skip
+        raw["moving_obstacles"] = (
+            [to_dict(m) for m in mov] if isinstance(mov, tuple | list) else mov
+        )
     terrain = getattr(s, "terrain", None)
     if terrain is not None:
         raw["terrain"] = _terrain(terrain)

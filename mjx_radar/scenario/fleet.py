@@ -41,8 +41,10 @@ def radar_override(i: int, raw: Any, n: int) -> RadarOverride:
         raise ScenarioError(f"{field}.radar: missing required field (a radar index)")
     radar = check(f"{field}.radar", raw["radar"], Rule(int, 0, 999))
     if radar >= n:
-        raise ScenarioError(f"{field}.radar = {radar}: no such radar; must be an index in "
-                            f"[0, {n - 1}] (n_radars = {n})")  # fmt: skip
+        raise ScenarioError(
+            f"{field}.radar = {radar}: no such radar; must be an index in "
+            f"[0, {n - 1}] (n_radars = {n})"
+        )
     mobile = check(f"{field}.mobile", raw.get("mobile", True), Rule(bool))
     eq = _pairs(f"{field}.radar_equation", raw.get("radar_equation", {}), _EQ, tuple(_EQ))
     lim = _pairs(f"{field}.limits", raw.get("limits", {}), _LIM, _LIM_PER_RADAR)
@@ -55,8 +57,10 @@ def _pairs(field: str, raw: Any, rules: dict, allowed: tuple) -> tuple:
     out = []
     for key, value in raw.items():
         if key in rules and key not in allowed:
-            raise ScenarioError(f"{field}.{key}: a per-radar {key} limit is not supported "
-                                f"(only {', '.join(allowed)}); set it in [limits]")  # fmt: skip
+            raise ScenarioError(
+                f"{field}.{key}: a per-radar {key} limit is not supported "
+                f"(only {', '.join(allowed)}); set it in [limits]"
+            )
         if key not in rules:
             raise ScenarioError(
                 f"{field}.{key_name(key)}: unknown field; allowed: {', '.join(allowed)}"
@@ -78,8 +82,10 @@ def check_fleet(scenario: Scenario) -> None:
         for key, value in ov.limits:
             fleet = getattr(scenario.limits, key)
             if value > fleet:
-                raise ScenarioError(f"{field}.limits.{key} = {value}: must be <= the fleet's "
-                                    f"limits.{key} = {fleet} (the plant's bound)")  # fmt: skip
+                raise ScenarioError(
+                    f"{field}.limits.{key} = {value}: must be <= the fleet's "
+                    f"limits.{key} = {fleet} (the plant's bound)"
+                )
         if ov.radar_eq:
             try:
                 plausibility.check_scenario(

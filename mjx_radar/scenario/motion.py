@@ -41,8 +41,20 @@ _SPECIFIC = {
     "turn": ("rate",),
     "track": ("path",),
 }
-_ALLOWED = ("target", "model", "waypoints", "speed", "accel_max", "capture", "loop", "rate",
-            "path", "sigma_w2", "appear", "leave")  # fmt: skip
+_ALLOWED = (
+    "target",
+    "model",
+    "waypoints",
+    "speed",
+    "accel_max",
+    "capture",
+    "loop",
+    "rate",
+    "path",
+    "sigma_w2",
+    "appear",
+    "leave",
+)
 
 
 def target_motion(i: int, raw: Any, base: Path, allow_external: bool, m: int) -> TargetMotion:
@@ -92,8 +104,12 @@ def _waypoints(field: str, raw: Any) -> tuple[tuple[float, ...], ...]:
     for j, row in enumerate(raw):
         if not isinstance(row, list) or len(row) != 3:
             raise ScenarioError(f"{field}[{j}] = {show(row)}: must be 3 numbers [x, y, z]")
-        out.append(tuple(check(f"{field}[{j}] ({c})", v, r)
-                         for (c, r), v in zip(spec.columns, row, strict=True)))  # fmt: skip
+        out.append(
+            tuple(
+                check(f"{field}[{j}] ({c})", v, r)
+                for (c, r), v in zip(spec.columns, row, strict=True)
+            )
+        )
     return tuple(out)
 
 
@@ -120,8 +136,9 @@ def read_track(name: str, path: str) -> tuple[tuple[float, ...], ...]:
         if max(abs(x), abs(y)) > SCENE or not 0.0 < z <= 1e4:
             raise ScenarioError(f"{name}: line {n}: |x|, |y| <= {SCENE:g} m and 0 < z <= 1e4 m")
         if rows and t <= rows[-1][0]:
-            raise ScenarioError(f"{name}: line {n}: times must be strictly increasing "
-                                f"(t = {t} after {rows[-1][0]})")  # fmt: skip
+            raise ScenarioError(
+                f"{name}: line {n}: times must be strictly increasing (t = {t} after {rows[-1][0]})"
+            )
         rows.append(vals)
         if len(rows) > MAX_TRACK_ROWS:
             raise ScenarioError(f"{name}: more than {MAX_TRACK_ROWS} rows")
@@ -151,8 +168,13 @@ def to_dict(tm: TargetMotion) -> dict:
         return tm  # not a TargetMotion: target_motion() names the field and refuses it
     raw: dict[str, Any] = {"target": tm.target, "model": tm.model}
     if tm.model == "waypoints":
-        raw |= {"waypoints": [list(w) for w in tm.waypoints], "speed": tm.speed,
-                "accel_max": tm.accel_max, "capture": tm.capture, "loop": tm.loop}  # fmt: skip
+        raw |= {
+            "waypoints": [list(w) for w in tm.waypoints],
+            "speed": tm.speed,
+            "accel_max": tm.accel_max,
+            "capture": tm.capture,
+            "loop": tm.loop,
+        }
     elif tm.model == "turn":
         raw["rate"] = tm.rate
     elif tm.model == "track":

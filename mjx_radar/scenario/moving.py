@@ -52,8 +52,9 @@ def moving_obstacle(i: int, raw: Any) -> MovingObstacle:
     size = raw["size"]
     what = "[half length, half width]" if need == 2 else "[radius]"
     if not isinstance(size, list) or len(size) != need:
-        raise ScenarioError(f"{field}.size = {show(size)}: must be {what} for kind = "
-                            f"{kwargs['kind']!r}")  # fmt: skip
+        raise ScenarioError(
+            f"{field}.size = {show(size)}: must be {what} for kind = {kwargs['kind']!r}"
+        )
     for j, v in enumerate(size):
         ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
         if not ok or not 0.0 < v <= 1e3:
@@ -71,11 +72,14 @@ def _path(field: str, raw: Any) -> tuple[tuple[float, ...], ...]:
     for j, row in enumerate(raw):
         if not isinstance(row, list) or len(row) != 2:
             raise ScenarioError(f"{field}[{j}] = {show(row)}: must be 2 numbers [x, y]")
-        p = tuple(check(f"{field}[{j}] ({c})", v, r)
-                  for (c, r), v in zip(spec.columns, row, strict=True))  # fmt: skip
+        p = tuple(
+            check(f"{field}[{j}] ({c})", v, r) for (c, r), v in zip(spec.columns, row, strict=True)
+        )
         if out and math.dist(p, out[-1]) < 1e-3:
-            raise ScenarioError(f"{field}[{j}] = {show(row)}: repeats the waypoint before it "
-                                "(segments must be at least 1 mm long)")  # fmt: skip
+            raise ScenarioError(
+                f"{field}[{j}] = {show(row)}: repeats the waypoint before it "
+                "(segments must be at least 1 mm long)"
+            )
         out.append(p)
     return tuple(out)
 
@@ -84,20 +88,30 @@ def to_dict(m: MovingObstacle) -> dict:
     """The TOML table of one moving obstacle (what :func:`moving_obstacle` reads back equal)."""
     if not isinstance(m, MovingObstacle):
         return m  # not a MovingObstacle: moving_obstacle() names the field and refuses it
-    return {"kind": m.kind, "size": list(m.size), "height": m.height,
-            "path": [list(p) for p in m.path], "speed": m.speed, "offset": m.offset,
-            "end": m.end}  # fmt: skip
+    return {
+        "kind": m.kind,
+        "size": list(m.size),
+        "height": m.height,
+        "path": [list(p) for p in m.path],
+        "speed": m.speed,
+        "offset": m.offset,
+        "end": m.end,
+    }
 
 
 def check_scene(scenario) -> None:
     """Cross checks: no ``[terrain]`` (vehicles stand on z = 0), fixed radar starts clear
     of every vehicle at t = 0 (hull radius + contact envelope)."""
     if scenario.terrain is not None:
-        raise ScenarioError("moving_obstacles: not supported with [terrain] (the vehicles "
-                            "stand on z = 0; docs/maps.md)")  # fmt: skip
+        raise ScenarioError(
+            "moving_obstacles: not supported with [terrain] (the vehicles "
+            "stand on z = 0; docs/maps.md)"
+        )
     if not scenario.radar_init:
-        raise ScenarioError("moving_obstacles: need fixed radar starts (`radars` rows); random "
-                            "placement does not avoid obstacles")  # fmt: skip
+        raise ScenarioError(
+            "moving_obstacles: need fixed radar starts (`radars` rows); random "
+            "placement does not avoid obstacles"
+        )
     import numpy as np
 
     from mjx_radar.scenario.geometry import (

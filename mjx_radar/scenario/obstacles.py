@@ -176,9 +176,15 @@ def forest(raw: Any, radar_init) -> tuple[Obstacle, ...]:
         if v[key][0] > v[key][1]:
             raise ScenarioError(f"forest.{key} = {v[key]!r}: need low <= high")
     trees = geometry.generate_forest(
-        v["count"], v["region"], v["seed"], v["radius"], v["height"], v["spacing"],
-        [r[:2] for r in radar_init], v["clearance"],
-    )  # fmt: skip
+        v["count"],
+        v["region"],
+        v["seed"],
+        v["radius"],
+        v["height"],
+        v["spacing"],
+        [r[:2] for r in radar_init],
+        v["clearance"],
+    )
     if len(trees) < v["count"]:
         raise ScenarioError(
             f"forest.count = {v['count']}: only {len(trees)} trees fit in forest.region with "

@@ -23,8 +23,11 @@ TARGET_COLUMNS = (  # plausibility bounds of an initial target state (docs/scena
     ("vy", col(-1e3, 1e3, "m/s")),
     ("vz", col(-1e3, 1e3, "m/s")),
 )
-RADAR_COLUMNS = (("x", col(-SCENE, SCENE, "m")), ("y", col(-SCENE, SCENE, "m")),
-                 ("theta", col(-10.0, 10.0, "rad")))  # fmt: skip
+RADAR_COLUMNS = (
+    ("x", col(-SCENE, SCENE, "m")),
+    ("y", col(-SCENE, SCENE, "m")),
+    ("theta", col(-10.0, 10.0, "rad")),
+)
 
 
 @dataclass(frozen=True)
@@ -105,9 +108,14 @@ class MPCConfig:
     )
     alpha_effort: float = field(
         default=0.0,
-        metadata=rule(float, 0.0, 1e9, doc="weight of the control effort (a/a_max)^2 + "
-                      "(alpha/alpha_max)^2 summed over radars (0: term off)"),
-    )  # fmt: skip
+        metadata=rule(
+            float,
+            0.0,
+            1e9,
+            doc="weight of the control effort (a/a_max)^2 + "
+            "(alpha/alpha_max)^2 summed over radars (0: term off)",
+        ),
+    )
     alpha_obs: float = field(
         default=1000.0,
         metadata=rule(
@@ -140,10 +148,13 @@ class MPCConfig:
     substeps: int = field(
         default=1,
         metadata=rule(
-            int, 1, 100, doc="Euler sub-steps per control step in the planner's rollouts "
+            int,
+            1,
+            100,
+            doc="Euler sub-steps per control step in the planner's rollouts "
             "(the plant integrates at dt_filter: substeps = dt_control/dt_filter matches it)",
         ),
-    )  # fmt: skip
+    )
 
 
 @dataclass(frozen=True)
@@ -242,8 +253,9 @@ class Scenario:
         default_factory=RadarEquation,
         metadata=table("radar equation (SPEC 1)", toml="radar_equation"),
     )
-    limits: RadarLimits = field(default_factory=RadarLimits,
-                                metadata=table("radar control and state limits"))  # fmt: skip
+    limits: RadarLimits = field(
+        default_factory=RadarLimits, metadata=table("radar control and state limits")
+    )
     timing: Timing = field(default_factory=Timing, metadata=table("filter and control clocks"))
     mpc: MPCConfig = field(default_factory=MPCConfig, metadata=table("MPC objective and horizon"))
     mppi: MPPIConfig = field(default_factory=MPPIConfig, metadata=table("MPPI sampler"))
@@ -264,8 +276,10 @@ class Scenario:
             RADAR_COLUMNS, count="n_radars", doc="optional fixed radar starts", toml="radars"
         ),
     )
-    detection: DetectionConfig = field(default_factory=DetectionConfig, metadata=table(
-        "detection probability, clutter, association (docs/detection.md)"))  # fmt: skip
+    detection: DetectionConfig = field(
+        default_factory=DetectionConfig,
+        metadata=table("detection probability, clutter, association (docs/detection.md)"),
+    )
 
     @property
     def n_targets(self) -> int:

@@ -36,8 +36,14 @@ class FilterConfig:
         default="joint", metadata=choice("joint", "per-target", doc="filter structure")
     )
     ground_prior: bool = field(default=False, metadata=flag("reflect estimates to z >= 0"))
-    form: str = field(default="covariance", metadata=choice("covariance", "sqrt", doc="CKF form:"
-                      " covariance P, or square-root S (P = S S^T; docs/filters.md)"))  # fmt: skip
+    form: str = field(
+        default="covariance",
+        metadata=choice(
+            "covariance",
+            "sqrt",
+            doc="CKF form: covariance P, or square-root S (P = S S^T; docs/filters.md)",
+        ),
+    )
     motion: str = field(
         default="cv",
         metadata=choice(

@@ -36,20 +36,32 @@ class Terrain:
     )
     max_slope_deg: float = field(
         default=25.0,
-        metadata=rule(float, 0.0, 90.0, lo_open=True, doc="steepest slope a radar drives on "
-                      "(keep-out beyond; the plant stops a radar there)", unit="deg"),
-    )  # fmt: skip
+        metadata=rule(
+            float,
+            0.0,
+            90.0,
+            lo_open=True,
+            doc="steepest slope a radar drives on (keep-out beyond; the plant stops a radar there)",
+            unit="deg",
+        ),
+    )
     alpha_slope: float = field(
         default=1000.0,
-        metadata=rule(float, 0.0, 1e9, doc="planner weight of slope beyond the limit "
-                      "(per unit of grade, per radar and step)"),
-    )  # fmt: skip
+        metadata=rule(
+            float,
+            0.0,
+            1e9,
+            doc="planner weight of slope beyond the limit (per unit of grade, per radar and step)",
+        ),
+    )
     antenna_height: float = field(
         default=2.0,
         metadata=rule(float, 0.0, 100.0, doc="radar antenna above the ground point", unit="m"),
     )
     targets_agl: bool = field(
         default=False,
-        metadata=flag("target start z is height above the terrain (false: absolute z; a "
-                      "target starting below the terrain is refused)"),
-    )  # fmt: skip
+        metadata=flag(
+            "target start z is height above the terrain (false: absolute z; a "
+            "target starting below the terrain is refused)"
+        ),
+    )

@@ -21,8 +21,11 @@ def positive(doc: str, unit: str = "", hi: float = INF) -> dict:
     return rule(float, 0.0, hi, lo_open=True, doc=doc, unit=unit)
 
 
-WAYPOINT_COLUMNS = (("x", col(-SCENE, SCENE, "m")), ("y", col(-SCENE, SCENE, "m")),
-                    ("z", col(0.0, 1e4, "m", lo_open=True)))  # fmt: skip
+WAYPOINT_COLUMNS = (
+    ("x", col(-SCENE, SCENE, "m")),
+    ("y", col(-SCENE, SCENE, "m")),
+    ("z", col(0.0, 1e4, "m", lo_open=True)),
+)
 
 
 @dataclass(frozen=True)
@@ -53,31 +56,44 @@ class TargetMotion:
     )
     capture: float = field(
         default=0.0,
-        metadata=rule(float, 0.0, 1e5, doc="waypoints: a waypoint counts as passed within "
-                      "this distance (0: 2 speed^2 / accel_max)", unit="m"),
-    )  # fmt: skip
+        metadata=rule(
+            float,
+            0.0,
+            1e5,
+            doc="waypoints: a waypoint counts as passed within "
+            "this distance (0: 2 speed^2 / accel_max)",
+            unit="m",
+        ),
+    )
     loop: bool = field(default=False, metadata=flag("waypoints: fly the list again after the last"))
     rate: float = field(
         default=0.0,
-        metadata=rule(float, -10.0, 10.0, doc="turn: turn rate (> 0 counter-clockwise)",
-                      unit="rad/s"),
-    )  # fmt: skip
+        metadata=rule(
+            float, -10.0, 10.0, doc="turn: turn rate (> 0 counter-clockwise)", unit="rad/s"
+        ),
+    )
     path: str = ""  # track: CSV of t, x, y, z (absolute once loaded; scenario.motion)
     track: tuple[tuple[float, ...], ...] = ()  # track: the CSV rows, read when loaded
     sigma_w2: float = field(
         default=-1.0,
-        metadata=rule(float, -1.0, 1e4, doc="truth white-acceleration variance of this "
-                      "target (-1: the scenario's sigma_w2 for cv, 0 for the others)",
-                      unit="m^2/s^4"),
-    )  # fmt: skip
+        metadata=rule(
+            float,
+            -1.0,
+            1e4,
+            doc="truth white-acceleration variance of this "
+            "target (-1: the scenario's sigma_w2 for cv, 0 for the others)",
+            unit="m^2/s^4",
+        ),
+    )
     appear: float = field(
         default=0.0, metadata=rule(float, 0.0, 1e7, doc="time the target appears", unit="s")
     )
     leave: float = field(
         default=INF,
-        metadata=rule(float, 0.0, 1e7, lo_open=True, doc="time the target leaves "
-                      "(omitted: never)", unit="s"),
-    )  # fmt: skip
+        metadata=rule(
+            float, 0.0, 1e7, lo_open=True, doc="time the target leaves (omitted: never)", unit="s"
+        ),
+    )
 
 
 @dataclass(frozen=True)
@@ -123,6 +139,9 @@ class MovingObstacle:
     )
     end: str = field(
         default="loop",
-        metadata=choice("loop", "stop", doc="after the last waypoint: back to the first "
-                        "(closed loop) or stop there"),
-    )  # fmt: skip
+        metadata=choice(
+            "loop",
+            "stop",
+            doc="after the last waypoint: back to the first (closed loop) or stop there",
+        ),
+    )

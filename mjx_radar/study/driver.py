@@ -179,9 +179,15 @@ def run_round(group: list[Chunk], chunk: int, n_dev: int, mesh, progress, times:
         block = np.arange(c.first, c.last + 1)
         ids.append(np.concatenate([block, np.full(chunk - len(block), c.last)]))
     res = runner.run_trials(
-        c0.scenario, c0.method, c0.seed, np.concatenate(ids), c0.steps,
-        full=False, progress=progress, mesh=mesh,
-    )  # fmt: skip
+        c0.scenario,
+        c0.method,
+        c0.seed,
+        np.concatenate(ids),
+        c0.steps,
+        full=False,
+        progress=progress,
+        mesh=mesh,
+    )
     times.compile_s += res["compile_s"]
     times.sim_s += res["sim_s"]
     time_s = c0.scenario.timing.dt_filter * np.arange(1, c0.steps + 1)

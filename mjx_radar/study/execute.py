@@ -105,9 +105,15 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
 
     times = driver.StudyTimes()
     scenarios, config = driver.load_scenarios(
-        opts.scenarios, opts.methods, opts.trials, opts.steps, opts.seed, opts.chunk,
-        opts.rollouts, opts.precision,
-    )  # fmt: skip
+        opts.scenarios,
+        opts.methods,
+        opts.trials,
+        opts.steps,
+        opts.seed,
+        opts.chunk,
+        opts.rollouts,
+        opts.precision,
+    )
     worker = make_worker() if make_worker else driver.Worker()
     created, locks = lock_out(opts.out, worker)
     try:
@@ -161,8 +167,14 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         times.compile_s += wall
         print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
     total = sum(c.steps * (c.last - c.first + 1) for c in todo)
-    with tqdm(total=total, unit="trial-step", desc="study", file=sys.stderr,
-              dynamic_ncols=True, disable=not todo or not args.progress) as bar:  # fmt: skip
+    with tqdm(
+        total=total,
+        unit="trial-step",
+        desc="study",
+        file=sys.stderr,
+        dynamic_ncols=True,
+        disable=not todo or not args.progress,
+    ) as bar:
         for group in driver.rounds(todo, n_dev):
             bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
             done = sum(c.last - c.first + 1 for c in group)

@@ -67,8 +67,9 @@ def information(h: Horizon, task, params) -> jax.Array:
     kind = getattr(task, "kind", "all")  # a program of one information kind compiles only it
     if kind in ("sfim", "pfim"):
         return -(_pfim if kind == "pfim" else _sfim)(h, task, params)
-    return -jax.lax.cond(params.method.pfim, lambda: _pfim(h, task, params),
-                         lambda: _sfim(h, task, params))  # fmt: skip
+    return -jax.lax.cond(
+        params.method.pfim, lambda: _pfim(h, task, params), lambda: _sfim(h, task, params)
+    )
 
 
 def _components(h: Horizon, task, params, target_major: bool):
@@ -89,8 +90,9 @@ def _components(h: Horizon, task, params, target_major: bool):
         mask = jnp.broadcast_to(vis, (hh, vis.shape[1], *pts.shape[1:3])).reshape(hh, -1, p * m)
     det = task.scenario.detection
     if (det.detects or det.clutter) and det.planner:  # expected FIM (docs/detection.md)
-        pd = detection.planner_weights(det.model, params.detection, radar_pos, xyz,
-                                       pda.planner_factor(task, params))  # fmt: skip
+        pd = detection.planner_weights(
+            det.model, params.detection, radar_pos, xyz, pda.planner_factor(task, params)
+        )
         mask = pd if mask is None else pd * mask
     return measurement.information_components(
         task.measurement, radar_pos, xyz, params.noise, params.method.ccr, mask
@@ -180,12 +182,22 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
 
 #: terms registered from scripts: name -> (fn, enabled(scenario) -> bool)
 _REGISTERED: dict[str, tuple[Callable, Callable[[Any], bool]]] = {}
-BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "moving_obstacle",
-            "terrain_slope", "control_effort")  # fmt: skip
+BUILT_IN = (
+    "information",
+    "radar_radar",
+    "radar_target",
+    "obstacle",
+    "moving_obstacle",
+    "terrain_slope",
+    "control_effort",
+)
 
 
-def register_cost_term(name: str, fn: Callable[[Horizon, Any, Any], jax.Array],
-                       enabled: Callable[[Any], bool] | None = None) -> None:  # fmt: skip
+def register_cost_term(
+    name: str,
+    fn: Callable[[Horizon, Any, Any], jax.Array],
+    enabled: Callable[[Any], bool] | None = None,
+) -> None:
     """Adds a cost term to every objective built afterwards (replacing one of that name).
 
     Args:

@@ -113,13 +113,21 @@ def shape_key(scenario: Scenario) -> Scenario:
         clutter_range_max=None,
         clutter_density=float(scenario.detection.clutter),
     )
-    moving = tuple(dataclasses.replace(  # paths, speeds, offsets: MovingParams (end: the
-        m, path=blank_rows(m.path), speed=None, offset=None)  # number of segments stays)
-        for m in scenario.moving_obstacles)  # fmt: skip
+    moving = tuple(
+        dataclasses.replace(  # paths, speeds, offsets: MovingParams (end: the
+            m, path=blank_rows(m.path), speed=None, offset=None
+        )  # number of segments stays)
+        for m in scenario.moving_obstacles
+    )
     if not (det.detects or det.clutter):  # perfect detection (also fixed_pd = 1): one program
-        det = dataclasses.replace(DetectionConfig(), pfa=None, gain_db=None,
-                                  gate_probability=None, clutter_range_min=None,
-                                  clutter_range_max=None)  # fmt: skip
+        det = dataclasses.replace(
+            DetectionConfig(),
+            pfa=None,
+            gain_db=None,
+            gate_probability=None,
+            clutter_range_min=None,
+            clutter_range_max=None,
+        )
     return dataclasses.replace(
         scenario,
         name="",

@@ -9,26 +9,25 @@ trip inside the compiled loop); the server thread turns the latest state into JS
 when a browser asks for it, once per segment and trial. :func:`live_periods` shortens
 the segments where needed so the view updates at least once per simulated second.
 
-Routes: ``/`` the page (:mod:`mjx_radar.viz.live_page`), ``/plotly.min.js`` the
-plotly.js of the installed ``plotly`` package (offline, no CDN), ``/figure.json`` the
-initial figure (built from the scenario before the run), ``/state.json?trial=J&since=SEQ``
-the layers at the latest step of trial position J (only ``{"seq": SEQ}`` if nothing new).
+Routes (:mod:`mjx_radar.viz.live_http`): ``/`` the page (:mod:`mjx_radar.viz.live_page`),
+``/plotly.min.js``, ``/figure.json`` the initial figure (built from the scenario before the
+run), ``/state.json?trial=J&since=SEQ`` the layers at the latest step of trial position J
+(only ``{"seq": SEQ}`` if nothing new).
 """
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import sys
 import threading
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from urllib.parse import parse_qs, urlsplit
+from http.server import ThreadingHTTPServer
 
 import numpy as np
 
 from mjx_radar.errors import InputError
 from mjx_radar.viz import live_page
+from mjx_radar.viz.live_http import handler, plotly_js
 from mjx_radar.viz.run_dir import Trial
 from mjx_radar.viz.viewer_counts import count_columns
 
@@ -59,19 +58,13 @@ def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> in
     return 1
 
 
-def start(scenario, trials, steps: int, port: int | None = None,
-          name: str = "--view-port") -> LiveView:  # fmt: skip
+def start(
+    scenario, trials, steps: int, port: int | None = None, name: str = "--view-port"
+) -> LiveView:
     """A :class:`LiveView` serving now; prints ``live view: URL`` on stderr."""
     live = LiveView(scenario, trials, steps, port, name=name)
     print(f"live view: {live.url}  (updates once per segment)", file=sys.stderr, flush=True)
     return live
-
-
-@functools.cache
-def _plotly_js() -> bytes:
-    from plotly.offline import get_plotlyjs
-
-    return get_plotlyjs().encode()
 
 
 class LiveView:
@@ -90,11 +83,21 @@ class LiveView:
         InputError: a bad port, or one that cannot be bound (in use, or not allowed).
     """
 
-    def __init__(self, scenario, trials, steps: int, port: int | None = None,
-                 samples: int = SAMPLES, name: str = "--view-port"):  # fmt: skip
+    def __init__(
+        self,
+        scenario,
+        trials,
+        steps: int,
+        port: int | None = None,
+        samples: int = SAMPLES,
+        name: str = "--view-port",
+    ):
         port = DEFAULT_PORT if port is None else port
-        if isinstance(port, bool) or not isinstance(port, int | np.integer) or not (
-                0 <= port <= 65535):  # fmt: skip
+        if (
+            isinstance(port, bool)
+            or not isinstance(port, int | np.integer)
+            or not (0 <= port <= 65535)
+        ):
             raise InputError(f"{name} = {port!r}: must be an integer in [0, 65535]")
         self.scenario, self.trials, self.steps = scenario, list(trials), steps
         self.samples = samples
@@ -103,19 +106,21 @@ class LiveView:
         self._control = None  # acting control step: plan_xy, sample_xy, sample_weight [T, ...]
         self._seq, self._finished, self._figure, self._box = 0, False, None, None
         self._cache: dict = {}
-        self._page = live_page.page(scenario.name, self.trials).encode()
+        self.page_bytes = live_page.page(scenario.name, self.trials).encode()
         self._build_figure()  # before the run: the simulation never waits for it
-        _plotly_js()  # read once, now
+        plotly_js()  # read once, now
         try:
-            self._server = ThreadingHTTPServer(("127.0.0.1", int(port)), _handler(self))
+            self._server = ThreadingHTTPServer(("127.0.0.1", int(port)), handler(self))
         except OSError as err:
-            raise InputError(f"{name} = {port}: cannot serve on 127.0.0.1:{port} "
-                             f"({err.strerror or err}); pass another port, or 0 for any free one"
-                             ) from None  # fmt: skip
+            raise InputError(
+                f"{name} = {port}: cannot serve on 127.0.0.1:{port} "
+                f"({err.strerror or err}); pass another port, or 0 for any free one"
+            ) from None
         self._server.daemon_threads = True
         self.port = self._server.server_address[1]
-        self._thread = threading.Thread(target=self._server.serve_forever, name="live-view",
-                                        daemon=True)  # fmt: skip
+        self._thread = threading.Thread(
+            target=self._server.serve_forever, name="live-view", daemon=True
+        )
         self._thread.start()
 
     @property
@@ -127,8 +132,9 @@ class LiveView:
         ControlRecord)`` of numpy arrays ``[T, ...]``); ``done`` filter steps so far."""
         steps_rec, controls = records
         part = {k: getattr(steps_rec, k) for k in STEP_KEYS}
-        control = tuple(getattr(controls, k)[:, -1] for k in ("plan_xy", "sample_xy",
-                                                               "sample_weight"))  # fmt: skip
+        control = tuple(
+            getattr(controls, k)[:, -1] for k in ("plan_xy", "sample_xy", "sample_weight")
+        )
         with self._lock:
             self._parts.append(part)
             self._control = control
@@ -139,16 +145,21 @@ class LiveView:
         from mjx_radar.engine.runner import segment_periods
 
         default = segment_periods(self.scenario, self.steps)
-        return {"periods": live_periods(self.scenario, self.steps, default),
-                "on_segment": self.update}  # fmt: skip
+        return {
+            "periods": live_periods(self.scenario, self.steps, default),
+            "on_segment": self.update,
+        }
 
     def linger(self, interactive: bool) -> None:
         """At the end of the run: marks it finished; if ``interactive`` serves the final
         state until Ctrl-C (a line on stderr says so); then stops the server."""
         self.finish()
         if interactive:
-            print(f"live view: the final state stays at {self.url} until Ctrl-C",
-                  file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"live view: the final state stays at {self.url} until Ctrl-C",
+                file=sys.stderr,
+                flush=True,
+            )
             try:
                 threading.Event().wait()
             except KeyboardInterrupt:
@@ -172,20 +183,31 @@ class LiveView:
     def _snapshot(self):
         with self._lock:
             if len(self._parts) > 1:  # concatenate once, keep the result
-                self._parts = [{k: np.concatenate([p[k] for p in self._parts], axis=1)
-                                for k in STEP_KEYS}]  # fmt: skip
-            return (self._parts[0] if self._parts else None, self._control, self._seq,
-                    self._finished)  # fmt: skip
+                self._parts = [
+                    {k: np.concatenate([p[k] for p in self._parts], axis=1) for k in STEP_KEYS}
+                ]
+            return (
+                self._parts[0] if self._parts else None,
+                self._control,
+                self._seq,
+                self._finished,
+            )
 
     def _trial(self, a: dict, control, j: int) -> Trial:
         m, timing = a["target"].shape[2], self.scenario.timing
         plan, sample_xy, weight = control
-        return Trial(meta={"r2t": float(self.scenario.mpc.r2t)}, scenario=self.scenario,
-                     target=a["target"][j], mean=a["mean"][j].reshape(-1, m, 6)[..., :3],
-                     sigma=np.sqrt(np.maximum(a["cov_diag"][j].reshape(-1, m, 6)[..., :3], 0)),
-                     radar=a["radar"][j], sample_xy=sample_xy[j][None],
-                     sample_weight=weight[j][None], every=timing.control_every,
-                     dt=float(timing.dt_filter))  # fmt: skip
+        return Trial(
+            meta={"r2t": float(self.scenario.mpc.r2t)},
+            scenario=self.scenario,
+            target=a["target"][j],
+            mean=a["mean"][j].reshape(-1, m, 6)[..., :3],
+            sigma=np.sqrt(np.maximum(a["cov_diag"][j].reshape(-1, m, 6)[..., :3], 0)),
+            radar=a["radar"][j],
+            sample_xy=sample_xy[j][None],
+            sample_weight=weight[j][None],
+            every=timing.control_every,
+            dt=float(timing.dt_filter),
+        )
 
     def _paths_box(self) -> tuple:
         """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run."""
@@ -204,8 +226,11 @@ class LiveView:
         their R2T discs); it never shrinks (the page relayouts and redraws the ground)."""
         lo, hi = tr.bounds()
         box = self._box or self._paths_box()
-        self._box = (np.minimum(lo, box[0]), np.maximum(hi, box[1]),
-                     max(box[2], 1.15 * float(tr.target[..., 2].max())))  # fmt: skip
+        self._box = (
+            np.minimum(lo, box[0]),
+            np.maximum(hi, box[1]),
+            max(box[2], 1.15 * float(tr.target[..., 2].max())),
+        )
         return self._box
 
     def _build_figure(self) -> None:
@@ -214,14 +239,14 @@ class LiveView:
         s = self.scenario
         lo, hi, ztop = self._paths_box()
         w = float(s.placement_half_width)
-        radars = (np.asarray(s.radar_init, float)[:, :2] if s.radar_init
-                  else np.array([[-w, -w], [w, w]]))  # fmt: skip
+        radars = (
+            np.asarray(s.radar_init, float)[:, :2] if s.radar_init else np.array([[-w, -w], [w, w]])
+        )
         lo = np.minimum(lo, (radars - s.mpc.r2t).min(0))
         hi = np.maximum(hi, (radars + s.mpc.r2t).max(0))
         title = f"{s.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
         self._cols = count_columns(s, None, self.steps * s.timing.dt_filter)
-        fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title,
-                                                               self._cols)  # fmt: skip
+        fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title, self._cols)
         d = json.loads(fig)
         d["ready"] = True
         self._figure = json.dumps(d).encode()
@@ -237,46 +262,23 @@ class LiveView:
         if key not in self._cache:
             tr = self._trial(a, control, j)
             dt = self.scenario.timing.dt_filter
-            curves = (dt * np.arange(1, tr.steps + 1), a["rmse_pos"][j], a["crlb_pos"][j],
-                      {c: a[c][j] for c in self._cols})  # fmt: skip
-            body = live_page.state_json(tr, control[0][j][None], self.samples, curves, seq,
-                                        self.steps, finished, self._anim, self._metrics,
-                                        self._grow_box(tr))  # fmt: skip
+            curves = (
+                dt * np.arange(1, tr.steps + 1),
+                a["rmse_pos"][j],
+                a["crlb_pos"][j],
+                {c: a[c][j] for c in self._cols},
+            )
+            body = live_page.state_json(
+                tr,
+                control[0][j][None],
+                self.samples,
+                curves,
+                seq,
+                self.steps,
+                finished,
+                self._anim,
+                self._metrics,
+                self._grow_box(tr),
+            )
             self._cache = {key: body.encode()}  # only the newest is asked for again
         return self._cache[key]
-
-
-def _handler(live: LiveView):
-    class Handler(BaseHTTPRequestHandler):
-        def do_GET(self):  # noqa: N802 (http.server's name)
-            url = urlsplit(self.path)
-            q = parse_qs(url.query)
-            try:
-                if url.path in ("/", "/index.html"):
-                    body, kind = live._page, "text/html; charset=utf-8"
-                elif url.path == "/plotly.min.js":
-                    body, kind = _plotly_js(), "application/javascript"
-                elif url.path == "/figure.json":
-                    body, kind = live.figure_bytes(), "application/json"
-                elif url.path == "/state.json":
-                    j, since = int(q.get("trial", ["0"])[0]), int(q.get("since", ["-1"])[0])
-                    if not 0 <= j < len(live.trials):
-                        raise ValueError(j)
-                    body, kind = live.state_bytes(j, since), "application/json"
-                else:
-                    self.send_error(404)
-                    return
-            except ValueError:
-                self.send_error(400)
-                return
-            self.send_response(200)
-            self.send_header("Content-Type", kind)
-            self.send_header("Content-Length", str(len(body)))
-            self.send_header("Cache-Control", "no-store")
-            self.end_headers()
-            self.wfile.write(body)
-
-        def log_message(self, *args):  # quiet: the progress bar owns stderr
-            pass
-
-    return Handler

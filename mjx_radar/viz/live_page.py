@@ -117,8 +117,7 @@ def page(name: str, trials) -> str:
     return PAGE.format(name=name, options=options)
 
 
-def figure_json(scenario, lo, hi, ztop: float, title: str,
-                cols=()) -> tuple[str, list, list]:  # fmt: skip
+def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str, list, list]:
     """The live figure before any data; ``(json, layer indices, metrics indices)``.
 
     Built from the scenario alone (before the simulation starts, so it costs the run
@@ -143,30 +142,50 @@ def figure_json(scenario, lo, hi, ztop: float, title: str,
         fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
     for name, colour in (("RMSE", "rgb(0,90,200)"), ("PCRLB", "rgb(220,0,0)")):
-        fig.add_trace(go.Scatter(x=[], y=[], mode="lines", name=name, legendgroup="metrics",
-                                 line={"color": colour}), row=1, col=2)  # fmt: skip
-    fig.add_trace(go.Scatter(x=[], y=[], mode="markers", name="current step",
-                             legendgroup="metrics", marker={"size": 9, "color": "black"}),
-                  row=1, col=2)  # fmt: skip
+        fig.add_trace(
+            go.Scatter(
+                x=[], y=[], mode="lines", name=name, legendgroup="metrics", line={"color": colour}
+            ),
+            row=1,
+            col=2,
+        )
+    fig.add_trace(
+        go.Scatter(
+            x=[],
+            y=[],
+            mode="markers",
+            name="current step",
+            legendgroup="metrics",
+            marker={"size": 9, "color": "black"},
+        ),
+        row=1,
+        col=2,
+    )
     metrics = list(range(len(fig.data) - 3, len(fig.data)))
     if cols:
         for trace in [*counts.count_traces(cols), counts.cursor_trace()]:
             metrics.append(len(fig.data))
             fig.add_trace(trace, row=2, col=2)
     fig.update_layout(
-        title={"text": title, "font": {"size": 13}}, template="plotly_white",
-        margin={"l": 10, "r": 10, "t": 50, "b": 10}, legend={"groupclick": "toggleitem"},
-        uirevision="live", scene=_scene(lo, hi, ztop),
+        title={"text": title, "font": {"size": 13}},
+        template="plotly_white",
+        margin={"l": 10, "r": 10, "t": 50, "b": 10},
+        legend={"groupclick": "toggleitem"},
+        uirevision="live",
+        scene=_scene(lo, hi, ztop),
         **counts.layout(bool(cols)),
-    )  # fmt: skip
+    )
     return fig.to_json(), anim, metrics
 
 
 def ranges(lo, hi, ztop: float) -> list[list[float]]:
     """Scene axis ranges: the xy box with a 5 % margin, z from 0 to ``ztop``."""
     pad = 0.05 * float(max(np.max(hi - lo), 1.0))
-    return [[float(lo[0] - pad), float(hi[0] + pad)], [float(lo[1] - pad), float(hi[1] + pad)],
-            [0.0, float(ztop)]]  # fmt: skip
+    return [
+        [float(lo[0] - pad), float(hi[0] + pad)],
+        [float(lo[1] - pad), float(hi[1] + pad)],
+        [0.0, float(ztop)],
+    ]
 
 
 def _ground(lo, hi) -> list[list[float]]:
@@ -179,14 +198,27 @@ def _ground(lo, hi) -> list[list[float]]:
 def _scene(lo, hi, ztop: float) -> dict:
     r = ranges(lo, hi, ztop)
     span = max(r[0][1] - r[0][0], 1.0)
-    return {"xaxis": {"range": r[0], "title": {"text": "x [m]"}},
-            "yaxis": {"range": r[1], "title": {"text": "y [m]"}},
-            "zaxis": {"range": r[2], "title": {"text": "z [m]"}}, "aspectmode": "manual",
-            "aspectratio": {"x": 1.0, "y": (r[1][1] - r[1][0]) / span, "z": 0.4}}  # fmt: skip
+    return {
+        "xaxis": {"range": r[0], "title": {"text": "x [m]"}},
+        "yaxis": {"range": r[1], "title": {"text": "y [m]"}},
+        "zaxis": {"range": r[2], "title": {"text": "z [m]"}},
+        "aspectmode": "manual",
+        "aspectratio": {"x": 1.0, "y": (r[1][1] - r[1][0]) / span, "z": 0.4},
+    }
 
 
-def state_json(tr, plan_xy, samples: int, curves, seq: int, steps: int, finished: bool,
-               anim: list, metrics: list, box) -> str:  # fmt: skip
+def state_json(
+    tr,
+    plan_xy,
+    samples: int,
+    curves,
+    seq: int,
+    steps: int,
+    finished: bool,
+    anim: list,
+    metrics: list,
+    box,
+) -> str:
     """``/state.json``: the layers at the latest step of ``tr`` and the metrics so far.
 
     Args:
@@ -203,12 +235,22 @@ def state_json(tr, plan_xy, samples: int, curves, seq: int, steps: int, finished
     layers = frame_traces(tr, k, samples, plan_xy)
     time, rmse, crlb, count = curves
     out = {
-        "seq": seq, "step": k + 1, "steps": steps, "finished": finished, "t": float(time[k]),
+        "seq": seq,
+        "step": k + 1,
+        "steps": steps,
+        "finished": finished,
+        "t": float(time[k]),
         "layers": [{c: _num(d[c]) for c in "xyz"} for d in layers],
-        "sample_w": _num(layers[6]["line"]["color"]), "time": _num(time), "rmse": _num(rmse),
-        "crlb": _num(crlb), "now": [_num(rmse[k:k + 1])[0], _num(crlb[k:k + 1])[0]],
+        "sample_w": _num(layers[6]["line"]["color"]),
+        "time": _num(time),
+        "rmse": _num(rmse),
+        "crlb": _num(crlb),
+        "now": [_num(rmse[k : k + 1])[0], _num(crlb[k : k + 1])[0]],
         "counts": [_num(c) for c in count.values()],
-        "counts_now": [_num(c[k:k + 1])[0] for c in count.values()],
-        "anim": anim, "metrics": metrics, "ranges": ranges(*box), "ground": _ground(*box[:2]),
-    }  # fmt: skip
+        "counts_now": [_num(c[k : k + 1])[0] for c in count.values()],
+        "anim": anim,
+        "metrics": metrics,
+        "ranges": ranges(*box),
+        "ground": _ground(*box[:2]),
+    }
     return json.dumps(out)

@@ -138,17 +138,28 @@ def draw_mujoco(scene, ov: StepOverlay, scale: float) -> None:
     here = np.ones(len(ov.target), bool) if ov.present is None else ov.present
     for (x, y, *_rest), rgb, site in zip(ov.radar, ov.radar_rgb, fixed, strict=True):
         if site:  # a fixed site: a tall box
-            g.add(gt.mjGEOM_BOX, [0.8 * s, 0.8 * s, 1.5 * s], [x, y, 1.5 * s + 5.0], [*rgb, 1.0],
-                  emission=0.6)  # fmt: skip
+            g.add(
+                gt.mjGEOM_BOX,
+                [0.8 * s, 0.8 * s, 1.5 * s],
+                [x, y, 1.5 * s + 5.0],
+                [*rgb, 1.0],
+                emission=0.6,
+            )
         else:
-            g.add(gt.mjGEOM_CYLINDER, [s, 0.3 * s, 0], [x, y, 0.3 * s + 5.0], [*rgb, 1.0],
-                  emission=0.6)  # fmt: skip
+            g.add(
+                gt.mjGEOM_CYLINDER,
+                [s, 0.3 * s, 0],
+                [x, y, 0.3 * s + 5.0],
+                [*rgb, 1.0],
+                emission=0.6,
+            )
     for rgb, wps in ov.waypoints:  # waypoint missions: small boxes joined by thin lines
         for p in wps:
             g.add(gt.mjGEOM_BOX, [0.35 * s] * 3, p, [*rgb, 0.7])
         g.polyline(wps, [*rgb, 0.5], 1.0)
-    for target, mean, sigma, rgb, on in zip(ov.target, ov.mean, ov.sigma, ov.target_rgb, here,
-                                            strict=True):  # fmt: skip
+    for target, mean, sigma, rgb, on in zip(
+        ov.target, ov.mean, ov.sigma, ov.target_rgb, here, strict=True
+    ):
         if not on:  # absent (appear / leave): not drawn
             continue
         g.add(gt.mjGEOM_SPHERE, [0.7 * s] * 3, target, [*rgb, 1.0])
@@ -194,11 +205,28 @@ def draw_matplotlib(ax, ov: StepOverlay):
         ax.plot(ov.trail[:, n, 0], ov.trail[:, n, 1], color=rgb, lw=1.5, zorder=3)
         site = bool(fixed[n])
         label = None if n != int(np.argmax(fixed == site)) else ("fixed site" if site else "radar")
-        ax.plot(x, y, "^" if site else "s", color=rgb, ms=11 if site else 8, mec="k", zorder=4,
-                label=label)  # fmt: skip
+        ax.plot(
+            x,
+            y,
+            "^" if site else "s",
+            color=rgb,
+            ms=11 if site else 8,
+            mec="k",
+            zorder=4,
+            label=label,
+        )
     for j, (rgb, wps) in enumerate(ov.waypoints):
-        ax.plot(wps[:, 0], wps[:, 1], ":", color=rgb, lw=1.0, marker="D", ms=4, zorder=3,
-                label="waypoints" if j == 0 else None)  # fmt: skip
+        ax.plot(
+            wps[:, 0],
+            wps[:, 1],
+            ":",
+            color=rgb,
+            lw=1.0,
+            marker="D",
+            ms=4,
+            zorder=3,
+            label="waypoints" if j == 0 else None,
+        )
     for m, rgb in enumerate(ov.target_rgb):
         if ov.present is not None and not ov.present[m]:
             continue  # absent (appear / leave)

@@ -83,10 +83,15 @@ def scene_model(tr: Trial, camera: str = "top", aspect: float = 4 / 3):
     from mjx_radar.physics.scene import build_scene
 
     terrain = tr.scenario.terrain  # the hfield ground; radars get a z joint to stand on it
-    model, index = build_scene(tr.radar.shape[1], tr.target.shape[1], tr.dt,
-                               tr.scenario.obstacles, terrain=terrain,
-                               radar_z_joint=terrain is not None,
-                               moving=tr.scenario.moving_obstacles)  # fmt: skip
+    model, index = build_scene(
+        tr.radar.shape[1],
+        tr.target.shape[1],
+        tr.dt,
+        tr.scenario.obstacles,
+        terrain=terrain,
+        radar_z_joint=terrain is not None,
+        moving=tr.scenario.moving_obstacles,
+    )
     lo, hi = tr.bounds()
     model.stat.extent = max(float(np.max(hi - lo)), 100.0)  # sets near/far clipping
     model.stat.center[:] = [*(0.5 * (lo + hi)), 0.0]

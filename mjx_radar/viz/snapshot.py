@@ -108,8 +108,9 @@ def vehicle_outlines(moving, t: float) -> list[np.ndarray]:
             out.append(c + hl * np.stack([np.cos(a), np.sin(a)], -1))
         else:
             v = np.array([-u[1], u[0]])
-            out.append(c + np.array([hl * u + hw * v, -hl * u + hw * v, -hl * u - hw * v,
-                                     hl * u - hw * v]))  # fmt: skip
+            out.append(
+                c + np.array([hl * u + hw * v, -hl * u + hw * v, -hl * u - hw * v, hl * u - hw * v])
+            )
     return out
 
 
@@ -118,8 +119,9 @@ def _draw_vehicles(ax, tr: Trial, k: int) -> None:
     from matplotlib.patches import Polygon
 
     for poly in vehicle_outlines(tr.scenario.moving_obstacles, (k + 1) * tr.dt):
-        ax.add_patch(Polygon(poly, closed=True, fc=(0.75, 0.2, 0.15), ec="k", lw=0.5,
-                             zorder=3, gid="moving"))  # fmt: skip
+        ax.add_patch(
+            Polygon(poly, closed=True, fc=(0.75, 0.2, 0.15), ec="k", lw=0.5, zorder=3, gid="moving")
+        )
 
 
 def _draw_terrain(ax, tr: Trial, lo, hi) -> None:
@@ -139,8 +141,15 @@ def _draw_terrain(ax, tr: Trial, lo, hi) -> None:
     grade = np.asarray(terrain.slope(terrain.terrain_grid(t), xy.astype(np.float32)))
     steep = grade > terrain.max_grade(t)
     if steep.any():
-        ax.contourf(xs, ys, steep.astype(float), levels=[0.5, 1.5], colors="none",
-                    hatches=["////"], zorder=0.5).set_gid("steep")  # fmt: skip
+        ax.contourf(
+            xs,
+            ys,
+            steep.astype(float),
+            levels=[0.5, 1.5],
+            colors="none",
+            hatches=["////"],
+            zorder=0.5,
+        ).set_gid("steep")
 
 
 def masked_fraction(tr: Trial, k: int, xs, ys, z: float) -> np.ndarray:
@@ -184,9 +193,16 @@ def snapshot_figure(tr: Trial, k: int, grid: int = 120):
     fig.colorbar(im, ax=right, label=r"$\log\det J$ (DDR SFIM) [log m$^{-2}$]", shrink=0.8)
     masked = masked_fraction(tr, k, xs, ys, z)
     if masked.any():  # darker where more radars are blocked; the heat map ignores masking
-        right.imshow(np.ma.masked_where(masked == 0, masked), origin="lower", cmap="Greys",
-                     vmin=0.0, vmax=1.25, alpha=0.6, extent=(lo[0], hi[0], lo[1], hi[1]),
-                     gid="masked")  # fmt: skip
+        right.imshow(
+            np.ma.masked_where(masked == 0, masked),
+            origin="lower",
+            cmap="Greys",
+            vmin=0.0,
+            vmax=1.25,
+            alpha=0.6,
+            extent=(lo[0], hi[0], lo[1], hi[1]),
+            gid="masked",
+        )
     if tr.scenario.moving_obstacles:  # vehicles at the step's time, on both panels
         _draw_vehicles(left, tr, k)
         _draw_vehicles(right, tr, k)

@@ -31,46 +31,10 @@ from mjx_radar.errors import InputError
 from mjx_radar.io.atomic import atomic_write, check_writable
 from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
+from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS, menus, slider
 from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
 from mjx_radar.viz.viewer_world import terrain_nodes
-
-MAX_FRAMES = 150
-MAX_SAMPLES = 32
-MAX_TRIALS = 8  # trials in one file by default (each adds its frames)
-SIZE_BUDGET = 14e6  # bytes: defaults fit this (plotly.js itself is about 4.8 MB)
-PLOTLY_JS = 4.9e6
-
-@dataclasses.dataclass(frozen=True)
-class ViewInfo:
-    """What :func:`view` wrote and what it left out."""
-
-    path: Path | None
-    trials: tuple[int, ...]  # trial positions shown
-    trials_run: int  # trials in the run directory
-    steps: int  # filter steps K of the run
-    frames: int  # frames per trial
-    stride: int  # every stride-th filter step
-    samples: int  # MPPI samples drawn per frame
-    samples_kept: int  # MPPI samples in the run directory per control step
-    bytes: int = 0
-    terrain: str = ""  # the terrain nodes drawn, if any
-
-    def dropped(self) -> str:
-        """One line: what the file leaves out of the run directory."""
-        parts = [f"{self.frames} of {self.steps} steps (every {self.stride})"]
-        if len(self.trials) < self.trials_run:
-            parts.append(f"{len(self.trials)} of {self.trials_run} trials (--trial)")
-        parts.append(f"{self.samples} of {self.samples_kept} kept MPPI samples per frame")
-        if self.terrain:
-            parts.append(self.terrain)
-        return "; ".join(parts)
-
-
-def frame_steps(steps: int, max_frames: int) -> np.ndarray:
-    """0-based filter steps of the frames: every k-th, ending at the last; ``<= max_frames``."""
-    stride = math.ceil(steps / max_frames)
-    return np.arange(steps - 1, -1, -stride)[::-1]
 
 
 def _metrics(rd: RunDir):
@@ -78,8 +42,9 @@ def _metrics(rd: RunDir):
 
     path = rd.path / "metrics.parquet"
     if not path.is_file():
-        raise InputError(f"RUN_DIR = {str(rd.path)!r}: not a complete run directory "
-                         "(no metrics.parquet)")  # fmt: skip
+        raise InputError(
+            f"RUN_DIR = {str(rd.path)!r}: not a complete run directory (no metrics.parquet)"
+        )
     try:
         wanted = ["trial", "step", "time_s", "rmse_pos", "crlb_pos"]
         table = pd.read_parquet(path)
@@ -89,59 +54,32 @@ def _metrics(rd: RunDir):
         raise InputError(f"{path}: damaged metrics file ({first})") from None
 
 
-def _trial_list(trial, n: int) -> tuple[int, ...] | None:
-    if trial is None:
-        return None
-    ids = [trial] if isinstance(trial, int | np.integer) else list(trial)
-    bad = [t for t in ids if isinstance(t, bool) or not isinstance(t, int | np.integer)
-           or not 0 <= t < n]  # fmt: skip
-    if not ids or bad:
-        raise InputError(f"--trial = {bad[0] if bad else trial!r}: must be in [0, {n - 1}]")
-    return tuple(dict.fromkeys(int(t) for t in ids))
-
-
-def _fit(tr, ks, plan, trials: int, samples: int | None, n_trials: int | None):
-    """``(trials, samples)`` whose estimated HTML size fits :data:`SIZE_BUDGET`.
-
-    Only what the caller left as ``None`` is lowered: samples first (32, 16, 8), then
-    the number of trials (at least one).
-    """
-    frame = frame_traces(tr, ks[-1], 1, plan)
-    fixed = sum(a.nbytes for d in frame for a in (d["x"], d["y"], d["z"])) - frame[6]["x"].nbytes
-    per_sample = frame[6]["x"].nbytes * 13 / 4  # x, y, z float32 and the weight per point
-
-    def size(t, s):
-        return PLOTLY_JS + 1.15 * t * len(ks) * ((fixed + s * per_sample) * 4 / 3 + 2000)
-
-    s = min(MAX_SAMPLES, tr.sample_xy.shape[1]) if samples is None else samples
-    t = min(trials, MAX_TRIALS) if n_trials is None else n_trials
-    while samples is None and s > 8 and size(t, s) > SIZE_BUDGET:
-        s //= 2
-    while n_trials is None and t > 1 and size(t, s) > SIZE_BUDGET:
-        t -= 1
-    return t, s
-
-
 def _curves(metrics, trial_id: int, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rows = metrics[metrics["trial"] == trial_id].sort_values("step")
     if len(rows) != steps:
-        raise InputError(f"metrics.parquet: trial {trial_id} has {len(rows)} rows, "
-                         f"expected {steps}; damaged metrics file")  # fmt: skip
-    return (rows["time_s"].to_numpy(np.float32), rows["rmse_pos"].to_numpy(np.float32),
-            rows["crlb_pos"].to_numpy(np.float32))  # fmt: skip
+        raise InputError(
+            f"metrics.parquet: trial {trial_id} has {len(rows)} rows, "
+            f"expected {steps}; damaged metrics file"
+        )
+    return (
+        rows["time_s"].to_numpy(np.float32),
+        rows["rmse_pos"].to_numpy(np.float32),
+        rows["crlb_pos"].to_numpy(np.float32),
+    )
 
 
-def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
-                 samples: int | None = None):  # fmt: skip
+def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int | None = None):
     """The viewer's ``plotly.graph_objects.Figure`` of a run directory.
 
     Args:
         run_dir: a run directory path or a loaded :class:`~mjx_radar.viz.run_dir.RunDir`.
         trial: a trial position, a list of them, or ``None``: the first trials (at most
-            :data:`MAX_TRIALS`) that fit :data:`SIZE_BUDGET` with the other options.
+            :data:`.viewer_budget.MAX_TRIALS`) that fit :data:`.viewer_budget.SIZE_BUDGET`
+            with the other options.
         max_frames: at most this many frames per trial (>= 1).
         samples: at most this many MPPI samples per frame (>= 0); ``None``: up to
-            :data:`MAX_SAMPLES`, halved (down to 8) while the file would exceed the budget.
+            :data:`.viewer_budget.MAX_SAMPLES`, halved (down to 8) while the file would
+            exceed the budget.
 
     Returns:
         ``(figure, ViewInfo)`` (``ViewInfo.path`` is ``None``).
@@ -153,18 +91,25 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
 
     if isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 1:
         raise InputError(f"--max-frames = {max_frames!r}: must be an integer >= 1")
-    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, int)
-                                or samples < 0):  # fmt: skip
+    if samples is not None and (
+        isinstance(samples, bool) or not isinstance(samples, int) or samples < 0
+    ):
         raise InputError(f"--samples = {samples!r}: must be an integer >= 0")
     rd = run_dir if isinstance(run_dir, RunDir) else load_run(run_dir)
     metrics = _metrics(rd)
-    trials = _trial_list(trial, rd.trials)
+    trials = trial_list(trial, rd.trials)
     ids = rd.meta.get("trial_ids") or list(range(rd.trials))
     plans = rd.arrays.get("plan_xy")
     tr0 = load_trial(rd, trials[0] if trials else 0)
     ks = frame_steps(tr0.steps, max_frames)
-    count, samples = _fit(tr0, ks, None if plans is None else plans[0], rd.trials, samples,
-                          None if trials is None else len(trials))  # fmt: skip
+    count, samples = fit_budget(
+        tr0,
+        ks,
+        None if plans is None else plans[0],
+        rd.trials,
+        samples,
+        None if trials is None else len(trials),
+    )
     trials = trials or tuple(range(count))
     trs = [load_trial(rd, t) for t in trials]
     n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
@@ -178,13 +123,25 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
         if trace["type"] == "surface":
             ztop, zlow = max(ztop, 1.1 * float(trace["z"].max())), float(trace["z"].min())
     first = len(fig.data)
-    for style, data in zip(layer_styles(n, m, fixed_sites(rd.scenario, n)),
-                           frame_traces(trs[0], ks[0], samples, None), strict=True):  # fmt: skip
+    for style, data in zip(
+        layer_styles(n, m, fixed_sites(rd.scenario, n)),
+        frame_traces(trs[0], ks[0], samples, None),
+        strict=True,
+    ):
         fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
     anim = list(range(first, len(fig.data) + 1))  # the layers and the metrics marker
-    fig.add_trace(go.Scatter(x=[], y=[], mode="markers", name="current step",
-                             legendgroup="metrics", marker={"size": 9, "color": "black"}),
-                  row=1, col=2)  # fmt: skip
+    fig.add_trace(
+        go.Scatter(
+            x=[],
+            y=[],
+            mode="markers",
+            name="current step",
+            legendgroup="metrics",
+            marker={"size": 9, "color": "black"},
+        ),
+        row=1,
+        col=2,
+    )
     if cols:
         anim.append(len(fig.data))
         fig.add_trace(counts.cursor_trace(), row=2, col=2)
@@ -193,10 +150,19 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
         time, rmse, crlb = _curves(metrics, ids[t], tr.steps)
         metric_idx.append([len(fig.data), len(fig.data) + 1])
         for name, y, colour in (("RMSE", rmse, "rgb(0,90,200)"), ("PCRLB", crlb, "rgb(220,0,0)")):
-            fig.add_trace(go.Scatter(x=time, y=y, mode="lines", name=f"{name} (trial {ids[t]})",
-                                     legendgroup="metrics", visible=j == 0,
-                                     line={"color": colour}),
-                          row=1, col=2)  # fmt: skip
+            fig.add_trace(
+                go.Scatter(
+                    x=time,
+                    y=y,
+                    mode="lines",
+                    name=f"{name} (trial {ids[t]})",
+                    legendgroup="metrics",
+                    visible=j == 0,
+                    line={"color": colour},
+                ),
+                row=1,
+                col=2,
+            )
         count = counts.curves(metrics, ids[t], cols)
         for c, trace in zip(cols, counts.count_traces(cols), strict=True):
             metric_idx[-1].append(len(fig.data))
@@ -206,8 +172,13 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
             data = frame_traces(tr, k, samples, plan)
             data.append(dict(type="scatter", x=[time[k]] * 2, y=[rmse[k], crlb[k]]))
             if cols:
-                data.append(dict(type="scatter", x=[time[k]] * len(cols),
-                                 y=[float(count[c][k]) for c in cols]))  # fmt: skip
+                data.append(
+                    dict(
+                        type="scatter",
+                        x=[time[k]] * len(cols),
+                        y=[float(count[c][k]) for c in cols],
+                    )
+                )
             frames.append(go.Frame(data=data, traces=anim, name=f"t{j}:{i}", group=f"trial{j}"))
         sliders.append(slider(j, time[ks], j == 0))
     fig.frames = frames
@@ -221,28 +192,46 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES,
     if rd.scenario.terrain is not None:
         xs, ys, _, every = terrain_nodes(rd.scenario.terrain, lo, hi)
         terrain = f"terrain {len(xs)} x {len(ys)} nodes (every {every})"
-    info = ViewInfo(None, trials, rd.trials, trs[0].steps, len(ks), stride, min(samples, kept),
-                    kept, terrain=terrain)  # fmt: skip
+    info = ViewInfo(
+        None,
+        trials,
+        rd.trials,
+        trs[0].steps,
+        len(ks),
+        stride,
+        min(samples, kept),
+        kept,
+        terrain=terrain,
+    )
     pad = 0.05 * float(max(hi - lo))
     span = np.maximum(hi - lo + 2 * pad, 1.0)
     fig.update_layout(
-        title={"text": f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
-                       f" — shown: {info.dropped()}", "font": {"size": 13}},
-        template="plotly_white", height=760, margin={"l": 10, "r": 10, "t": 70, "b": 10},
-        updatemenus=menus(trials, ids, metric_idx), sliders=sliders,
+        title={
+            "text": f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
+            f" — shown: {info.dropped()}",
+            "font": {"size": 13},
+        },
+        template="plotly_white",
+        height=760,
+        margin={"l": 10, "r": 10, "t": 70, "b": 10},
+        updatemenus=menus(trials, ids, metric_idx),
+        sliders=sliders,
         legend={"groupclick": "toggleitem"},
-        scene={"xaxis": {"range": [lo[0] - pad, hi[0] + pad], "title": {"text": "x [m]"}},
-               "yaxis": {"range": [lo[1] - pad, hi[1] + pad], "title": {"text": "y [m]"}},
-               "zaxis": {"range": [min(zlow, 0.0), ztop], "title": {"text": "z [m]"}},
-               "aspectmode": "manual",
-               "aspectratio": {"x": 1.0, "y": float(span[1] / span[0]), "z": 0.4}},
+        scene={
+            "xaxis": {"range": [lo[0] - pad, hi[0] + pad], "title": {"text": "x [m]"}},
+            "yaxis": {"range": [lo[1] - pad, hi[1] + pad], "title": {"text": "y [m]"}},
+            "zaxis": {"range": [min(zlow, 0.0), ztop], "title": {"text": "z [m]"}},
+            "aspectmode": "manual",
+            "aspectratio": {"x": 1.0, "y": float(span[1] / span[0]), "z": 0.4},
+        },
         **counts.layout(bool(cols)),
-    )  # fmt: skip
+    )
     return fig, info
 
 
-def view(run_dir, out_path=None, trial=None, max_frames: int = MAX_FRAMES,
-         samples: int | None = None) -> ViewInfo:  # fmt: skip
+def view(
+    run_dir, out_path=None, trial=None, max_frames: int = MAX_FRAMES, samples: int | None = None
+) -> ViewInfo:
     """Writes the viewer of a run directory as one self-contained HTML file.
 
     Args:
@@ -265,8 +254,14 @@ def view(run_dir, out_path=None, trial=None, max_frames: int = MAX_FRAMES,
         raise InputError(f"--out = {str(out_path)!r}: extension must be .html")
     fig, info = build_figure(run_dir, trial, max_frames, samples)
     check_writable(out_path, "--out")
-    html = pio.to_html(fig, include_plotlyjs=True, full_html=True, auto_play=False,
-                       post_script=TRIAL_JS, config={"displaylogo": False})  # fmt: skip
+    html = pio.to_html(
+        fig,
+        include_plotlyjs=True,
+        full_html=True,
+        auto_play=False,
+        post_script=TRIAL_JS,
+        config={"displaylogo": False},
+    )
     html = html.replace("<head>", f"<head><title>{escape(fig.layout.title.text)}</title>", 1)
     data = html.encode()
     atomic_write(out_path, lambda tmp: Path(tmp).write_bytes(data))

@@ -26,31 +26,90 @@ gd.on('plotly_buttonclicked', function (e) {
 def slider(t: int, times: np.ndarray, visible: bool) -> dict:
     """The time slider of trial position ``t``: one step per frame ``t{t}:{i}`` at ``times``."""
     steps = [
-        dict(method="animate", label=f"{s:.2f}",
-             args=[[f"t{t}:{i}"], {"mode": "immediate", "frame": {"duration": 0, "redraw": True},
-                                   "transition": {"duration": 0}}])
+        dict(
+            method="animate",
+            label=f"{s:.2f}",
+            args=[
+                [f"t{t}:{i}"],
+                {
+                    "mode": "immediate",
+                    "frame": {"duration": 0, "redraw": True},
+                    "transition": {"duration": 0},
+                },
+            ],
+        )
         for i, s in enumerate(times)
-    ]  # fmt: skip
-    return dict(active=0, steps=steps, visible=visible, x=0.05, len=0.9, y=0.02,
-                currentvalue={"prefix": "t = ", "suffix": " s"}, pad={"t": 30})  # fmt: skip
+    ]
+    return dict(
+        active=0,
+        steps=steps,
+        visible=visible,
+        x=0.05,
+        len=0.9,
+        y=0.02,
+        currentvalue={"prefix": "t = ", "suffix": " s"},
+        pad={"t": 30},
+    )
 
 
 def menus(trials, ids, metric_idx: list[list[int]]) -> list[dict]:
     """Play / pause and the trial dropdown (its restyle shows trial j's ``metric_idx[j]``)."""
-    play = dict(label="play", method="animate",
-                args=["trial0", {"frame": {"duration": 80, "redraw": True}, "fromcurrent": True,
-                                 "transition": {"duration": 0}, "mode": "immediate"}])  # fmt: skip
-    pause = dict(label="pause", method="animate",
-                 args=[[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate",
-                                "transition": {"duration": 0}}])  # fmt: skip
-    menus = [dict(type="buttons", direction="left", x=0.05, y=0.0, xanchor="right",
-                  yanchor="top", pad={"t": 40}, buttons=[play, pause])]  # fmt: skip
+    play = dict(
+        label="play",
+        method="animate",
+        args=[
+            "trial0",
+            {
+                "frame": {"duration": 80, "redraw": True},
+                "fromcurrent": True,
+                "transition": {"duration": 0},
+                "mode": "immediate",
+            },
+        ],
+    )
+    pause = dict(
+        label="pause",
+        method="animate",
+        args=[
+            [None],
+            {
+                "frame": {"duration": 0, "redraw": False},
+                "mode": "immediate",
+                "transition": {"duration": 0},
+            },
+        ],
+    )
+    menus = [
+        dict(
+            type="buttons",
+            direction="left",
+            x=0.05,
+            y=0.0,
+            xanchor="right",
+            yanchor="top",
+            pad={"t": 40},
+            buttons=[play, pause],
+        )
+    ]
     everything = sorted(i for idx in metric_idx for i in idx)
     buttons = [
-        dict(label=f"trial {ids[t]}", method="restyle",
-             args=[{"visible": [i in metric_idx[j] for i in everything]}, everything])
+        dict(
+            label=f"trial {ids[t]}",
+            method="restyle",
+            args=[{"visible": [i in metric_idx[j] for i in everything]}, everything],
+        )
         for j, t in enumerate(trials)
-    ]  # fmt: skip
-    menus.append(dict(name="trial", type="dropdown", active=0, x=0.0, y=1.0, xanchor="left",
-                      buttons=buttons, showactive=True))  # fmt: skip
+    ]
+    menus.append(
+        dict(
+            name="trial",
+            type="dropdown",
+            active=0,
+            x=0.0,
+            y=1.0,
+            xanchor="left",
+            buttons=buttons,
+            showactive=True,
+        )
+    )
     return menus

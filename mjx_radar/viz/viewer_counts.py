@@ -32,8 +32,9 @@ def detection_on(scenario) -> bool:
 
 def presence_varies(scenario, duration: float) -> bool:
     """Whether some target appears after 0 or leaves before ``duration`` [s]."""
-    return any(tm.appear > 0.0 or tm.leave < duration
-               for tm in getattr(scenario, "target_motion", ()))  # fmt: skip
+    return any(
+        tm.appear > 0.0 or tm.leave < duration for tm in getattr(scenario, "target_motion", ())
+    )
 
 
 def count_columns(scenario, metrics=None, duration: float | None = None) -> tuple[str, ...]:
@@ -60,18 +61,32 @@ def count_traces(cols, row: int = 2, col: int = 2) -> list:
     import plotly.graph_objects as go
 
     style = {c: (name, colour) for c, name, colour in COUNTS}
-    return [go.Scatter(x=[], y=[], mode="lines", name=style[c][0], legendgroup="counts",
-                       line={"color": style[c][1], "width": 1.5, "shape": "hv"})
-            for c in cols]  # fmt: skip
+    return [
+        go.Scatter(
+            x=[],
+            y=[],
+            mode="lines",
+            name=style[c][0],
+            legendgroup="counts",
+            line={"color": style[c][1], "width": 1.5, "shape": "hv"},
+        )
+        for c in cols
+    ]
 
 
 def cursor_trace():
     """The current-step marker of the counts panel (one point per shown column)."""
     import plotly.graph_objects as go
 
-    return go.Scatter(x=[], y=[], mode="markers", name="current step (counts)",
-                      legendgroup="counts", showlegend=False,
-                      marker={"size": 7, "color": "black"})  # fmt: skip
+    return go.Scatter(
+        x=[],
+        y=[],
+        mode="markers",
+        name="current step (counts)",
+        legendgroup="counts",
+        showlegend=False,
+        marker={"size": 7, "color": "black"},
+    )
 
 
 def curves(metrics, trial_id: int, cols) -> dict[str, np.ndarray]:
@@ -85,9 +100,12 @@ def layout(has_counts: bool) -> dict:
     top = {"title": {"text": "position [m]"}, "type": "log"}
     if not has_counts:
         return {"xaxis": {"title": {"text": "time [s]"}}, "yaxis": top}
-    return {"xaxis": {"matches": "x2"}, "yaxis": top,
-            "xaxis2": {"title": {"text": "time [s]"}},
-            "yaxis2": {"title": {"text": "count"}, "rangemode": "tozero"}}  # fmt: skip
+    return {
+        "xaxis": {"matches": "x2"},
+        "yaxis": top,
+        "xaxis2": {"title": {"text": "time [s]"}},
+        "yaxis2": {"title": {"text": "count"}, "rangemode": "tozero"},
+    }
 
 
 def subplots(has_counts: bool):
@@ -95,9 +113,19 @@ def subplots(has_counts: bool):
     from plotly.subplots import make_subplots
 
     if not has_counts:
-        return make_subplots(rows=1, cols=2, column_widths=[0.64, 0.36], horizontal_spacing=0.08,
-                             specs=[[{"type": "scene"}, {"type": "xy"}]])  # fmt: skip
-    return make_subplots(rows=2, cols=2, column_widths=[0.64, 0.36], horizontal_spacing=0.08,
-                         vertical_spacing=0.1, row_heights=[0.6, 0.4],
-                         specs=[[{"type": "scene", "rowspan": 2}, {"type": "xy"}],
-                                [None, {"type": "xy"}]])  # fmt: skip
+        return make_subplots(
+            rows=1,
+            cols=2,
+            column_widths=[0.64, 0.36],
+            horizontal_spacing=0.08,
+            specs=[[{"type": "scene"}, {"type": "xy"}]],
+        )
+    return make_subplots(
+        rows=2,
+        cols=2,
+        column_widths=[0.64, 0.36],
+        horizontal_spacing=0.08,
+        vertical_spacing=0.1,
+        row_heights=[0.6, 0.4],
+        specs=[[{"type": "scene", "rowspan": 2}, {"type": "xy"}], [None, {"type": "xy"}]],
+    )

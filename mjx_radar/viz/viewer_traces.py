@@ -105,18 +105,30 @@ def static_traces(scenario, lo, hi) -> list[dict]:
     corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
     ground = np.column_stack([np.concatenate([corners, corners[:1]]), np.zeros(5)])
     out = [
-        dict(type="scatter3d", mode="lines", name="ground extent", legendgroup="world",
-             line={"color": "rgb(120,120,120)", "width": 2}, hoverinfo="skip",
-             **_xyz(ground.astype(np.float32)))
-    ]  # fmt: skip
+        dict(
+            type="scatter3d",
+            mode="lines",
+            name="ground extent",
+            legendgroup="world",
+            line={"color": "rgb(120,120,120)", "width": 2},
+            hoverinfo="skip",
+            **_xyz(ground.astype(np.float32)),
+        )
+    ]
     if getattr(scenario, "terrain", None) is not None:
         out.append(terrain_surface(scenario.terrain, lo, hi))
     if scenario.obstacles:
         out.append(
-            dict(type="scatter3d", mode="lines", name="obstacles", legendgroup="world",
-                 line={"color": "rgb(90,90,90)", "width": 3}, hoverinfo="skip",
-                 **_xyz(obstacle_outline(scenario.obstacles)))
-        )  # fmt: skip
+            dict(
+                type="scatter3d",
+                mode="lines",
+                name="obstacles",
+                legendgroup="world",
+                line={"color": "rgb(90,90,90)", "width": 3},
+                hoverinfo="skip",
+                **_xyz(obstacle_outline(scenario.obstacles)),
+            )
+        )
     routes = route_trace(scenario)
     return out if routes is None else [*out, routes]
 
@@ -135,24 +147,50 @@ def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
     radar_c = [_rgb(RADAR_RGB[i % len(RADAR_RGB)]) for i in range(n)]
     target_c = [_rgb(TARGET_RGB[i % len(TARGET_RGB)]) for i in range(m)]
     styles = [
-        dict(mode="markers+text", marker={"size": 6, "symbol": "square", "color": radar_c},
-             text=[f"R{i}" for i in range(n)], textposition="top center"),
+        dict(
+            mode="markers+text",
+            marker={"size": 6, "symbol": "square", "color": radar_c},
+            text=[f"R{i}" for i in range(n)],
+            textposition="top center",
+        ),
         dict(mode="lines", line={"color": "rgb(0,115,255)", "width": 3}, opacity=0.6),
         dict(mode="lines", line={"color": "rgb(230,25,25)", "width": 2, "dash": "dash"}),
-        dict(mode="markers+text", marker={"size": 5, "symbol": "diamond", "color": target_c},
-             text=[f"D{j}" for j in range(m)], textposition="top center"),
+        dict(
+            mode="markers+text",
+            marker={"size": 5, "symbol": "diamond", "color": target_c},
+            text=[f"D{j}" for j in range(m)],
+            textposition="top center",
+        ),
         dict(mode="markers", marker={"size": 4, "symbol": "circle-open", "color": target_c}),
         dict(mode="lines", line={"color": "rgb(200,160,0)", "width": 4}),
-        dict(mode="lines", line={"color": [], "colorscale": SAMPLE_SCALE, "cmin": 0.0,
-             "cmax": 1.0, "width": 2, "showscale": True,
-             "colorbar": {"title": {"text": "MPPI weight"}, "len": 0.4, "x": 0.57,
-                                  "y": 0.8, "thickness": 12}}),
+        dict(
+            mode="lines",
+            line={
+                "color": [],
+                "colorscale": SAMPLE_SCALE,
+                "cmin": 0.0,
+                "cmax": 1.0,
+                "width": 2,
+                "showscale": True,
+                "colorbar": {
+                    "title": {"text": "MPPI weight"},
+                    "len": 0.4,
+                    "x": 0.57,
+                    "y": 0.8,
+                    "thickness": 12,
+                },
+            },
+        ),
         dict(mode="lines", line={"color": "rgb(0,160,60)", "width": 5}),
         dict(mode="lines", line={"color": "rgb(150,150,150)", "width": 1}, opacity=0.5),
-        dict(mode="markers+text", marker={"size": 12, "symbol": FIXED_SYMBOL, "color": radar_c},
-             text=[f"R{i}" for i in range(n)], textposition="top center",
-             showlegend=fixed is not None and bool(np.any(fixed))),
-    ]  # fmt: skip
+        dict(
+            mode="markers+text",
+            marker={"size": 12, "symbol": FIXED_SYMBOL, "color": radar_c},
+            text=[f"R{i}" for i in range(n)],
+            textposition="top center",
+            showlegend=fixed is not None and bool(np.any(fixed)),
+        ),
+    ]
     return [
         dict(type="scatter3d", name=name, legendgroup=group, hoverinfo="skip", **style)
         for (name, group), style in zip(LAYERS, styles, strict=True)
@@ -176,7 +214,7 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
     sc = tr.scenario
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
-    keep = np.argsort(w, kind="stable")[max(len(w) - samples, 0):]  # the best drawn last
+    keep = np.argsort(w, kind="stable")[max(len(w) - samples, 0) :]  # the best drawn last
     paths = np.moveaxis(tr.sample_xy[c][keep], 2, 1)  # [S, N, H, 2]
     z = np.broadcast_to(radar[None, :, None, 2:3], (*paths.shape[:-1], 1))
     if getattr(sc, "terrain", None) is not None:
@@ -184,8 +222,9 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
     sample_pts = polylines(np.concatenate([paths, z], -1).reshape(-1, paths.shape[2], 3))
     sample_w = np.repeat(w[keep], n * (paths.shape[2] + 1)).astype(np.float32)
     two_sigma = 2.0 * tr.sigma[k][:, None, :] * np.eye(3)[None]  # [M, 3 axes, 3]
-    axes = segments((mean[:, None] - two_sigma).reshape(-1, 3),
-                    (mean[:, None] + two_sigma).reshape(-1, 3))  # fmt: skip
+    axes = segments(
+        (mean[:, None] - two_sigma).reshape(-1, 3), (mean[:, None] + two_sigma).reshape(-1, 3)
+    )
     if plan_xy is not None:
         plan = np.moveaxis(plan_xy[min(c, len(plan_xy) - 1)], 1, 0)  # [N, H, 2]
         plan_z = radar[:, None, 2:3].repeat(plan.shape[1], 1)
@@ -199,9 +238,18 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
     if getattr(sc, "terrain", None) is not None:
         ring[:, 2] = ground_z(sc, ring[:, :2], 0.5)
     fixed = fixed_sites(sc, n)[:, None]
-    points = [np.where(fixed, np.nan, radar), polylines(np.moveaxis(tr.trail(k), 1, 0)), ring,
-              target.astype(np.float32), mean.astype(np.float32), axes, sample_pts, plan_pts,
-              los, np.where(fixed, radar, np.nan)]  # fmt: skip
+    points = [
+        np.where(fixed, np.nan, radar),
+        polylines(np.moveaxis(tr.trail(k), 1, 0)),
+        ring,
+        target.astype(np.float32),
+        mean.astype(np.float32),
+        axes,
+        sample_pts,
+        plan_pts,
+        los,
+        np.where(fixed, radar, np.nan),
+    ]
     out = [dict(type="scatter3d", **_xyz(p)) for p in points]
     out[6]["line"] = {"color": sample_w}
     return out

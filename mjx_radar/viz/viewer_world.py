@@ -49,8 +49,9 @@ def terrain_nodes(terrain, lo, hi, max_nodes: int = TERRAIN_NODES):
     shape = np.array([h.shape[1], h.shape[0]])
     lo_ij, hi_ij = np.clip(lo_ij, 0, shape - 1), np.clip(hi_ij, 0, shape - 1)
     stride = max(int(np.ceil((hi_ij - lo_ij).max() / max(max_nodes - 1, 1))), 1)
-    cols, rows = (np.unique(np.r_[np.arange(a, b + 1, stride), b]) for a, b in zip(lo_ij, hi_ij,
-                                                                                    strict=True))
+    cols, rows = (
+        np.unique(np.r_[np.arange(a, b + 1, stride), b]) for a, b in zip(lo_ij, hi_ij, strict=True)
+    )
     xs, ys = origin[0] + cols * spacing[0], origin[1] + rows * spacing[1]
     return xs, ys, h[np.ix_(rows, cols)], stride
 
@@ -58,12 +59,21 @@ def terrain_nodes(terrain, lo, hi, max_nodes: int = TERRAIN_NODES):
 def terrain_surface(terrain, lo, hi, max_nodes: int = TERRAIN_NODES) -> dict:
     """The terrain as a plotly ``surface`` trace (legend entry "terrain"; :func:`terrain_nodes`)."""
     xs, ys, h, stride = terrain_nodes(terrain, lo, hi, max_nodes)
-    return dict(type="surface", name=f"terrain (every {stride} node)" if stride > 1 else "terrain",
-                legendgroup="world", showlegend=True, showscale=False, colorscale=TERRAIN_SCALE,
-                opacity=0.85, hoverinfo="skip", x=xs.astype(np.float32),
-                y=ys.astype(np.float32), z=h.astype(np.float32),
-                lighting={"ambient": 0.7, "diffuse": 0.6},
-                contours={"z": {"show": False}})  # fmt: skip
+    return dict(
+        type="surface",
+        name=f"terrain (every {stride} node)" if stride > 1 else "terrain",
+        legendgroup="world",
+        showlegend=True,
+        showscale=False,
+        colorscale=TERRAIN_SCALE,
+        opacity=0.85,
+        hoverinfo="skip",
+        x=xs.astype(np.float32),
+        y=ys.astype(np.float32),
+        z=h.astype(np.float32),
+        lighting={"ambient": 0.7, "diffuse": 0.6},
+        contours={"z": {"show": False}},
+    )
 
 
 def ground_z(scenario, xy: np.ndarray, default: float) -> np.ndarray:
@@ -101,8 +111,15 @@ def route_trace(scenario) -> dict | None:
     if routes is None:
         return None
     pts, colours = routes
-    return dict(type="scatter3d", mode="lines+markers", name="waypoint routes",
-                legendgroup="world", hoverinfo="skip",
-                line={"color": colours, "width": 3, "dash": "dot"},
-                marker={"size": 3, "symbol": "diamond-open", "color": colours},
-                x=pts[:, 0], y=pts[:, 1], z=pts[:, 2])  # fmt: skip
+    return dict(
+        type="scatter3d",
+        mode="lines+markers",
+        name="waypoint routes",
+        legendgroup="world",
+        hoverinfo="skip",
+        line={"color": colours, "width": 3, "dash": "dot"},
+        marker={"size": 3, "symbol": "diamond-open", "color": colours},
+        x=pts[:, 0],
+        y=pts[:, 1],
+        z=pts[:, 2],
+    )

@@ -65,9 +65,15 @@ def moving_params(moving, dtype) -> MovingParams | None:
     for k, (a, u, ss, _) in enumerate(segs):
         start[k, : len(a)], unit[k, : len(a)], seg_s[k, : len(a)] = a, u, ss
     arr = lambda x: jnp.asarray(np.asarray(x, float), dtype)  # noqa: E731
-    return MovingParams(arr(start), arr(unit), arr(seg_s), arr([g[3] for g in segs]),
-                        arr([m.speed for m in moving]), arr([m.offset for m in moving]),
-                        jnp.asarray([m.end == "loop" for m in moving]))  # fmt: skip
+    return MovingParams(
+        arr(start),
+        arr(unit),
+        arr(seg_s),
+        arr([g[3] for g in segs]),
+        arr([m.speed for m in moving]),
+        arr([m.offset for m in moving]),
+        jnp.asarray([m.end == "loop" for m in moving]),
+    )
 
 
 def pose(mp: MovingParams, t):
@@ -124,10 +130,16 @@ def occluders_at(moving, xy, unit) -> occlusion.Occluders:
     ay = jnp.stack([-s, c, zero], -1)
     az = jnp.stack([zero, zero, one], -1)
     ctr = jnp.concatenate([xy[box], jnp.asarray(height[box, None] / 2, xy.dtype)], -1)
-    ext = (jnp.asarray(half[box, 0], xy.dtype), jnp.asarray(half[box, 1], xy.dtype),
-           jnp.asarray(height[box] / 2, xy.dtype))  # fmt: skip
-    rows = [jnp.concatenate([g * a, (g * jnp.sum(a * ctr, -1) + e)[:, None]], -1)
-            for a, e in zip((ax, ay, az), ext, strict=True) for g in (1.0, -1.0)]  # fmt: skip
+    ext = (
+        jnp.asarray(half[box, 0], xy.dtype),
+        jnp.asarray(half[box, 1], xy.dtype),
+        jnp.asarray(height[box] / 2, xy.dtype),
+    )
+    rows = [
+        jnp.concatenate([g * a, (g * jnp.sum(a * ctr, -1) + e)[:, None]], -1)
+        for a, e in zip((ax, ay, az), ext, strict=True)
+        for g in (1.0, -1.0)
+    ]
     cyls = jnp.stack(
         [
             xy[cy, 0],

@@ -74,8 +74,11 @@ def _mesh_planes(obs: Obstacle) -> np.ndarray:
 @functools.cache
 def occluders(obstacles: tuple[Obstacle, ...]) -> Occluders:
     """Builds the :class:`Occluders` of a scenario's obstacles (host, cached)."""
-    polys = [_box_planes(o) if o.kind == "box" else _mesh_planes(o) for o in obstacles
-             if o.kind in ("box", "mesh")]  # fmt: skip
+    polys = [
+        _box_planes(o) if o.kind == "box" else _mesh_planes(o)
+        for o in obstacles
+        if o.kind in ("box", "mesh")
+    ]
     f = max([len(p) for p in polys], default=1)
     planes = np.zeros((len(polys), f, 4))
     planes[..., 3] = 1.0  # padding: 0 . x <= 1

@@ -72,8 +72,9 @@ def min_clearance(grid: TerrainGrid, a, b):
         p = a + t[..., None] * e
         tv = _vertex_after(grid, sa, es, e[..., 2], t)
         pv = a + tv[..., None] * e
-        return jnp.minimum(p[..., 2] - height(grid, p[..., :2]),
-                           pv[..., 2] - height(grid, pv[..., :2]))  # fmt: skip
+        return jnp.minimum(
+            p[..., 2] - height(grid, p[..., :2]), pv[..., 2] - height(grid, pv[..., :2])
+        )
 
     zero = jnp.zeros(a.shape[:-1], dtype)
     d = jnp.minimum(clearance(zero), clearance(zero + 1.0))

@@ -1,0 +1,85 @@
+"""What ``mjx-radar run`` does once its trials are done: the run directory, the summary
+line, the line on diverged trials, the video; the command's exit code."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED
+
+
+def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
+    """The one-line report of diverged trials (``None`` if none diverged).
+
+    Args:
+        diverged: [T, K] bool, True from the step a trial's estimate or covariance
+            became non-finite or non-positive-definite.
+        trials: [T] trial indices.
+        out: the run directory.
+        keep: ``--keep-diverged`` (a warning instead of an error).
+    """
+    if diverged is None:
+        return None
+    div = np.asarray(diverged, bool).reshape(len(trials), -1)
+    bad = np.flatnonzero(div.any(axis=1))
+    if bad.size == 0:
+        return None
+    first_step = div[bad].argmax(axis=1)  # 0-based step of each diverged trial
+    j = int(np.argmin(first_step))  # earliest; ties -> lowest trial
+    where = f"first at trial {int(trials[bad[j]])}, step {int(first_step[j]) + 1}"
+    head = f"{bad.size} of {len(trials)} trials diverged ({where}); results in {out}"
+    if keep:
+        return f"warning: {head}; kept (--keep-diverged)"
+    return f"error: {head}; pass --keep-diverged to accept"
+
+
+def finish(out: Path, args, s, seed_, trials, steps, res) -> int:
+    """Writes the run directory, prints the summary, renders the video; the exit code."""
+    try:
+        write_results(out, args, s, seed_, trials, steps, res)
+    except KeyboardInterrupt:
+        print("interrupted: no results written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    summary(s, args, res, out)
+    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged)
+    if line:
+        print(line, file=sys.stderr)
+    if args.video:
+        from mjx_radar.viz import render
+
+        render.render_run(out, trial=0, out_path=out / "video.mp4")
+    return EXIT_FAILURE if line and not args.keep_diverged else 0
+
+
+def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
+    """Writes the run directory (:func:`mjx_radar.rundir.writer.write_run`)."""
+    from mjx_radar.rundir.writer import write_run
+    from mjx_radar.scenario.reader import resolve_path
+
+    write_run(
+        out,
+        s,
+        args.method,
+        seed_,
+        trials,
+        steps,
+        res,
+        source=resolve_path(args.scenario),
+        precision=getattr(args, "precision", "float32"),
+        deterministic=bool(getattr(args, "deterministic", False)),
+    )
+
+
+def summary(s, args, res, out: Path) -> None:
+    rmse = float(np.mean(res["rmse_pos"]))
+    print(
+        f"mean position RMSE {rmse:.3f} m (final step {np.mean(res['rmse_pos'][:, -1]):.3f} m), "
+        f"PCRLB {np.mean(res['crlb_pos']):.3f} m; control rate {res['control_hz']:.1f} Hz for "
+        f"the batch of {args.trials} (real time: {1 / s.timing.dt_control:g} Hz), "
+        f"compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
+        f"{int(np.asarray(res['lost']).any(axis=-1).sum())} of {args.trials} trial(s) lost track; "
+        f"results in {out}"
+    )
