@@ -21,7 +21,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement
+from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement_filter
 from mjx_radar.physics import target_motion
 from mjx_radar.registry import TRACKERS
 from mjx_radar.task.task import RadarTask, process_noise
@@ -94,8 +94,8 @@ def _cv_ops(task: RadarTask, params, per_target: bool) -> FilterOps:
     """The CV trackers: joint CKF or per-target bank, covariance or square-root form."""
     sc = task.scenario
     model = task.measurement
-    r_filter = measurement.noise_cov_fn(model, params.noise, params.method.ccr)
-    residual = measurement.flat_residual(model) if model.dim > 1 else None
+    r_filter = measurement_filter.noise_cov_fn(model, params.noise, params.method.ccr)
+    residual = measurement_filter.flat_residual(model) if model.dim > 1 else None
     form = sc.filter.form
     filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it
     a_f = task.a_filter
@@ -120,7 +120,7 @@ def _cv_ops(task: RadarTask, params, per_target: bool) -> FilterOps:
             mean, cov = filter_bank.bank_to_joint(*post)
         else:
             keep_ = None if vis is None else jnp.repeat(vis.reshape(-1), model.dim)
-            h = measurement.measurement_function(model, radar_pos)
+            h = measurement_filter.measurement_function(model, radar_pos)
             kw = {} if residual is None else {"residual": residual}
             mean, cov = filt.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep_, **kw)
         if sc.filter.ground_prior:
@@ -161,8 +161,8 @@ def imm_bank(task: RadarTask, params) -> FilterOps:
     """``"imm"``: the IMM bank (covariance form, per target; io.plausibility enforces both)."""
     sc = task.scenario
     model = task.measurement
-    r_filter = measurement.noise_cov_fn(model, params.noise, params.method.ccr)
-    residual = measurement.flat_residual(model) if model.dim > 1 else None
+    r_filter = measurement_filter.noise_cov_fn(model, params.noise, params.method.ccr)
+    residual = measurement_filter.flat_residual(model) if model.dim > 1 else None
     q6 = ckf_sqrt.form_ops(sc.filter.form).noise(params.sigma_w2 * task.w6_filter_unit)
 
     def h_pair(r, x6):
