@@ -104,7 +104,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
     from mjx_radar.planners import PLANNERS
     from mjx_radar.scenario.edit import validate
     from mjx_radar.scenario.reader import load_scenario
-    from mjx_radar.task.method import parse_method
+    from mjx_radar.task.method import METHODS, Method, parse_method
 
     unknown = sorted(set(options) - set(RUN_DEFAULTS))
     if unknown:
@@ -122,8 +122,18 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
                 f"{label('rollouts')} = {o['rollouts']!r}: must be one of mjx, analytic"
             )
         s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=o["rollouts"]))
+    name = o["method"].strip() if isinstance(o["method"], str) else o["method"]
+    if isinstance(name, str):
+        base, plus, own = name.partition("+")
+        name = base.lower() + plus + own
+    if not isinstance(name, Method) and (
+        not isinstance(name, str) or name.partition("+")[0] not in METHODS
+    ):
+        raise ScenarioError(
+            f"{label('method')} = {o['method']!r}: must be one of {', '.join(METHODS)}"
+            " (or METHOD+PLANNER)"
+        )
     try:
-        name = o["method"].strip().lower() if isinstance(o["method"], str) else o["method"]
         method = parse_method(name, o["planner"])
         PLANNERS.get(method.planner)
     except ValueError as err:
