@@ -97,6 +97,19 @@ class Rows:
         return ", ".join(name for name, _ in self.columns)
 
 
+def runtime(meta: dict) -> dict:
+    """Marks a field's metadata as a *runtime* number: it enters the compiled programs as
+    an argument (:class:`~mjx_radar.task.params.TaskParams`), so the compiled shape
+    (:func:`~mjx_radar.task.params.shape_key`) blanks it and changing it recompiles
+    nothing. A table marked so is runtime in every field; rows keep their count."""
+    return {**meta, "runtime": True}
+
+
+def is_runtime(field_: Any) -> bool:
+    """Whether a dataclass field is marked :func:`runtime`."""
+    return bool(field_.metadata.get("runtime"))
+
+
 def _meta(value: Any, toml: str | None, **extra: Any) -> dict:
     return {"rule": value, **({"toml": toml} if toml else {}), **extra}
 

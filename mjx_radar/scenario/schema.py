@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, table
+from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, runtime, table
 from mjx_radar.registry import SENSORS
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
@@ -93,18 +93,23 @@ class MPCConfig:
     """MPC objective weights and horizon (SPEC §6)."""
 
     horizon: int = field(default=15, metadata=rule(int, 1, 1000, doc="K, steps of dt_control"))
-    gamma: float = field(default=0.95, metadata=rule(float, 0.0, 1.0, lo_open=True, doc="discount"))
+    gamma: float = field(
+        default=0.95, metadata=runtime(rule(float, 0.0, 1.0, lo_open=True, doc="discount"))
+    )
     r2t: float = field(
-        default=125.0, metadata=rule(float, 0.0, 1e4, doc="radar-target keep-out", unit="m")
+        default=125.0,
+        metadata=runtime(rule(float, 0.0, 1e4, doc="radar-target keep-out", unit="m")),
     )
     r2r: float = field(
-        default=10.0, metadata=rule(float, 0.0, 1e4, doc="radar-radar keep-out", unit="m")
+        default=10.0, metadata=runtime(rule(float, 0.0, 1e4, doc="radar-radar keep-out", unit="m"))
     )
     alpha_r2r: float = field(
-        default=500.0, metadata=rule(float, 0.0, 1e9, doc="weight of radar-radar violations")
+        default=500.0,
+        metadata=runtime(rule(float, 0.0, 1e9, doc="weight of radar-radar violations")),
     )
     alpha_r2t: float = field(
-        default=1000.0, metadata=rule(float, 0.0, 1e9, doc="weight of radar-target violations")
+        default=1000.0,
+        metadata=runtime(rule(float, 0.0, 1e9, doc="weight of radar-target violations")),
     )
     alpha_effort: float = field(
         default=0.0,
@@ -203,9 +208,11 @@ class MeasurementConfig:
         ),
     )
     beamwidth_deg: float = field(
-        default=3.0, metadata=positive("3 dB beamwidth theta_3dB", "deg", hi=90.0)
+        default=3.0, metadata=runtime(positive("3 dB beamwidth theta_3dB", "deg", hi=90.0))
     )
-    monopulse_slope: float = field(default=1.6, metadata=positive("monopulse slope k_m", hi=10.0))
+    monopulse_slope: float = field(
+        default=1.6, metadata=runtime(positive("monopulse slope k_m", hi=10.0))
+    )
 
 
 @dataclass(frozen=True)
@@ -230,28 +237,34 @@ class Obstacle:
 class Scenario:
     """Everything that defines an experiment. Hashable (static under jit)."""
 
-    name: str = field(metadata=name_rule("scenario name (file names of results)"))
+    name: str = field(metadata=runtime(name_rule("scenario name (file names of results)")))
     n_radars: int = field(metadata=rule(int, 1, 1000, doc="number of radars N"))
     target_init: tuple[tuple[float, ...], ...] = field(  # [M][6] rows x y z vx vy vz
-        metadata=rows(
-            TARGET_COLUMNS, doc="initial target states, one row per target", toml="targets"
+        metadata=runtime(
+            rows(TARGET_COLUMNS, doc="initial target states, one row per target", toml="targets")
         )
     )
-    seed: int = field(default=0, metadata=rule(int, 0, 2**31 - 1, doc="base seed of the trials"))
+    seed: int = field(
+        default=0, metadata=runtime(rule(int, 0, 2**31 - 1, doc="base seed of the trials"))
+    )
     sigma_w2: float = field(
         default=10.0,
-        metadata=rule(float, 0.0, 1e4, doc="target white-acceleration variance", unit="m^2/s^4"),
+        metadata=runtime(
+            rule(float, 0.0, 1e4, doc="target white-acceleration variance", unit="m^2/s^4")
+        ),
     )
     p0: float = field(
         default=50.0,
-        metadata=rule(float, 1e-6, 1e6, doc="initial CKF covariance P0 = p0 * I", unit="m^2"),
+        metadata=runtime(
+            rule(float, 1e-6, 1e6, doc="initial CKF covariance P0 = p0 * I", unit="m^2")
+        ),
     )
     placement_half_width: float = field(
-        default=400.0, metadata=positive("radars placed in [-w, w]^2", "m", 1e5)
+        default=400.0, metadata=runtime(positive("radars placed in [-w, w]^2", "m", 1e5))
     )
     radar_eq: RadarEquation = field(
         default_factory=RadarEquation,
-        metadata=table("radar equation (SPEC 1)", toml="radar_equation"),
+        metadata=runtime(table("radar equation (SPEC 1)", toml="radar_equation")),
     )
     limits: RadarLimits = field(
         default_factory=RadarLimits, metadata=table("radar control and state limits")
@@ -272,8 +285,8 @@ class Scenario:
     moving_obstacles: tuple[MovingObstacle, ...] = ()  # [[moving_obstacles]]: scenario.moving
     radar_init: tuple[tuple[float, ...], ...] = field(  # optional fixed [N][3] rows x y theta
         default=(),
-        metadata=rows(
-            RADAR_COLUMNS, count="n_radars", doc="optional fixed radar starts", toml="radars"
+        metadata=runtime(
+            rows(RADAR_COLUMNS, count="n_radars", doc="optional fixed radar starts", toml="radars")
         ),
     )
     detection: DetectionConfig = field(

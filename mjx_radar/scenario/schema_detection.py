@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import choice, flag, rule
+from mjx_radar.io.checks import choice, flag, rule, runtime
 
 
 @dataclass(frozen=True)
@@ -33,8 +33,14 @@ class DetectionConfig:
     )
     pfa: float = field(
         default=1e-6,
-        metadata=rule(
-            float, 0.0, 0.1, lo_open=True, doc="false-alarm probability of the detector (swerling1)"
+        metadata=runtime(
+            rule(
+                float,
+                0.0,
+                0.1,
+                lo_open=True,
+                doc="false-alarm probability of the detector (swerling1)",
+            )
         ),
     )
     fixed_pd: float = field(
@@ -43,12 +49,14 @@ class DetectionConfig:
     )
     gain_db: float = field(
         default=0.0,
-        metadata=rule(
-            float,
-            -100.0,
-            200.0,
-            unit="dB",
-            doc="detector processing gain over the radar equation's SNR (swerling1)",
+        metadata=runtime(
+            rule(
+                float,
+                -100.0,
+                200.0,
+                unit="dB",
+                doc="detector processing gain over the radar equation's SNR (swerling1)",
+            )
         ),
     )
     planner: bool = field(
@@ -70,11 +78,15 @@ class DetectionConfig:
     )
     clutter_range_min: float = field(
         default=0.0,
-        metadata=rule(float, 0.0, 1e5, unit="m", doc="clutter range window start (one-way range)"),
+        metadata=runtime(
+            rule(float, 0.0, 1e5, unit="m", doc="clutter range window start (one-way range)")
+        ),
     )
     clutter_range_max: float = field(
         default=1000.0,
-        metadata=rule(float, 0.0, 1e5, unit="m", doc="clutter range window end (one-way range)"),
+        metadata=runtime(
+            rule(float, 0.0, 1e5, unit="m", doc="clutter range window end (one-way range)")
+        ),
     )
     max_false_alarms: int = field(
         default=16,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import INF, choice, col, flag, rows, rule
+from mjx_radar.io.checks import INF, choice, col, flag, rows, rule, runtime
 
 SCENE = 1e5  # |x|, |y| bound of every position [m] (as mjx_radar.scenario.schema.SCENE)
 
@@ -130,12 +130,14 @@ class MovingObstacle:
     size: tuple[float, ...] = ()  # box: half length, half width; cylinder: radius [m]
     height: float = field(default=3.0, metadata=positive("height above the ground", "m", 1e3))
     path: tuple[tuple[float, ...], ...] = field(
-        default=(), metadata=rows(PATH_COLUMNS, doc="path: at least 2 waypoints [x, y]")
+        default=(), metadata=runtime(rows(PATH_COLUMNS, doc="path: at least 2 waypoints [x, y]"))
     )
-    speed: float = field(default=10.0, metadata=positive("speed along the path", "m/s", 100.0))
+    speed: float = field(
+        default=10.0, metadata=runtime(positive("speed along the path", "m/s", 100.0))
+    )
     offset: float = field(
         default=0.0,
-        metadata=rule(float, 0.0, 1e6, doc="arc length along the path at t = 0", unit="m"),
+        metadata=runtime(rule(float, 0.0, 1e6, doc="arc length along the path at t = 0", unit="m")),
     )
     end: str = field(
         default="loop",

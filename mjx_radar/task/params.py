@@ -21,7 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import detection, measurement
-from mjx_radar.scenario.schema import DetectionConfig, RadarEquation, Scenario
+from mjx_radar.io.checks import is_runtime
+from mjx_radar.scenario.schema import DetectionConfig, Scenario
 from mjx_radar.task.method import Method, MethodFlags
 from mjx_radar.world.moving import moving_params
 
@@ -93,53 +94,43 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     )
 
 
+def _blank(value):
+    """A runtime value blanked: numbers to None, a name to "", rows keep their count, a
+    table keeps its type with every field None."""
+    if dataclasses.is_dataclass(value):
+        return type(value)(**{f.name: None for f in dataclasses.fields(value)})
+    if isinstance(value, tuple):
+        return tuple(_blank(v) for v in value)
+    return "" if isinstance(value, str) else None
+
+
+def blank_runtime(obj):
+    """``obj`` (a config dataclass) with every field marked runtime blanked (nested tables
+    and tuples of tables too): what the field metadata says enters programs as arguments."""
+    changes = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if is_runtime(f):
+            changes[f.name] = _blank(value)
+        elif dataclasses.is_dataclass(value):
+            changes[f.name] = blank_runtime(value)
+        elif isinstance(value, tuple) and value and dataclasses.is_dataclass(value[0]):
+            changes[f.name] = tuple(blank_runtime(v) for v in value)
+    return dataclasses.replace(obj, **changes) if changes else obj
+
+
 def shape_key(scenario: Scenario) -> Scenario:
     """``scenario`` with every runtime number replaced by ``None`` (the compiled shape).
 
-    Two scenarios with equal keys run on the same compiled program. Obstacle scenes
-    keep ``placement_half_width`` (it sizes the obstacle cost's distance grid).
+    The runtime fields are those marked :func:`~mjx_radar.io.checks.runtime` in the
+    schema's metadata (:func:`blank_runtime`); two rules of the shape follow: obstacle
+    scenes keep ``placement_half_width`` (it sizes the obstacle cost's distance grid),
+    and the detection switches stay (clutter on/off, and any perfect detection is one
+    program). Two scenarios with equal keys run on the same compiled program.
     """
-    blank_rows = lambda rows: tuple((None,) * len(r) for r in rows)  # noqa: E731
-    mpc = dataclasses.replace(
-        scenario.mpc, gamma=None, r2t=None, r2r=None, alpha_r2r=None, alpha_r2t=None
-    )
-    blank_eq = RadarEquation(**{f.name: None for f in dataclasses.fields(RadarEquation)})
-    meas = dataclasses.replace(scenario.measurement, beamwidth_deg=None, monopulse_slope=None)
-    det = dataclasses.replace(  # numbers are DetectionParams; switches (fixed_pd < 1) stay
-        scenario.detection,
-        pfa=None,
-        gain_db=None,  # gate_probability: the IRF table
-        clutter_range_min=None,
-        clutter_range_max=None,
-        clutter_density=float(scenario.detection.clutter),
-    )
-    moving = tuple(
-        dataclasses.replace(  # paths, speeds, offsets: MovingParams (end: the
-            m, path=blank_rows(m.path), speed=None, offset=None
-        )  # number of segments stays)
-        for m in scenario.moving_obstacles
-    )
+    shape = blank_runtime(scenario)
+    det = dataclasses.replace(shape.detection, clutter_density=float(scenario.detection.clutter))
     if not (det.detects or det.clutter):  # perfect detection (also fixed_pd = 1): one program
-        det = dataclasses.replace(
-            DetectionConfig(),
-            pfa=None,
-            gain_db=None,
-            gate_probability=None,
-            clutter_range_min=None,
-            clutter_range_max=None,
-        )
-    return dataclasses.replace(
-        scenario,
-        name="",
-        seed=None,
-        sigma_w2=None,
-        p0=None,
-        placement_half_width=(scenario.placement_half_width if scenario.obstacles else None),
-        radar_eq=blank_eq,
-        target_init=blank_rows(scenario.target_init),
-        radar_init=blank_rows(scenario.radar_init),
-        mpc=mpc,
-        measurement=meas,
-        detection=det,
-        moving_obstacles=moving,
-    )
+        det = blank_runtime(dataclasses.replace(DetectionConfig(), gate_probability=None))
+    width = scenario.placement_half_width if scenario.obstacles else None
+    return dataclasses.replace(shape, detection=det, placement_half_width=width)
