@@ -8,9 +8,9 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, runtime, table
-from mjx_radar.registry import SENSORS
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
+from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
 from mjx_radar.scenario.schema_world import MovingObstacle, RadarOverride, TargetMotion, positive
 
@@ -28,25 +28,6 @@ RADAR_COLUMNS = (
     ("y", col(-SCENE, SCENE, "m")),
     ("theta", col(-10.0, 10.0, "rad")),
 )
-
-
-@dataclass(frozen=True)
-class RadarEquation:
-    """Radar-equation parameters (SPEC §1, paper Table "Radar Equation")."""
-
-    fc: float = field(default=1e8, metadata=positive("carrier frequency", "Hz", hi=1e12))
-    loss: float = field(default=1.0, metadata=positive("general loss factor L"))
-    gain_tx: float = field(default=200.0, metadata=positive("transmit gain"))
-    gain_rx: float = field(default=200.0, metadata=positive("receive gain"))
-    r_ref: float = field(
-        default=500.0,
-        metadata=rule(float, 1.0, 1e5, doc="range at which SNR equals snr_db", unit="m"),
-    )
-    rcs: float = field(default=1.0, metadata=positive("radar cross section", "m^2"))
-    power_tx: float = field(default=1000.0, metadata=positive("transmit power", "W"))
-    snr_db: float = field(
-        default=-20.0, metadata=rule(float, -200.0, 200.0, doc="SNR at r_ref", unit="dB")
-    )
 
 
 @dataclass(frozen=True)
@@ -186,32 +167,6 @@ class MPPIConfig:
     shrinkage: str = field(
         default="ledoit-wolf",
         metadata=choice("ledoit-wolf", "oas", "none", doc="covariance shrinkage"),
-    )
-
-
-@dataclass(frozen=True)
-class MeasurementConfig:
-    """Measurement model of each radar-target pair (see :mod:`mjx_radar.estimation.measurement`).
-
-    ``model``: "range" (round-trip range, SPEC §1) or "range-azimuth" (range plus
-    monopulse azimuth). The azimuth noise follows from the radar equation with the
-    beamwidth and monopulse slope below.
-    """
-
-    model: str = field(
-        default="range",
-        metadata=choice(
-            "range",
-            "range-azimuth",
-            registry=SENSORS,
-            doc="measurement model (or a sensor registered with mjx_radar.register_sensor)",
-        ),
-    )
-    beamwidth_deg: float = field(
-        default=3.0, metadata=runtime(positive("3 dB beamwidth theta_3dB", "deg", hi=90.0))
-    )
-    monopulse_slope: float = field(
-        default=1.6, metadata=runtime(positive("monopulse slope k_m", hi=10.0))
     )
 
 

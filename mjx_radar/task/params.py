@@ -15,8 +15,9 @@ trace time instead of silently using a stale value.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -24,7 +25,10 @@ from mjx_radar.estimation import detection, measurement
 from mjx_radar.io.checks import is_runtime
 from mjx_radar.scenario.schema import DetectionConfig, Scenario
 from mjx_radar.task.method import Method, MethodFlags
-from mjx_radar.world.moving import moving_params
+from mjx_radar.world.moving import MovingParams, moving_params
+
+if TYPE_CHECKING:  # annotations only (imported lazily where used)
+    from mjx_radar.physics.target_motion import MotionParams
 
 
 class TaskParams(NamedTuple):
@@ -39,22 +43,22 @@ class TaskParams(NamedTuple):
 
     method: MethodFlags
     noise: measurement.NoiseParams
-    seed: Any  # uint32 base seed of the trial streams
-    sigma_w2: Any  # target white-acceleration variance [m²/s⁴]
-    p0: Any  # initial covariance p0·I
-    placement_half_width: Any  # [m]
-    target_init: Any  # [M, 6]
-    radar_init: Any  # [N, 3] x, y, theta
-    gamma: Any  # discount
-    r2t: Any  # radar-target keep-out [m]
-    r2r: Any  # radar-radar keep-out [m]
-    alpha_r2r: Any
-    alpha_r2t: Any
-    detection: Any = None  # detection.DetectionParams (issue 23)
-    motion: Any = None  # physics.target_motion.MotionParams with [[target_motion]], else None
-    target_weight: Any = None  # [M] planner weight of each target (presence), None: all 1
-    moving: Any = None  # world.moving.MovingParams with [[moving_obstacles]], else None
-    plan_time: Any = None  # [] planning instant [s] (set per control step with moving obstacles)
+    seed: jax.Array  # [] uint32 base seed of the trial streams
+    sigma_w2: jax.Array  # [] target white-acceleration variance [m²/s⁴]
+    p0: jax.Array  # [] initial covariance p0·I [m²]
+    placement_half_width: jax.Array  # [] [m]
+    target_init: jax.Array  # [M, 6]
+    radar_init: jax.Array  # [N, 3] x, y, theta
+    gamma: jax.Array  # [] discount
+    r2t: jax.Array  # [] radar-target keep-out [m]
+    r2r: jax.Array  # [] radar-radar keep-out [m]
+    alpha_r2r: jax.Array  # [] weight of radar-radar violations
+    alpha_r2t: jax.Array  # [] weight of radar-target violations
+    detection: detection.DetectionParams | None = None  # issue 23
+    motion: MotionParams | None = None  # with [[target_motion]], else None
+    target_weight: jax.Array | None = None  # [M] planner weight (presence), None: all 1
+    moving: MovingParams | None = None  # with [[moving_obstacles]], else None
+    plan_time: jax.Array | None = None  # [] planning instant [s] (moving obstacles)
 
 
 def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> TaskParams:
