@@ -164,7 +164,14 @@ def check_callable(kind: str, name: str, fn: Callable | None) -> None:
 #: still), and those of :func:`mjx_radar.register_planner`
 PLANNERS = Registry(
     "planner",
-    {"mppi": "mjx_radar.planners.mppi:MPPIPlanner", "hold": "mjx_radar.planners.mppi:HoldPlanner"},
+    {
+        "mppi": "mjx_radar.planners.mppi:MPPIPlanner",
+        "hold": "mjx_radar.planners.mppi:HoldPlanner",
+        "ps": "mjx_radar.planners.zoo:PredictiveSamplingPlanner",
+        "cem": "mjx_radar.planners.zoo:CEMPlanner",
+        "grad": "mjx_radar.planners.zoo:GradientPlanner",
+        "hybrid": "mjx_radar.planners.zoo:HybridPlanner",
+    },
 )
 #: trackers by name (:mod:`mjx_radar.env.filter_ops`): ``[filter] tracker``
 TRACKERS = Registry(

@@ -1,0 +1,143 @@
+"""More planners on the contract: predictive sampling, CEM, gradient MPC and a hybrid.
+
+Each plans the radars' flattened controls ``[H, 2N]`` on the method's objective
+(``env.objective(obs)``: information plus keep-out terms, the rollouts MJX or closed
+form), warm-started from its previous plan shifted by one control step, inside
+``env.action_bounds``. The compute budget is the scenario's MPPI budget,
+``mppi.samples x mppi.iterations`` rollouts per control call, for the sampling planners;
+the gradient planner takes ``GradientPlanner.steps`` gradient steps (one step costs about
+three rollouts: forward and reverse mode). Settings are class attributes: subclass and
+register to change them (docs/extending.md).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.control import gradient, mppi, sampling
+from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+
+
+class PlanCarry(NamedTuple):
+    u_plan: jax.Array  # [H, 2N] warm start of the next call
+    record: ControlRecord  # the last call's record
+
+
+class _Sequential(Planner):
+    """Shared: warm start, bounds, the objective of an observation, the record."""
+
+    def __init__(self, env):
+        super().__init__(env)
+        sc = env.scenario
+        self.horizon, self.n = sc.mpc.horizon, sc.n_radars
+        self.lower = env.action_bounds[0].reshape(-1)
+        self.upper = env.action_bounds[1].reshape(-1)
+        std = jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)])
+        self.std = jnp.where(self.upper > 0, jnp.tile(std, self.n), 0.0)
+        self.samples, self.iterations = sc.mppi.samples, sc.mppi.iterations
+
+    def init(self) -> PlanCarry:
+        zeros = jnp.zeros((self.n, 2))
+        return PlanCarry(
+            jnp.zeros((self.horizon, 2 * self.n)), idle_record(self.env.scenario, zeros)
+        )
+
+    def _carry(self, cost_fn, mean, samples=None, costs=None, weights=None, aux=None):
+        """The applied control, and the carry holding the next warm start and the record."""
+        plan = cost_fn(mean)[1]
+        s = kept_samples(self.env.scenario)
+        if samples is None:  # no population: the plan itself
+            xy = jnp.broadcast_to(plan.radar_xy, (s, *plan.radar_xy.shape))
+            weights, costs = jnp.full(s, 1.0 / s), jnp.zeros(s)
+        else:
+            xy, weights, costs = aux.radar_xy[:s], weights[:s], costs[:s]
+        control = mean[0].reshape(self.n, 2)
+        rec = ControlRecord(control, plan.radar_xy, xy, weights, costs)
+        return control, PlanCarry(mppi.shift(mean), rec)
+
+    def record(self, carry: PlanCarry, action) -> ControlRecord:
+        return carry.record
+
+
+class PredictiveSamplingPlanner(_Sequential):
+    """Predictive sampling (hydrax / MJPC's baseline): the best of ``samples`` Gaussian
+    perturbations of the incumbent, ``iterations`` times."""
+
+    name = "ps"
+
+    def plan(self, carry: PlanCarry, obs, key):
+        cost = self.env.objective(obs)
+        res = sampling.predictive_sampling(
+            cost, carry.u_plan, key, self.samples, self.iterations, self.std, self.lower, self.upper
+        )
+        return self._carry(cost, res.mean, res.samples, res.costs, res.weights, res.aux)
+
+
+class CEMPlanner(_Sequential):
+    """The cross-entropy method: refit a diagonal Gaussian to the ``elite_fraction`` best."""
+
+    name = "cem"
+    elite_fraction = 0.1
+    std_min_fraction = 0.05  # of the initial std: the search never collapses
+
+    def plan(self, carry: PlanCarry, obs, key):
+        cost = self.env.objective(obs)
+        elite = max(1, int(round(self.elite_fraction * self.samples)))
+        res = sampling.cross_entropy(
+            cost,
+            carry.u_plan,
+            key,
+            self.samples,
+            self.iterations,
+            self.std,
+            self.lower,
+            self.upper,
+            elite,
+            self.std_min_fraction * self.std,
+        )
+        return self._carry(cost, res.mean, res.samples, res.costs, res.weights, res.aux)
+
+
+class GradientPlanner(_Sequential):
+    """Gradient MPC: ``steps`` projected Adam steps through the rollouts and the
+    information objective, from the shifted previous plan."""
+
+    name = "grad"
+    steps = 20
+    learning_rate = 0.05
+
+    def plan(self, carry: PlanCarry, obs, key):
+        cost = self.env.objective(obs)
+        res = gradient.descend(
+            cost, carry.u_plan, self.steps, self.lower, self.upper, self.learning_rate
+        )
+        return self._carry(cost, res.mean)
+
+
+class HybridPlanner(_Sequential):
+    """Predictive sampling (half the iterations), then gradient polish of the best."""
+
+    name = "hybrid"
+    polish_steps = 10
+    learning_rate = 0.02
+
+    def plan(self, carry: PlanCarry, obs, key):
+        cost = self.env.objective(obs)
+        res = sampling.predictive_sampling(
+            cost,
+            carry.u_plan,
+            key,
+            self.samples,
+            max(1, self.iterations // 2),
+            self.std,
+            self.lower,
+            self.upper,
+        )
+        pol = gradient.descend(
+            cost, res.mean, self.polish_steps, self.lower, self.upper, self.learning_rate
+        )
+        mean = jnp.where(pol.best_cost < res.best_cost, pol.mean, res.mean)
+        return self._carry(cost, mean, res.samples, res.costs, res.weights, res.aux)
