@@ -21,7 +21,6 @@ from mjx_radar.scenario.schema import MovingObstacle
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params
 
-
 #: radar-equation factors of K = Pt Gt Gr lambda^2 sigma / ((4 pi)^3 L) that cancel: the noise
 #: is set by the SNR at r_ref (sigma_a^2 = M K / r_ref^4 / 10^(snr/10)), so C = c^2 sigma_a^2 /
 #: (8 pi^2 fc^2 K) and the detection SNR P_r(d) / sigma_a^2 do not depend on them (SPEC 1)
