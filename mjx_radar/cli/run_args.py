@@ -22,8 +22,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--planner",
         default=None,
         metavar="NAME",
-        help="a registered planner moving the radars instead of the method's own (mppi, "
-        "hold, or one a --plugin file registers; docs/extending.md)",
+        help="a registered planner moving the radars instead of the method's own: mppi, "
+        "ps, cem, grad, hybrid, hold, or one a --plugin file registers (docs/extending.md)",
     )
     p.add_argument(
         "--plugin",

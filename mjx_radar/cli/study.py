@@ -42,8 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--planners",
         default=None,
         metavar="A,B",
-        help="run every planning method with each of these planners (mppi, hold, "
-        "or registered by a --plugin file): METHOD+PLANNER",
+        help="run every planning method with each of these planners (mppi, ps, cem, "
+        "grad, hybrid, or registered by a --plugin file): METHOD+PLANNER",
     )
     p.add_argument(
         "--plugin",
