@@ -162,3 +162,22 @@ def test_planner_registry_contract():
         assert PLANNERS.key(("k1",)) != before and PLANNERS.key(("mppi",)) == ()
     finally:
         unregister_planner("k1")
+
+
+def test_study_keeps_planner_method_names(tmp_path):
+    """A study's consolidated table keeps "METHOD+PLANNER" names (study --planners) after
+    the paper's methods, in order of appearance (they were NaN categories before)."""
+    import pandas as pd
+
+    from mjx_radar.study.driver import consolidate
+
+    paths = []
+    for i, m in enumerate(["ddr-sfim+ps", "stationary", "ddr-sfim", "ddr-sfim+cem"]):
+        p = tmp_path / f"c{i}.parquet"
+        pd.DataFrame({"scenario": ["s"], "method": [m], "trial": [0], "step": [1]}).to_parquet(p)
+        paths.append(p)
+    frame = consolidate(paths, ["s"])
+    assert list(frame["method"].cat.categories) == [
+        "stationary", "ddr-sfim", "ddr-sfim+ps", "ddr-sfim+cem"
+    ]  # fmt: skip
+    assert frame["method"].notna().all()

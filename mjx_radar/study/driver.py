@@ -204,7 +204,8 @@ def run_round(group: list[Chunk], chunk: int, n_dev: int, mesh, progress, times:
 def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:
     """Concatenates chunk files (in the given order) into one long-format table."""
     frame = pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True)
-    methods = [m for m in METHODS if m in set(frame["method"].astype(str))]
+    seen = list(dict.fromkeys(frame["method"].astype(str)))  # "METHOD+PLANNER" names too
+    methods = [m for m in METHODS if m in seen] + [m for m in seen if m not in METHODS]
     frame["scenario"] = pd.Categorical(frame["scenario"].astype(str), categories=scenario_order)
     frame["method"] = pd.Categorical(frame["method"].astype(str), categories=methods)
     return frame
