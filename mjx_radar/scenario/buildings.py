@@ -116,11 +116,14 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
         doc = json.loads(Path(path).read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise MapError(f"not a readable JSON file ({str(err).splitlines()[0]})") from None
+    except RecursionError:
+        raise MapError("not a readable JSON file (nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise MapError("must be a GeoJSON FeatureCollection")
     declared = doc.get("crs")
     if declared is not None:  # the 2008 GeoJSON "crs" member (RFC 7946 dropped it)
-        name = declared.get("properties", {}).get("name") if isinstance(declared, dict) else None
+        props = declared.get("properties") if isinstance(declared, dict) else None
+        name = props.get("name") if isinstance(props, dict) else None
         if name not in LONLAT_NAMES:
             raise MapError(
                 f"unknown CRS {name!r}; only WGS84 lon/lat (RFC 7946) or a "

@@ -36,10 +36,15 @@ def terrain(raw: Any, base: Path, allow_external: bool) -> Terrain:
         raise ScenarioError("terrain.path: missing required field (a .npy or .png height field)")
     kwargs["path"] = _path(raw["path"], base, allow_external)
     out = Terrain(**kwargs)
-    from mjx_radar.io.terrain_file import TerrainFileError, node_heights, read_heights
+    from mjx_radar.io.terrain_file import (
+        TerrainFileError,
+        check_float32,
+        node_heights,
+        read_heights,
+    )
 
     try:
-        read_heights(out.path)
+        check_float32(read_heights(out.path), out.height_scale)
     except TerrainFileError as err:
         raise ScenarioError(f"terrain.path = {show(raw['path'])}: {err}") from None
     node_heights.cache_clear()  # a file rewritten in place is read again
