@@ -93,6 +93,11 @@ def check_targets(s: Scenario) -> None:
                 )
     h = node_heights(t)
     for i, row in enumerate(s.radar_init):
+        if abs(row[0]) > t.extent_x / 2 or abs(row[1]) > t.extent_y / 2:
+            raise ScenarioError(
+                f"radars[{i}] = {show(list(row))}: outside the terrain grid (|x| <= "
+                f"{t.extent_x / 2:g} m, |y| <= {t.extent_y / 2:g} m: terrain.extent_x / extent_y)"
+            )
         g = _grade(t, h, np.asarray(row[:2], float))
         if g > max_grade(t):
             raise ScenarioError(

@@ -1,0 +1,77 @@
+"""Bad and edge arguments of the Python API (issue 36): one-line ScenarioErrors before
+anything compiles, or correct acceptance; nothing left in ``out`` after a refusal."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mjx_radar
+from mjx_radar.api.run_case import request
+from mjx_radar.env.placement import check_placeable
+from mjx_radar.scenario.reader import load_scenario
+
+
+@pytest.fixture(scope="module")
+def smoke():
+    return load_scenario("smoke")
+
+
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"method": ["ddr-sfim"]}, r"^method = \['ddr-sfim'\]: must be one of"),
+        ({"trials": "3"}, r"^trials = '3': must be"),
+        ({"steps": 8.0}, r"^steps = 8.0: must be an integer"),
+        ({"precision": 32}, r"^precision = 32: must be one of"),
+    ],
+)
+def test_run_argument_types(smoke, kwargs, pattern):
+    with pytest.raises(mjx_radar.ScenarioError, match=pattern):
+        request(smoke, **kwargs)
+
+
+@pytest.mark.parametrize("scenario", [None, 3, ["smoke"]])
+def test_scenario_argument_types(scenario):
+    with pytest.raises(mjx_radar.ScenarioError, match=r"^scenario = .*: must be"):
+        request(scenario)
+    with pytest.raises(mjx_radar.ScenarioError, match=r"^scenario = .*: must be"):
+        mjx_radar.load_scenario(scenario)
+
+
+def test_large_trial_index_draws_only_that_trial(smoke):
+    req = request(smoke, trials=[10**6])
+    assert req.trials.tolist() == [10**6]
+    check_placeable(smoke, 0, req.trials)  # one trial: no array of a million indices
+
+
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [({"steps": -4}, r"^steps = -4: must be"), ({"seed": 1.5}, r"^seed = 1.5: must be")],
+)
+def test_run_study_refuses_before_writing(tmp_path, kwargs, pattern):
+    out = tmp_path / "study"
+    with pytest.raises(mjx_radar.ScenarioError, match=pattern):
+        mjx_radar.run_study("smoke", methods=["stationary"], trials=1, out=out, **kwargs)
+    assert not out.exists()
+
+
+def test_replace_list_fields_with_none_or_junk(smoke):
+    assert smoke.replace(moving_obstacles=None).moving_obstacles == ()
+    assert smoke.replace(obstacles=None).obstacles == ()
+    with pytest.raises(mjx_radar.ScenarioError, match="^moving_obstacles: must be an array"):
+        smoke.replace(moving_obstacles=5)
+
+
+def test_scenario_takes_the_file_names(smoke):
+    rows = [list(r) for r in smoke.target_init]
+    a = mjx_radar.Scenario(name="x", n_radars=2, targets=rows, radars=[[300, 0, 0], [-300, 0, 0]])
+    b = mjx_radar.Scenario(
+        name="x", n_radars=2, target_init=rows, radar_init=[[300, 0, 0], [-300, 0, 0]]
+    )
+    assert mjx_radar.validate(a) == mjx_radar.validate(b)
+    eq = mjx_radar.Scenario(name="x", n_radars=2, targets=rows, radar_equation=smoke.radar_eq)
+    assert eq.radar_eq == smoke.radar_eq
+    with pytest.raises(TypeError, match="both 'target_init' and its TOML name 'targets'"):
+        mjx_radar.Scenario(name="x", n_radars=2, targets=rows, target_init=rows)
+    assert np.isfinite(mjx_radar.validate(a).p0)
