@@ -75,3 +75,21 @@ def test_scenario_takes_the_file_names(smoke):
     with pytest.raises(TypeError, match="both 'target_init' and its TOML name 'targets'"):
         mjx_radar.Scenario(name="x", n_radars=2, targets=rows, target_init=rows)
     assert np.isfinite(mjx_radar.validate(a).p0)
+
+
+def test_track_csv_from_python_bom_and_relative_path(tmp_path, monkeypatch, smoke):
+    from mjx_radar.scenario.schema import TargetMotion
+
+    (tmp_path / "t.csv").write_bytes("\ufeff0,0,0,50\n1,10,0,50\n2,20,0,50\n".encode())
+    monkeypatch.chdir(tmp_path)
+    s = smoke.replace(target_motion=(TargetMotion(target=0, model="track", path="t.csv"),))
+    tm = s.target_motion[0]
+    assert tm.track[0] == (0.0, 0.0, 0.0, 50.0) and len(tm.track) == 3  # BOM row kept
+    assert tm.path == str(tmp_path / "t.csv")
+
+
+def test_python_motion_refuses_what_the_file_refuses(smoke):
+    from mjx_radar.scenario.schema import TargetMotion
+
+    with pytest.raises(mjx_radar.ScenarioError, match=r"speed: not a field of model = 'turn'"):
+        smoke.replace(target_motion=(TargetMotion(target=0, model="turn", rate=0.1, speed=5.0),))
