@@ -93,3 +93,14 @@ def test_python_motion_refuses_what_the_file_refuses(smoke):
 
     with pytest.raises(mjx_radar.ScenarioError, match=r"speed: not a field of model = 'turn'"):
         smoke.replace(target_motion=(TargetMotion(target=0, model="turn", rate=0.1, speed=5.0),))
+
+
+def test_run_with_no_target_present_is_refused(smoke):
+    from mjx_radar.scenario.schema import TargetMotion
+
+    late = smoke.replace(
+        target_motion=(TargetMotion(target=0, appear=1.0), TargetMotion(1, appear=1.5))
+    )
+    request(late)  # present from 1 s of the 2 s run
+    with pytest.raises(mjx_radar.ScenarioError, match=r"^steps = 8: no target is present"):
+        request(late, steps=8)

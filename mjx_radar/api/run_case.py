@@ -103,6 +103,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
     """
     from mjx_radar.planners import PLANNERS
     from mjx_radar.scenario.edit import validate
+    from mjx_radar.scenario.motion import check_present
     from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.scenario.schema import Scenario
     from mjx_radar.task.method import METHODS, Method, parse_method
@@ -153,6 +154,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
             f"{label('steps')} = {steps}: must be a multiple of dt_control/dt_filter = "
             f"{s.timing.control_every} (scenario {s.name})"
         )
+    check_present(s, int(steps), label("steps"))
     seed = s.seed if o["seed"] is None else o["seed"]
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
         raise ScenarioError(f"{label('seed')} = {seed!r}: must be an integer in [0, 2^31 - 1]")

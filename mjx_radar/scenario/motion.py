@@ -180,6 +180,25 @@ def check_motions(scenario: Scenario) -> None:
                 f"target_motion[{i}].target = {tm.target}: a second table for that target"
             )
         seen.add(tm.target)
+    check_present(scenario, scenario.timing.steps, "timing.steps")
+
+
+def check_present(scenario: Scenario, steps: int, label: str) -> None:
+    """Refuses a run of ``steps`` filter steps in which no target is ever present (its
+    errors would average over nothing: an RMSE of 0)."""
+    if not scenario.target_motion:
+        return
+    windows = {tm.target: (tm.appear, tm.leave) for tm in scenario.target_motion}
+    end = steps * scenario.timing.dt_filter
+    for j in range(scenario.n_targets):
+        appear, leave = windows.get(j, (0.0, math.inf))
+        if appear <= end:
+            return
+    first = min(windows.get(j, (0.0, 0.0))[0] for j in range(scenario.n_targets))
+    raise ScenarioError(
+        f"{label} = {steps}: no target is present during the run ({end:g} s; the first "
+        f"appears at {first:g} s: target_motion appear); run longer or appear earlier"
+    )
 
 
 def to_dict(tm: TargetMotion) -> dict:
