@@ -339,3 +339,12 @@ def test_yard_closed_loop_never_enters_occupied_cells():
     assert moved.max() > 5.0  # the radars did drive
     gap = obstacles.union_sdf(s.obstacles, radar_xy)
     assert gap.min() >= obstacles.HULL_RADIUS, gap.min()
+
+
+def test_degenerate_and_huge_footprints():
+    maps = Path(__file__).parent / "bad_inputs" / "maps"
+    (b,) = buildings.read_geojson(maps / "zero_edge.geojson", "local")  # a repeated vertex
+    assert b.polygon.area == pytest.approx(100.0)
+    assert len(buildings.convex_parts(b.polygon)) == 1
+    with pytest.raises(MapError, match="1200 vertices; at most 256"):
+        buildings.read_geojson(maps / "many_vertices.geojson", "local")
