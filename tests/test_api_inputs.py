@@ -9,6 +9,7 @@ import pytest
 import mjx_radar
 from mjx_radar.api.run_case import request
 from mjx_radar.env.placement import check_placeable
+from mjx_radar.errors import InputError
 from mjx_radar.scenario.reader import load_scenario
 
 
@@ -104,3 +105,62 @@ def test_run_with_no_target_present_is_refused(smoke):
     request(late)  # present from 1 s of the 2 s run
     with pytest.raises(mjx_radar.ScenarioError, match=r"^steps = 8: no target is present"):
         request(late, steps=8)
+
+
+def _fake_run(s, method="ddr-sfim", trials=2, steps=8):
+    import pandas as pd
+
+    from mjx_radar.api.run import Run
+
+    t, m, n = trials, s.n_targets, s.n_radars
+    rng = np.random.default_rng(0)
+    arrays = {
+        "target": rng.normal(size=(t, steps, m, 6)),
+        "mean": rng.normal(size=(t, steps, 6 * m)),
+        "cov_diag": np.ones((t, steps, 6 * m)),
+        "radar": rng.normal(size=(t, steps, n, 6)),
+    }
+    metrics = pd.DataFrame(
+        {
+            "trial": np.repeat(np.arange(t), steps),
+            "step": np.tile(np.arange(1, steps + 1), t),
+            "rmse_pos": 1.0,
+            "crlb_pos": 0.5,
+            "visible_pairs": 3,
+            "detections": 2,
+            "false_alarms": 0,
+            "targets_present": np.tile(presence_counts(s, steps), t),
+        }
+    )
+    return Run(s, method, 0, np.arange(t), steps, metrics, arrays, {})
+
+
+def presence_counts(s, steps):
+    dt = s.timing.dt_filter
+    return [sum(1 for tm in s.target_motion if tm.appear <= k * dt) for k in range(1, steps + 1)]
+
+
+def test_run_repr_is_a_few_lines_and_trajectories_carry_masks(smoke):
+    import xarray as xr
+
+    from mjx_radar.scenario.schema import TargetMotion
+
+    s = smoke.replace(target_motion=(TargetMotion(0, appear=0.1), TargetMotion(1, appear=0.15)))
+    run = _fake_run(s)
+    text = repr(run)
+    assert len(text) < 400 and text.count("\n") <= 3 and "rmse_pos=1.000 m" in text
+    ds = run.trajectories
+    assert ds.present.dims == ("step", "target")
+    np.testing.assert_array_equal(ds.present.sum("target"), presence_counts(s, 8))
+    assert ds.detections.dims == ("trial", "step") and int(ds.detections.max()) == 2
+    assert ds.method.item() == "ddr-sfim"
+    both = xr.concat([ds, _fake_run(s, "stationary").trajectories], dim="method")
+    assert list(both.method.values) == ["ddr-sfim", "stationary"]
+
+
+def test_snapshot_names_python_arguments(smoke):
+    run = _fake_run(smoke)
+    with pytest.raises(InputError, match=r"^step = 0: must be an integer in \[1, 8\]"):
+        run.snapshot(step=0)
+    with pytest.raises(InputError, match=r"^trial = 5: must be"):
+        run.snapshot(step=1, trial=5)
