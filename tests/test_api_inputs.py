@@ -164,3 +164,17 @@ def test_snapshot_names_python_arguments(smoke):
         run.snapshot(step=0)
     with pytest.raises(InputError, match=r"^trial = 5: must be"):
         run.snapshot(step=1, trial=5)
+
+
+def test_bundled_path_reaches_shipped_data(smoke):
+    import dataclasses
+
+    hills = mjx_radar.bundled_path("terrain/hills.png")
+    assert hills.is_file() and "terrain/hills.png" in mjx_radar.bundled_files()
+    assert mjx_radar.bundled_path("maps/town.geojson").is_file()
+    s = load_scenario("hills_4r4t")
+    moved = dataclasses.replace(s, terrain=dataclasses.replace(s.terrain, path=str(hills)))
+    assert mjx_radar.validate(moved) == mjx_radar.validate(s)
+    for bad in ("../reader.py", "terrain/nothere.png", None):
+        with pytest.raises(mjx_radar.ScenarioError, match=r"^bundled_path = "):
+            mjx_radar.bundled_path(bad)
