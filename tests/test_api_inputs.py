@@ -178,3 +178,13 @@ def test_bundled_path_reaches_shipped_data(smoke):
     for bad in ("../reader.py", "terrain/nothere.png", None):
         with pytest.raises(mjx_radar.ScenarioError, match=r"^bundled_path = "):
             mjx_radar.bundled_path(bad)
+
+
+def test_run_study_with_no_target_present_is_refused(tmp_path, smoke):
+    from mjx_radar.scenario.schema import TargetMotion
+
+    late = smoke.replace(target_motion=(TargetMotion(0, appear=1.0), TargetMotion(1, appear=1.5)))
+    out = tmp_path / "study"
+    with pytest.raises(mjx_radar.ScenarioError, match=r"^steps = 8: no target is present"):
+        mjx_radar.run_study(late, methods=["stationary"], trials=1, steps=8, out=out)
+    assert not out.exists()
