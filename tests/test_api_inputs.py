@@ -188,3 +188,8 @@ def test_run_study_with_no_target_present_is_refused(tmp_path, smoke):
     with pytest.raises(mjx_radar.ScenarioError, match=r"^steps = 8: no target is present"):
         mjx_radar.run_study(late, methods=["stationary"], trials=1, steps=8, out=out)
     assert not out.exists()
+
+
+def test_render_names_python_arguments(smoke, tmp_path):
+    with pytest.raises(InputError, match=r"^trial = 9: must be an integer in \[0, 1\]"):
+        _fake_run(smoke).render(tmp_path / "v.mp4", trial=9)

@@ -179,6 +179,7 @@ class Run:
         """
         from mjx_radar.viz.render import RenderOptions, render_run
 
+        _check_int("trial", trial, 0, len(self.trials) - 1)
         render_run(self._saved(), trial, Path(path), RenderOptions(camera=camera, **options))
         return Path(path)
 
