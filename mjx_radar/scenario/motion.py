@@ -188,13 +188,11 @@ def check_present(scenario: Scenario, steps: int, label: str) -> None:
     errors would average over nothing: an RMSE of 0)."""
     if not scenario.target_motion:
         return
-    windows = {tm.target: (tm.appear, tm.leave) for tm in scenario.target_motion}
+    appear = {tm.target: tm.appear for tm in scenario.target_motion}
     end = steps * scenario.timing.dt_filter
-    for j in range(scenario.n_targets):
-        appear, leave = windows.get(j, (0.0, math.inf))
-        if appear <= end:
-            return
-    first = min(windows.get(j, (0.0, 0.0))[0] for j in range(scenario.n_targets))
+    first = min(appear.get(j, 0.0) for j in range(scenario.n_targets))
+    if first <= end:  # present from appear until leave (> appear): some step sees it
+        return
     raise ScenarioError(
         f"{label} = {steps}: no target is present during the run ({end:g} s; the first "
         f"appears at {first:g} s: target_motion appear); run longer or appear earlier"
