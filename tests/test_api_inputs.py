@@ -3,6 +3,8 @@ anything compiles, or correct acceptance; nothing left in ``out`` after a refusa
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -193,3 +195,23 @@ def test_run_study_with_no_target_present_is_refused(tmp_path, smoke):
 def test_render_names_python_arguments(smoke, tmp_path):
     with pytest.raises(InputError, match=r"^trial = 9: must be an integer in \[0, 1\]"):
         _fake_run(smoke).render(tmp_path / "v.mp4", trial=9)
+
+
+def test_fixed_starts_too_close_are_not_blamed_on_the_box(smoke):
+    import dataclasses
+
+    near = dataclasses.replace(smoke, radar_init=((10.0, 0.0, 0.0), (-300.0, 0.0, 0.0)))
+    with pytest.raises(ValueError, match=r"^radars: the fixed starts .* mpc.r2t"):
+        check_placeable(near, 0, 1)  # unvalidated: the reader refuses this one first
+
+
+def test_cli_run_refusal_leaves_no_out(tmp_path, capsys):
+    from mjx_radar.cli.main import main
+
+    out = tmp_path / "run"
+    never = str(Path(__file__).parent / "bad_inputs" / "motion_never_present.toml")
+    assert main(["run", never, "--out", str(out)]) == 2
+    assert main(["run", "smoke", "--steps", "-4", "--out", str(out)]) == 2
+    assert not out.exists()
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert "no target is present" in lines[0] and "Traceback" not in "".join(lines)

@@ -122,6 +122,12 @@ def check_placeable(scenario: Scenario, seed: int, trials) -> None:
     oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.asarray(ids)))
     if not oks.all():
         bad = int(ids[np.argmin(oks)])
+        if scenario.radar_init:  # fixed starts: the box plays no part
+            raise ValueError(
+                f"radars: the fixed starts (on the ground: terrain height + antenna height) are "
+                f"not >= mpc.r2r = {scenario.mpc.r2r} m apart and >= mpc.r2t = "
+                f"{scenario.mpc.r2t} m from every target; move them or lower the keep-outs"
+            )
         raise ValueError(
             f"placement_half_width = {scenario.placement_half_width}: cannot place "
             f"{scenario.n_radars} radars >= mpc.r2r = {scenario.mpc.r2r} m apart and >= "
