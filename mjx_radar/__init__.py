@@ -14,6 +14,7 @@ from mjx_radar.scenario.schema import (
     TargetMotion,
     Timing,
 )
+from mjx_radar.scenario.shipped import bundled_files, bundled_path
 from mjx_radar.task.method import METHODS as _METHODS
 from mjx_radar.task.method import Method, parse_method
 from mjx_radar.version import __version__ as __version__
@@ -66,6 +67,8 @@ __all__ = [
     "TargetMotion",
     "ScenarioError",
     "Timing",
+    "bundled_files",
+    "bundled_path",
     "bundled_scenarios",
     "load_scenario",
     "parse_method",

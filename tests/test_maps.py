@@ -278,6 +278,18 @@ def test_map_scenarios_load_and_round_trip(name, tmp_path):
     assert {"maps/*.geojson", "maps/*.yaml", "maps/*.pgm"} <= set(shipped)
 
 
+def test_yaml_exponent_without_dot_reads_as_ros_does(tmp_path):
+    # PyYAML (YAML 1.1) reads `5e-1` as a string; yaml-cpp (map_server) reads 0.5
+    path = _write_map(tmp_path, np.zeros((4, 4)))
+    text = path.read_text().replace("resolution: 0.5", "resolution: 5e-1")
+    path.write_text(text.replace("origin: [-1.0, 2.0,", "origin: [-1e0, 2E0,"))
+    g = occupancy.read_map(path)
+    assert g.resolution == 0.5 and tuple(g.origin[:2]) == (-1.0, 2.0)
+    path.write_text(text.replace("resolution: 5e-1", "resolution: half"))
+    with pytest.raises(MapError, match="resolution = 'half'"):
+        occupancy.read_map(path)
+
+
 def test_bad_occupancy_maps(tmp_path):
     _write_map(tmp_path, np.zeros((4, 4)))
     text = (tmp_path / "m.yaml").read_text()
@@ -327,3 +339,12 @@ def test_yard_closed_loop_never_enters_occupied_cells():
     assert moved.max() > 5.0  # the radars did drive
     gap = obstacles.union_sdf(s.obstacles, radar_xy)
     assert gap.min() >= obstacles.HULL_RADIUS, gap.min()
+
+
+def test_degenerate_and_huge_footprints():
+    maps = Path(__file__).parent / "bad_inputs" / "maps"
+    (b,) = buildings.read_geojson(maps / "zero_edge.geojson", "local")  # a repeated vertex
+    assert b.polygon.area == pytest.approx(100.0)
+    assert len(buildings.convex_parts(b.polygon)) == 1
+    with pytest.raises(MapError, match="1200 vertices; at most 256"):
+        buildings.read_geojson(maps / "many_vertices.geojson", "local")

@@ -79,3 +79,35 @@ def test_no_measurements_or_pd_zero_leave_the_prediction():
         np.testing.assert_allclose(np.asarray(xm), np.asarray(x), atol=1e-6)
         np.testing.assert_allclose(np.asarray(Pm), np.asarray(P), atol=1e-6)
         assert float(b0) == pytest.approx(1.0)
+
+
+def test_mixed_fleet_noise_per_radar_in_the_bank_and_the_planner_factor():
+    """[N] noise constants (a [[radar_override]] radar equation) with clutter: radar n's
+    own constants in the bank's update and the planner's factor (was a broadcast error)."""
+    from types import SimpleNamespace
+
+    from mjx_radar.estimation.measurement import RangeModel
+    from mjx_radar.estimation.noise import NoiseParams
+
+    n, m, k = 2, 2, 3
+    shared = NoiseParams(*(jnp.float32(v) for v in (1e-6, 1.0, 1e-6, 1.0)))
+    mixed = NoiseParams(*(jnp.full((n,), v, jnp.float32) for v in shared))
+    means = jnp.array([[0.0, 0.0, 50.0, 1.0, 1.0, 0.0], [20.0, 0.0, 60.0, 0.0, 1.0, 0.0]])
+    covs = jnp.broadcast_to(jnp.eye(6) * 25.0, (m, 6, 6))
+    radars = jnp.array([[300.0, 0.0, 0.0], [-300.0, 0.0, 0.0]])
+    zs = jnp.full((n, k, 1), 600.0)
+    valid = jnp.ones((n, k), bool)
+    pd = jnp.full((n, m), 0.9)
+    args = (zs, valid, radars, RangeModel())
+    tail = (False, pd, 1e-3, 9.0, 0.99)
+    got = pda.update_bank(means, covs, *args, mixed, *tail)
+    want = pda.update_bank(means, covs, *args, shared, *tail)
+    np.testing.assert_allclose(got[0], want[0], rtol=1e-5)
+    sc = SimpleNamespace(detection=SimpleNamespace(clutter=True, gate_probability=0.99))
+    task = SimpleNamespace(scenario=sc, measurement=RangeModel())
+    det = SimpleNamespace(clutter_rate=5.0, clutter_min=0.0, clutter_max=1e3)
+    for noise in (shared, mixed):
+        params = SimpleNamespace(noise=noise, method=SimpleNamespace(ccr=False), detection=det)
+        factor = pda.planner_factor(task, params)
+        q = factor(jnp.full((4, n, 5), 0.9), jnp.full((4, n, 5), 1e4))
+        assert q.shape == (4, n, 5) and bool(jnp.all(jnp.isfinite(q)))

@@ -57,10 +57,23 @@ class Run:
     path: Path | None = None
     _res: dict | None = dataclasses.field(default=None, repr=False)
 
+    def __repr__(self) -> str:
+        """A few lines: what ran and its headline figures (never the arrays)."""
+        m = self.metrics
+        rmse = float(m["rmse_pos"].mean()) if len(m) else float("nan")
+        crlb = float(m["crlb_pos"].mean()) if len(m) else float("nan")
+        return (
+            f"Run(scenario={self.scenario.name!r}, method={self.method!r}, "
+            f"trials={len(self.trials)}, steps={self.steps}, seed={self.seed},\n"
+            f"    rmse_pos={rmse:.3f} m, crlb_pos={crlb:.3f} m, "
+            f"path={None if self.path is None else str(self.path)!r})"
+        )
+
     @property
     def trajectories(self):
-        """``xarray.Dataset`` of the trajectories (dims trial, step, target, radar, ...)."""
-        return to_dataset(self.arrays, self.trials, self.scenario)
+        """``xarray.Dataset`` of the trajectories (dims trial, step, target, radar, ...),
+        with ``present`` ``[step, target]``, the per-step counts and a ``method`` coordinate."""
+        return to_dataset(self.arrays, self.trials, self.scenario, self.method, self.metrics)
 
     def summary(self) -> dict:
         """The figures ``mjx-radar run`` prints (RMSE and PCRLB in m, times in s).
@@ -166,6 +179,7 @@ class Run:
         """
         from mjx_radar.viz.render import RenderOptions, render_run
 
+        _check_int("trial", trial, 0, len(self.trials) - 1)
         render_run(self._saved(), trial, Path(path), RenderOptions(camera=camera, **options))
         return Path(path)
 
@@ -175,6 +189,9 @@ class Run:
         """Two-panel figure at filter step ``step`` (``mjx-radar snapshot``); returns its path."""
         from mjx_radar.viz.snapshot import snapshot
 
+        _check_int("step", step, 1, self.steps)  # Python's names, not the command line's
+        _check_int("trial", trial, 0, len(self.trials) - 1)
+        _check_int("grid", grid, 2, 1000)
         return Path(snapshot(self._saved(), step, trial, path, grid))
 
     def view(
@@ -196,3 +213,8 @@ class Run:
         from mjx_radar.viz.viewer import view
 
         return view(self._saved(), path, trial, max_frames, samples).path
+
+
+def _check_int(name: str, value, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not lo <= value <= hi:
+        raise InputError(f"{name} = {value!r}: must be an integer in [{lo}, {hi}]")

@@ -103,7 +103,9 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
     """
     from mjx_radar.planners import PLANNERS
     from mjx_radar.scenario.edit import validate
+    from mjx_radar.scenario.motion import check_present
     from mjx_radar.scenario.reader import load_scenario
+    from mjx_radar.scenario.schema import Scenario
     from mjx_radar.task.method import METHODS, Method, parse_method
 
     unknown = sorted(set(options) - set(RUN_DEFAULTS))
@@ -115,7 +117,12 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         return f"--{name.replace('_', '-')}" if cli else name
 
     load_plugins(o["plugins"])
-    s = validate(load_scenario(scenario) if isinstance(scenario, str | Path) else scenario)
+    if not isinstance(scenario, str | os.PathLike | Scenario):
+        raise ScenarioError(
+            f"scenario = {scenario!r:.60}: must be a Scenario, a bundled scenario name or a "
+            f"TOML path, not {type(scenario).__name__}"
+        )
+    s = validate(load_scenario(scenario) if not isinstance(scenario, Scenario) else scenario)
     if o["rollouts"] is not None:
         if o["rollouts"] not in ROLLOUTS:
             raise ScenarioError(
@@ -147,6 +154,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
             f"{label('steps')} = {steps}: must be a multiple of dt_control/dt_filter = "
             f"{s.timing.control_every} (scenario {s.name})"
         )
+    check_present(s, int(steps), label("steps"))
     seed = s.seed if o["seed"] is None else o["seed"]
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
         raise ScenarioError(f"{label('seed')} = {seed!r}: must be an integer in [0, 2^31 - 1]")
@@ -215,7 +223,7 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
         if checks:
             resources.check(req.scenario, len(req.trials), req.steps)
             try:
-                check_placeable(req.scenario, req.seed, int(req.trials.max()) + 1)
+                check_placeable(req.scenario, req.seed, req.trials)
             except ValueError as err:
                 raise InputError(str(err)) from None
         view = {} if live is None else live.runner_options()

@@ -123,6 +123,11 @@ def run_study(
     for name, value, hi in (("trials", trials, 10**6), ("chunk", chunk, 10**6)):
         if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= hi:
             raise ScenarioError(f"{name} = {value!r}: must be an integer in [1, {hi}]")
+    for name, value, lo, hi in (("steps", steps, 1, 10**7), ("seed", seed, 0, 2**31 - 1)):
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi
+        ):
+            raise ScenarioError(f"{name} = {value!r}: must be an integer in [{lo}, {hi}] or None")
     from mjx_radar.api.run_case import load_plugins
     from mjx_radar.task.method import with_planners
 

@@ -79,16 +79,29 @@ VARIABLES = {
 }
 
 
-def to_dataset(arrays: dict, trials, scenario):
+COUNTS = {  # metrics column -> description (a [trial, step] count per variable)
+    "visible_pairs": "radar-target pairs with line of sight (of N*M)",
+    "detections": "visible pairs detected",
+    "false_alarms": "false alarms of all radars",
+    "targets_present": "targets present",
+}
+
+
+def to_dataset(arrays: dict, trials, scenario, method=None, metrics=None):
     """``xarray.Dataset`` of a run's trajectory arrays.
 
     Args:
         arrays: name -> numpy array as in ``trajectories.npz`` (leading ``[T, ...]``).
         trials: ``[T]`` trial indices (the ``trial`` coordinate).
-        scenario: the run's scenario (clocks and names).
+        scenario: the run's scenario (clocks, names, presence times).
+        method: the run's method: a scalar ``method`` coordinate, so the datasets of
+            several methods ``xr.concat(..., dim="method")``.
+        metrics: the run's metrics table: its per-step counts (:data:`COUNTS`) become
+            ``[trial, step]`` variables (the loop records counts, not per-pair masks).
 
     Returns:
-        The dataset; absent arrays are left out.
+        The dataset; absent arrays are left out. ``present`` ``[step, target]`` is each
+        target's presence (``appear <= t < leave``, as the loop evaluates it).
     """
     import xarray as xr
 
@@ -109,6 +122,15 @@ def to_dataset(arrays: dict, trials, scenario):
         "state": STATE,
         "radar_state": RADAR_STATE,
     }
+    data["present"] = xr.Variable(
+        ("step", "target"), presence(scenario, steps), {"units": "1", "description": "present"}
+    )
+    for col, doc in COUNTS.items():
+        if metrics is not None and col in metrics and len(metrics) == len(trials) * steps:
+            a = np.asarray(metrics[col]).reshape(len(trials), steps)
+            data[col] = xr.Variable(("trial", "step"), a, {"units": "1", "description": doc})
+    if method is not None:
+        coords["method"] = str(method)
     if "control" in arrays:
         c = np.asarray(arrays["control"]).shape[1]
         coords["control_step"] = np.arange(c)
@@ -126,3 +148,14 @@ def to_dataset(arrays: dict, trials, scenario):
         "dt_control": scenario.timing.dt_control,
     }
     return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def presence(scenario, steps: int) -> np.ndarray:
+    """``[K, M]`` bool: target m present at filter step k (time ``k dt``), evaluated in
+    float32 like the loop (``appear <= t < leave``; every target without a table)."""
+    m = scenario.n_targets
+    appear, leave = np.zeros(m, np.float32), np.full(m, np.inf, np.float32)
+    for tm in scenario.target_motion:
+        appear[tm.target], leave[tm.target] = tm.appear, tm.leave
+    t = np.arange(1, steps + 1, dtype=np.float32) * np.float32(scenario.timing.dt_filter)
+    return (t[:, None] >= appear[None]) & (t[:, None] < leave[None])

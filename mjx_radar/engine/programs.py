@@ -36,6 +36,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from mjx_radar import precision
 from mjx_radar.engine import compile_cache, export_cache
+from mjx_radar.engine.live_programs import LiveCache
 from mjx_radar.engine.threads import parallel
 from mjx_radar.env import records
 from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
@@ -171,7 +172,7 @@ def _key(shape, periods, full, batch, mesh, kind, planner="mppi") -> str:
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
 
 
-_CACHE: dict = {}
+_CACHE = LiveCache()  # at most a few programs alive (engine.live_programs)
 _LOCK = threading.Lock()
 #: one entry per compiled program: tracing + lowering vs XLA compilation (or cache load) [s]
 COMPILE_LOG: list[dict] = []

@@ -102,8 +102,12 @@ def initial_conditions(scenario: Scenario, params, streams) -> Init:
     return Init(radars, targets, targets.reshape(-1) + err, cov, ok)
 
 
-def check_placeable(scenario: Scenario, seed: int, trials: int) -> None:
-    """Raises ValueError naming the placement fields if some trial cannot place its radars."""
+def check_placeable(scenario: Scenario, seed: int, trials) -> None:
+    """Raises ValueError naming the placement fields if some trial cannot place its radars.
+
+    ``trials``: a count (trials ``0..trials-1``) or the trial indices themselves (only
+    those are drawn: ``[10**6]`` is one trial, not a million).
+    """
 
     from mjx_radar.task.method import METHODS
     from mjx_radar.task.params import shape_key, task_params
@@ -114,9 +118,16 @@ def check_placeable(scenario: Scenario, seed: int, trials: int) -> None:
     def ok(t):
         return place_radars(shape, params, trial_streams(params.seed, t).placement)[1]
 
-    oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.arange(trials)))
+    ids = np.arange(trials) if np.ndim(trials) == 0 else np.unique(np.asarray(trials))
+    oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.asarray(ids)))
     if not oks.all():
-        bad = int(np.argmin(oks))
+        bad = int(ids[np.argmin(oks)])
+        if scenario.radar_init:  # fixed starts: the box plays no part
+            raise ValueError(
+                f"radars: the fixed starts (on the ground: terrain height + antenna height) are "
+                f"not >= mpc.r2r = {scenario.mpc.r2r} m apart and >= mpc.r2t = "
+                f"{scenario.mpc.r2t} m from every target; move them or lower the keep-outs"
+            )
         raise ValueError(
             f"placement_half_width = {scenario.placement_half_width}: cannot place "
             f"{scenario.n_radars} radars >= mpc.r2r = {scenario.mpc.r2r} m apart and >= "

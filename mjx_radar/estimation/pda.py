@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import ckf, linalg
+from mjx_radar.estimation.noise import NoiseParams, at_radar
 
 __all__ = ["pda_update", "association_weights", "update_bank", "irf_table", "irf", "planner_factor"]
 
@@ -116,8 +117,10 @@ def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, densit
             def h(x6, r=r):
                 return model.predict(r[None], x6[None, :3]).reshape(model.dim)
 
-            def R(zh):
-                return jnp.diag(model.variance(zh, noise, ccr))
+            own = at_radar(noise, i)
+
+            def R(zh, own=own):
+                return jnp.diag(model.variance(zh, own, ccr))
 
             (x, P), _ = pda_update(
                 x, P, zs[i], valid[i], h, R, pd_m[i], density, gate, pg, residual=model.residual
@@ -224,12 +227,14 @@ def planner_factor(task, params):
     model = task.measurement
     table = irf_table(model.dim, float(sc.detection.gate_probability))
     lam = clutter.density(params.detection, model.dim)
+    # a mixed fleet's [N] constants broadcast over the pairs' [..., N, K, dim]
+    noise = NoiseParams(*(a if jnp.ndim(a) == 0 else a[:, None, None] for a in params.noise))
 
     def factor(pd, d2):
         z_hat = (2.0 * jnp.sqrt(d2))[..., None]
         if model.dim == 2:
             z_hat = jnp.concatenate([z_hat, jnp.zeros_like(z_hat)], -1)
-        var = model.variance(z_hat, params.noise, params.method.ccr)  # [..., dim]
+        var = model.variance(z_hat, noise, params.method.ccr)  # [..., dim]
         return irf(table, pd, lam * jnp.sqrt(jnp.prod(var, -1)))
 
     return factor

@@ -238,3 +238,15 @@ def check(field: str, value: Any, rule_: Rule | tuple) -> Any:
     if not math.isfinite(v) or v > r.hi or v < r.lo or (v == r.lo and r.lo_open):
         raise bad
     return v
+
+
+def check_path(field: str, value: Any) -> Any:
+    """``value`` if it is a path (``str`` or ``os.PathLike``), else a one-line ScenarioError."""
+    import os
+
+    if not isinstance(value, str | os.PathLike):
+        raise ScenarioError(
+            f"{field} = {show(value)}: must be a file path or a bundled scenario name, "
+            f"not {type(value).__name__}"
+        )
+    return value

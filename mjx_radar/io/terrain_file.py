@@ -35,6 +35,9 @@ def read_heights(path: str | Path) -> np.ndarray:
             arr = np.load(path, allow_pickle=False)
         except (OSError, ValueError, EOFError) as err:
             raise TerrainFileError(f"not a readable .npy array ({_line(err)})") from None
+        if not isinstance(arr, np.ndarray):  # np.load of an np.savez archive: an NpzFile
+            arr.close()
+            raise TerrainFileError("an .npz archive, not a .npy array; save one array with np.save")
         if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
             raise TerrainFileError(f"dtype {arr.dtype} is not allowed; need float or integer")
         grid = arr.astype(np.float64)
@@ -61,7 +64,19 @@ def read_heights(path: str | Path) -> np.ndarray:
     if not np.all(np.isfinite(grid)):
         bad = np.argwhere(~np.isfinite(grid))[0]
         raise TerrainFileError(f"non-finite height at row {bad[0]}, column {bad[1]}")
+    check_float32(grid)
     return grid
+
+
+def check_float32(grid: np.ndarray, scale: float = 1.0) -> None:
+    """Refuses heights (times ``scale``) beyond float32's range (the programs' dtype)."""
+    big = np.abs(grid) * abs(scale) > np.finfo(np.float32).max
+    if np.any(big):
+        bad = np.argwhere(big)[0]
+        raise TerrainFileError(
+            f"height {grid[bad[0], bad[1]] * scale:.3g} at row {bad[0]}, column {bad[1]} "
+            "overflows float32 (the simulation's dtype)"
+        )
 
 
 def _line(err: Exception) -> str:

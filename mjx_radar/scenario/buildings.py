@@ -51,6 +51,7 @@ LONLAT_NAMES = (
     "CRS84",
 )
 MAX_BUILDINGS = 2000
+MAX_VERTICES = 256  # per polygon: the convex split grows as n^3 (256: ~10 s, 800: ~100 s)
 
 
 class MapError(ValueError):
@@ -116,11 +117,14 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
         doc = json.loads(Path(path).read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise MapError(f"not a readable JSON file ({str(err).splitlines()[0]})") from None
+    except RecursionError:
+        raise MapError("not a readable JSON file (nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise MapError("must be a GeoJSON FeatureCollection")
     declared = doc.get("crs")
     if declared is not None:  # the 2008 GeoJSON "crs" member (RFC 7946 dropped it)
-        name = declared.get("properties", {}).get("name") if isinstance(declared, dict) else None
+        props = declared.get("properties") if isinstance(declared, dict) else None
+        name = props.get("name") if isinstance(props, dict) else None
         if name not in LONLAT_NAMES:
             raise MapError(
                 f"unknown CRS {name!r}; only WGS84 lon/lat (RFC 7946) or a "
@@ -164,6 +168,12 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
         if not geom.is_valid:
             raise MapError(f"{where}: invalid polygon ({shapely.is_valid_reason(geom)})")
         for poly in getattr(geom, "geoms", [geom]):
+            n_vert = len(shapely.get_coordinates(poly)) - 1 - len(poly.interiors)
+            if n_vert > MAX_VERTICES:
+                raise MapError(
+                    f"{where}: polygon has {n_vert} vertices; at most {MAX_VERTICES} "
+                    "(simplify it, e.g. shapely's simplify(0.5))"
+                )
             if poly.area < 1e-6:
                 raise MapError(f"{where}: polygon has zero area")
             out.append(Building(shapely.orient_polygons(poly), float(h), i))

@@ -172,7 +172,8 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
         elif f.name == "terrain" and isinstance(value, dict):  # a new [terrain] table
             value = _merge(Terrain(), value, f"{prefix}{key}.")
         elif f.name in ("obstacles", "target_motion", "radar_override", "moving_obstacles"):
-            value = tuple(value)
+            junk = isinstance(value, str | bytes | dict) or not hasattr(value, "__iter__")
+            value = () if value is None else value if junk else tuple(value)  # junk: refused
         kwargs[f.name] = value
     return dataclasses.replace(obj, **kwargs)
 

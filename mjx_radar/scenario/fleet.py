@@ -48,6 +48,10 @@ def radar_override(i: int, raw: Any, n: int) -> RadarOverride:
     mobile = check(f"{field}.mobile", raw.get("mobile", True), Rule(bool))
     eq = _pairs(f"{field}.radar_equation", raw.get("radar_equation", {}), _EQ, tuple(_EQ))
     lim = _pairs(f"{field}.limits", raw.get("limits", {}), _LIM, _LIM_PER_RADAR)
+    if lim and not mobile:
+        raise ScenarioError(
+            f"{field}.limits: a fixed site (mobile = false) never moves; remove its limits"
+        )
     return RadarOverride(radar=radar, mobile=mobile, radar_eq=eq, limits=lim)
 
 

@@ -29,6 +29,8 @@ from mjx_radar.io.checks import Rows, ScenarioError, check, check_table, show
 from mjx_radar.scenario.schema import SCENE, Scenario, TargetMotion
 
 MAX_TRACK_ROWS = 1_000_000
+MAX_TRACK_SPEED = 1e3  # [m/s] between rows (the initial-speed bound of plausibility)
+MIN_TRACK_STEP = 1e-6  # [s] between rows (smaller steps divide positions by ~0: NaN)
 _FIELDS = {f.name: f for f in dataclasses.fields(TargetMotion)}
 _NEEDS = {  # model -> fields it requires / the only model-specific fields it allows
     "cv": (),
@@ -116,7 +118,7 @@ def _waypoints(field: str, raw: Any) -> tuple[tuple[float, ...], ...]:
 def read_track(name: str, path: str) -> tuple[tuple[float, ...], ...]:
     """The ``(t, x, y, z)`` rows of a track CSV: >= 2 rows, t[0] = 0, t strictly increasing."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = Path(path).read_text(encoding="utf-8-sig")  # a byte-order mark is no data
     except (OSError, UnicodeDecodeError) as err:
         raise ScenarioError(f"{name}: cannot read CSV file ({type(err).__name__})") from None
     rows = []
@@ -139,6 +141,8 @@ def read_track(name: str, path: str) -> tuple[tuple[float, ...], ...]:
             raise ScenarioError(
                 f"{name}: line {n}: times must be strictly increasing (t = {t} after {rows[-1][0]})"
             )
+        if rows:
+            _check_step(name, n, rows[-1], vals)
         rows.append(vals)
         if len(rows) > MAX_TRACK_ROWS:
             raise ScenarioError(f"{name}: more than {MAX_TRACK_ROWS} rows")
@@ -151,6 +155,22 @@ def read_track(name: str, path: str) -> tuple[tuple[float, ...], ...]:
     return tuple(rows)
 
 
+def _check_step(name: str, n: int, prev: tuple, row: tuple) -> None:
+    """Refuses a row too soon after the previous one, or one only a > 1 km/s flight reaches."""
+    dt = row[0] - prev[0]
+    if dt < MIN_TRACK_STEP:
+        raise ScenarioError(
+            f"{name}: line {n}: time step {dt:.3g} s after t = {prev[0]} is below "
+            f"{MIN_TRACK_STEP:g} s"
+        )
+    speed = math.dist(row[1:], prev[1:]) / dt
+    if speed > MAX_TRACK_SPEED:
+        raise ScenarioError(
+            f"{name}: line {n}: {speed:.3g} m/s from the previous row (t = {prev[0]}); "
+            f"a target flies at most {MAX_TRACK_SPEED:g} m/s"
+        )
+
+
 def check_motions(scenario: Scenario) -> None:
     """Cross-table checks: one table per target."""
     seen: set[int] = set()
@@ -160,6 +180,23 @@ def check_motions(scenario: Scenario) -> None:
                 f"target_motion[{i}].target = {tm.target}: a second table for that target"
             )
         seen.add(tm.target)
+    check_present(scenario, scenario.timing.steps, "timing.steps")
+
+
+def check_present(scenario: Scenario, steps: int, label: str) -> None:
+    """Refuses a run of ``steps`` filter steps in which no target is ever present (its
+    errors would average over nothing: an RMSE of 0)."""
+    if not scenario.target_motion:
+        return
+    appear = {tm.target: tm.appear for tm in scenario.target_motion}
+    end = steps * scenario.timing.dt_filter
+    first = min(appear.get(j, 0.0) for j in range(scenario.n_targets))
+    if first <= end:  # present from appear until leave (> appear): some step sees it
+        return
+    raise ScenarioError(
+        f"{label} = {steps}: no target is present during the run ({end:g} s; the first "
+        f"appears at {first:g} s: target_motion appear); run longer or appear earlier"
+    )
 
 
 def to_dict(tm: TargetMotion) -> dict:
@@ -177,8 +214,13 @@ def to_dict(tm: TargetMotion) -> dict:
         }
     elif tm.model == "turn":
         raw["rate"] = tm.rate
-    elif tm.model == "track":
-        raw["path"] = tm.path
+    elif tm.model == "track":  # a relative path from Python: against the working directory
+        raw["path"] = (
+            str(Path(tm.path).absolute()) if isinstance(tm.path, str) and tm.path else tm.path
+        )
+    for key in ("waypoints", "speed", "accel_max", "capture", "loop", "rate", "path"):
+        if key not in raw and getattr(tm, key) != _FIELDS[key].default:  # refused by the reader
+            raw[key] = list(getattr(tm, key)) if key == "waypoints" else getattr(tm, key)
     raw |= {"sigma_w2": tm.sigma_w2, "appear": tm.appear}
     if math.isfinite(tm.leave):
         raw["leave"] = tm.leave

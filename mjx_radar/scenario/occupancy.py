@@ -56,8 +56,18 @@ class OccupancyGrid(NamedTuple):
     origin: tuple[float, float, float]
 
 
+def _yaml_float(v):
+    """A YAML 1.1 string that is a float to yaml-cpp (ROS): ``5e-1`` (no dot) -> 0.5."""
+    if isinstance(v, str):
+        try:
+            return float(v.strip())
+        except ValueError:
+            return v
+    return v
+
+
 def _number(meta: dict, key: str, lo: float, hi: float) -> float:
-    v = meta.get(key)
+    v = _yaml_float(meta.get(key))
     if isinstance(v, bool) or not isinstance(v, int | float) or not (lo <= v <= hi):
         raise MapError(f"{key} = {v!r}: must be a number in [{lo:g}, {hi:g}]")
     return float(v)
@@ -81,6 +91,8 @@ def read_map(yaml_path: str | Path, unknown: str = "occupied") -> OccupancyGrid:
         meta = yaml.safe_load(yaml_path.read_text())
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
         raise MapError(f"not a readable YAML file ({str(err).splitlines()[0]})") from None
+    except RecursionError:
+        raise MapError("not a readable YAML file (nested too deeply)") from None
     if not isinstance(meta, dict):
         raise MapError("must be a YAML mapping with image, resolution, origin, ...")
     for key in ("image", "resolution", "origin", "occupied_thresh", "free_thresh"):
@@ -98,6 +110,7 @@ def read_map(yaml_path: str | Path, unknown: str = "occupied") -> OccupancyGrid:
     if mode not in ("trinary", "scale"):
         raise MapError(f"mode = {mode!r}: must be trinary or scale (raw is not supported)")
     origin = meta["origin"]
+    origin = [_yaml_float(v) for v in origin] if isinstance(origin, list) else origin
     if (
         not isinstance(origin, list)
         or len(origin) != 3

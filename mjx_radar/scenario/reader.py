@@ -35,7 +35,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
-from mjx_radar.io.checks import Rows, Rule, ScenarioError, check, key_name, show
+from mjx_radar.io.checks import Rows, Rule, ScenarioError, check, check_path, key_name, show
 from mjx_radar.scenario.schema import Scenario
 
 MAX_ROWS = 1000  # targets / radars rows at most
@@ -279,7 +279,7 @@ def bundled_scenarios() -> list[str]:
 
 def resolve_path(path: str | Path) -> Path:
     """A file path as given, else the bundled ``<name>.toml`` (works from a wheel)."""
-    p = Path(path)
+    p = Path(check_path("scenario", path))
     if p.exists() or p.suffix:
         return p
     bundled = bundled_dir() / f"{p.name}.toml"

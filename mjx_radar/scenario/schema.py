@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, runtime, table
+from mjx_radar.scenario.names import accept_toml_names
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
@@ -188,6 +189,7 @@ class Obstacle:
     scale: float = field(default=1.0, metadata=positive("uniform mesh scale", hi=1e3))
 
 
+@accept_toml_names  # Scenario(targets=..., radars=..., radar_equation=...) as in the file
 @dataclass(frozen=True)
 class Scenario:
     """Everything that defines an experiment. Hashable (static under jit)."""

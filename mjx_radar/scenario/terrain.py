@@ -36,10 +36,15 @@ def terrain(raw: Any, base: Path, allow_external: bool) -> Terrain:
         raise ScenarioError("terrain.path: missing required field (a .npy or .png height field)")
     kwargs["path"] = _path(raw["path"], base, allow_external)
     out = Terrain(**kwargs)
-    from mjx_radar.io.terrain_file import TerrainFileError, node_heights, read_heights
+    from mjx_radar.io.terrain_file import (
+        TerrainFileError,
+        check_float32,
+        node_heights,
+        read_heights,
+    )
 
     try:
-        read_heights(out.path)
+        check_float32(read_heights(out.path), out.height_scale)
     except TerrainFileError as err:
         raise ScenarioError(f"terrain.path = {show(raw['path'])}: {err}") from None
     node_heights.cache_clear()  # a file rewritten in place is read again
@@ -88,6 +93,11 @@ def check_targets(s: Scenario) -> None:
                 )
     h = node_heights(t)
     for i, row in enumerate(s.radar_init):
+        if abs(row[0]) > t.extent_x / 2 or abs(row[1]) > t.extent_y / 2:
+            raise ScenarioError(
+                f"radars[{i}] = {show(list(row))}: outside the terrain grid (|x| <= "
+                f"{t.extent_x / 2:g} m, |y| <= {t.extent_y / 2:g} m: terrain.extent_x / extent_y)"
+            )
         g = _grade(t, h, np.asarray(row[:2], float))
         if g > max_grade(t):
             raise ScenarioError(

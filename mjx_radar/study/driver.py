@@ -78,6 +78,7 @@ class StudyTimes:
 
 def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precision="float32"):
     """Scenarios with the command-line overrides and the study configuration."""
+    from mjx_radar.scenario.motion import check_present
     from mjx_radar.scenario.reader import load_with_overrides, resolve_path
 
     methods = list(methods)
@@ -93,6 +94,7 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
     scenarios, entries = [], []
     for name in names:
         s, n_steps = load_with_overrides(name, rollouts, steps)
+        check_present(s, n_steps, "steps")  # a run with no target: an RMSE of nothing
         if s.name in [e["name"] for e in entries]:
             raise InputError(f"SCENARIO: scenario name {s.name!r} given twice")
         src = resolve_path(name)
