@@ -138,7 +138,8 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
         fig.add_trace(trace)
     first = len(fig.data)
     n = scenario.n_radars
-    for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n)):
+    moving = bool(getattr(scenario, "moving_obstacles", ()))
+    for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n), moving):
         fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
     for name, colour in (("RMSE", "rgb(0,90,200)"), ("PCRLB", "rgb(220,0,0)")):

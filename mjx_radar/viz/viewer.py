@@ -33,6 +33,7 @@ from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS, menus, slider
+from mjx_radar.viz.viewer_los import visibility
 from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
 from mjx_radar.viz.viewer_world import terrain_nodes
 
@@ -124,8 +125,8 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             ztop, zlow = max(ztop, 1.1 * float(trace["z"].max())), float(trace["z"].min())
     first = len(fig.data)
     for style, data in zip(
-        layer_styles(n, m, fixed_sites(rd.scenario, n)),
-        frame_traces(trs[0], ks[0], samples, None),
+        layer_styles(n, m, fixed_sites(rd.scenario, n), bool(rd.scenario.moving_obstacles)),
+        frame_traces(trs[0], ks[0], samples, None, np.ones((n, m), bool)),
         strict=True,
     ):
         fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
@@ -168,8 +169,9 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             metric_idx[-1].append(len(fig.data))
             fig.add_trace(trace.update(x=time, y=count[c], visible=j == 0), row=2, col=2)
         plan = None if plans is None else plans[t]
+        vis = visibility(rd.scenario, tr.radar[ks, :, :3], tr.target[ks, :, :3], (ks + 1) * tr.dt)
         for i, k in enumerate(ks):
-            data = frame_traces(tr, k, samples, plan)
+            data = frame_traces(tr, k, samples, plan, vis[i])
             data.append(dict(type="scatter", x=[time[k]] * 2, y=[rmse[k], crlb[k]]))
             if cols:
                 data.append(
@@ -212,7 +214,6 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             "font": {"size": 13},
         },
         template="plotly_white",
-        height=760,
         margin={"l": 10, "r": 10, "t": 70, "b": 10},
         updatemenus=menus(trials, ids, metric_idx),
         sliders=sliders,
@@ -258,6 +259,7 @@ def view(
         fig,
         include_plotlyjs=True,
         full_html=True,
+        default_height="96vh",
         auto_play=False,
         post_script=TRIAL_JS,
         config={"displaylogo": False},
