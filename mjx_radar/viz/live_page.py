@@ -23,7 +23,15 @@ import json
 import numpy as np
 
 from mjx_radar.viz import viewer_counts as counts
-from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
+from mjx_radar.viz.viewer_traces import (
+    fixed_sites,
+    frame_traces,
+    layer_styles,
+    legend_per_layer,
+    sample_legend,
+    static_traces,
+)
+from mjx_radar.viz.viewer_world import aspect
 
 PAGE = """<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>mjx-radar live: {name}</title>
@@ -142,6 +150,7 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
     for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n), moving):
         fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
+    fig.add_trace(sample_legend(lo))
     for name, colour in (("RMSE", "rgb(0,90,200)"), ("PCRLB", "rgb(220,0,0)")):
         fig.add_trace(
             go.Scatter(
@@ -171,7 +180,7 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
         title={"text": title, "font": {"size": 13}},
         template="plotly_white",
         margin={"l": 10, "r": 10, "t": 50, "b": 10},
-        legend={"groupclick": "toggleitem"},
+        legend=legend_per_layer(fig),
         uirevision="live",
         scene=_scene(lo, hi, ztop),
         **counts.layout(bool(cols)),
@@ -198,13 +207,11 @@ def _ground(lo, hi) -> list[list[float]]:
 
 def _scene(lo, hi, ztop: float) -> dict:
     r = ranges(lo, hi, ztop)
-    span = max(r[0][1] - r[0][0], 1.0)
     return {
         "xaxis": {"range": r[0], "title": {"text": "x [m]"}},
         "yaxis": {"range": r[1], "title": {"text": "y [m]"}},
         "zaxis": {"range": r[2], "title": {"text": "z [m]"}},
-        "aspectmode": "manual",
-        "aspectratio": {"x": 1.0, "y": (r[1][1] - r[1][0]) / span, "z": 0.4},
+        **aspect((r[0][1] - r[0][0], r[1][1] - r[1][0])),
     }
 
 

@@ -34,8 +34,15 @@ from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS, menus, slider
 from mjx_radar.viz.viewer_los import visibility
-from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
-from mjx_radar.viz.viewer_world import terrain_nodes
+from mjx_radar.viz.viewer_traces import (
+    fixed_sites,
+    frame_traces,
+    layer_styles,
+    legend_per_layer,
+    sample_legend,
+    static_traces,
+)
+from mjx_radar.viz.viewer_world import aspect, terrain_nodes
 
 
 def _metrics(rd: RunDir):
@@ -130,7 +137,8 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
         strict=True,
     ):
         fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
-    anim = list(range(first, len(fig.data) + 1))  # the layers and the metrics marker
+    fig.add_trace(sample_legend(lo))
+    anim = [*range(first, len(fig.data) - 1), len(fig.data)]  # the layers and the metrics marker
     fig.add_trace(
         go.Scatter(
             x=[],
@@ -217,13 +225,12 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
         margin={"l": 10, "r": 10, "t": 70, "b": 10},
         updatemenus=menus(trials, ids, metric_idx),
         sliders=sliders,
-        legend={"groupclick": "toggleitem"},
+        legend=legend_per_layer(fig),
         scene={
             "xaxis": {"range": [lo[0] - pad, hi[0] + pad], "title": {"text": "x [m]"}},
             "yaxis": {"range": [lo[1] - pad, hi[1] + pad], "title": {"text": "y [m]"}},
             "zaxis": {"range": [min(zlow, 0.0), ztop], "title": {"text": "z [m]"}},
-            "aspectmode": "manual",
-            "aspectratio": {"x": 1.0, "y": float(span[1] / span[0]), "z": 0.4},
+            **aspect(span),
         },
         **counts.layout(bool(cols)),
     )

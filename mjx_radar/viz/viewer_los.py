@@ -88,7 +88,10 @@ def los_segments(radar, target, visible) -> tuple[np.ndarray, np.ndarray]:
     n, m = len(radar), len(target)
     a, b = np.repeat(radar, m, 0), np.tile(target, (n, 1))
     vis = np.asarray(visible, bool).reshape(-1)
-    return segments(a[vis], b[vis]), segments(a[~vis], b[~vis])
+    gap = np.full((1, 3), np.nan, np.float32)  # never empty: plotly lists no empty trace
+    return segments(a[vis], b[vis]) if vis.any() else gap, (
+        segments(a[~vis], b[~vis]) if (~vis).any() else gap
+    )
 
 
 @functools.cache
