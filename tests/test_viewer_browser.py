@@ -221,7 +221,7 @@ def test_live_page_redraws_the_scene(browser):
         assert page.evaluate("window.liveState.seq") == -1
         for seg in range(2):
             view.update(4 * (seg + 1), _records(seg))
-            page.wait_for_function(f"() => window.liveState.seq === {seg + 1}")
+            page.wait_for_function(f"() => window.liveState.step === {4 * (seg + 1)}")
             state = page.evaluate(STATE_JS)
             data = {d["name"]: d["xyz"] for d in state["data"]}
             k = 4 * (seg + 1)  # the latest step received
