@@ -230,7 +230,7 @@ def test_live_page_redraws_the_scene(browser):
         assert "step 8 of 80" in page.text_content("#status")
         page.select_option("#trial", "1")  # trial 5: the same synthetic data, read again
         page.wait_for_function("() => window.liveState.trial === 1")
-        view.linger(False)  # the run ends: the page says so and keeps the last state
+        view.linger(0)  # the run ends, the server stops: the page says so, keeps its state
         page.wait_for_function("() => window.liveState.ended")
         assert "ended" in page.text_content("#status")
     finally:
