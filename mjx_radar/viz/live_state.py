@@ -71,7 +71,8 @@ def trial_at(scenario, a: dict, c: dict, j: int, upto: int) -> Trial:
 
 
 def paths_box(scenario, steps: int) -> tuple:
-    """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run."""
+    """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run and the
+    vehicles' roads."""
     init = np.asarray(scenario.target_init, float)
     t = np.linspace(0.0, steps * scenario.timing.dt_filter, 11)[:, None, None]
     path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
@@ -80,7 +81,9 @@ def paths_box(scenario, steps: int) -> tuple:
         from mjx_radar.world.terrain import node_heights
 
         top = max(top, 1.1 * float(node_heights(scenario.terrain).max()))
-    return path[:, :2].min(0), path[:, :2].max(0), max(top, 1.0)
+    roads = [np.asarray(car.path, float) for car in scenario.moving_obstacles]
+    xy = np.concatenate([path[:, :2], *roads])
+    return xy.min(0), xy.max(0), max(top, 1.0)
 
 
 def grow_box(box, tr: Trial) -> tuple:

@@ -123,6 +123,8 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
     boxes = np.array([tr.bounds() for tr in trs])
     lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
+    for car in rd.scenario.moving_obstacles:  # the vehicles' roads in the scene too
+        lo, hi = np.minimum(lo, np.min(car.path, 0)), np.maximum(hi, np.max(car.path, 0))
     ztop, zlow = max(float(max(tr.target[..., 2].max() for tr in trs)) * 1.15, 1.0), 0.0
     cols = counts.count_columns(rd.scenario, metrics)
     fig = counts.subplots(bool(cols))
