@@ -33,13 +33,12 @@ from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS, menus, slider
+from mjx_radar.viz.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
 from mjx_radar.viz.viewer_los import visibility
 from mjx_radar.viz.viewer_traces import (
     fixed_sites,
     frame_traces,
     layer_styles,
-    legend_per_layer,
-    sample_legend,
     static_traces,
 )
 from mjx_radar.viz.viewer_world import aspect, terrain_nodes
@@ -217,6 +216,7 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     )
     pad = 0.05 * float(max(hi - lo))
     span = np.maximum(hi - lo + 2 * pad, 1.0)
+    hide_blocked_entry(fig, rd.scenario)
     fig.update_layout(
         title={
             "text": f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"

@@ -205,33 +205,6 @@ def layer_styles(n: int, m: int, fixed=None, vehicles: bool = False) -> list[dic
     ]
 
 
-def sample_legend(lo) -> dict:
-    """The "MPPI samples" legend entry: an empty trace of one colour in the samples' group.
-
-    plotly.js draws the legend icon of a ``scatter3d`` line coloured by an array with a
-    colour it cannot parse ("Invalid color specifier" on the console), so the samples layer
-    has no entry of its own; :func:`legend_per_layer` makes a click here toggle both. Its
-    data: one point at the ground's corner ``lo`` (plotly lists no trace without data).
-    """
-    return dict(
-        type="scatter3d",
-        mode="lines",
-        name="MPPI samples",
-        hoverinfo="skip",
-        line={"color": "rgb(204,71,120)", "width": 2},  # Plasma's middle
-        x=[float(lo[0])],
-        y=[float(lo[1])],
-        z=[0.0],
-    )
-
-
-def legend_per_layer(fig) -> dict:
-    """One legend group per name (the samples and their entry share one), so a click on an
-    entry toggles exactly that layer; returns the ``legend`` layout to use."""
-    fig.for_each_trace(lambda d: d.update(legendgroup=d.name))
-    return {"groupclick": "togglegroup", "tracegroupgap": 0}
-
-
 def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=None) -> list[dict]:
     """The data of the :data:`LAYERS` traces at filter step ``k`` of a trial.
 
