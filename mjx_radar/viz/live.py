@@ -12,7 +12,9 @@ the segments where needed so the view updates at least once per simulated second
 Routes (:mod:`mjx_radar.viz.live_http`): ``/`` the page (:mod:`mjx_radar.viz.live_page`),
 ``/plotly.min.js``, ``/figure.json`` the initial figure (built from the scenario before the
 run), ``/state.json?trial=J&since=SEQ`` the layers at the latest step of trial position J
-(only ``{"seq": SEQ}`` if nothing new).
+(only ``{"seq": SEQ, "ends": [...]}`` if nothing new), ``&step=K`` at filter step K (every
+segment is kept: :mod:`mjx_radar.viz.live_state`). After the run, :meth:`LiveView.linger`
+keeps serving until Ctrl-C or for a number of seconds.
 """
 
 from __future__ import annotations
