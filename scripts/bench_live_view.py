@@ -86,7 +86,7 @@ def main() -> None:
             if view is not None:
                 stop.set()
                 client.join()
-                view.linger(False)
+                view.linger(0)
             times[mode].append(res["sim_s"])
             cpus[mode].append(cpu)
             extra = f", {len(set(counts))} states read" if mode == "view" else ""

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import re
 import threading
+import time
 import urllib.error
 import urllib.request
 
@@ -90,6 +91,24 @@ def test_scene_advances_between_two_reads(live_run, tiny):
     assert [fig["data"][i]["name"] for i in anim] == [n for n, _ in LAYERS]
 
 
+def test_any_step_from_the_start(live_run, tiny):
+    """``/state.json?step=K``: the state at any step received, from the run's start (what the
+    page replays when it is opened late); K is clamped to the steps received."""
+    view, reads, res = live_run
+    every = tiny.timing.control_every
+    first = get_json(view.url + "state.json?trial=1&step=0")
+    assert first["step"] == 1 and first["ends"] == list(range(every, STEPS + 1, every))
+    for k in (1, 12, every * 3 + 1, STEPS):
+        s = get_json(view.url + f"state.json?trial=1&step={k}")
+        assert s["step"] == k and len(s["rmse"]) == k
+        np.testing.assert_allclose(layer(s, "drones (truth)"), res["target"][1, k - 1, :, :3],
+                                   atol=1e-3)  # fmt: skip
+        np.testing.assert_allclose(layer(s, "radars"), res["radar"][1, k - 1, :, :3], atol=1e-3)
+    k12 = get_json(view.url + "state.json?trial=1&step=12")
+    assert k12["layers"] == reads[12][1]["layers"]  # the same as when it was the latest
+    assert get_json(view.url + "state.json?trial=1&step=99999")["step"] == STEPS
+
+
 def test_page_is_served_offline(live_run):
     view, _, _ = live_run
     page, kind = get(view.url)
@@ -101,8 +120,9 @@ def test_page_is_served_offline(live_run):
     assert kind == "application/javascript" and len(js) > 2e6 and b"plotly.js v" in js[:2000]
     assert html.count('<option value="') == len(TRIALS)
     seq = get_json(view.url + "state.json?trial=0")["seq"]
-    assert get_json(view.url + f"state.json?trial=0&since={seq}") == {"seq": seq}  # no news
-    for bad in ("state.json?trial=2", "state.json?trial=x", "nope"):
+    news = get_json(view.url + f"state.json?trial=0&since={seq}")
+    assert news["seq"] == seq and "layers" not in news  # no news
+    for bad in ("state.json?trial=2", "state.json?trial=x", "state.json?step=x", "nope"):
         with pytest.raises(urllib.error.HTTPError):
             get(view.url + bad)
 
@@ -128,7 +148,8 @@ def test_port_errors(tiny):
 
 
 def test_simulate_with_view(tiny, monkeypatch):
-    """``simulate(view=True)``: the server answers during the run and stops after it."""
+    """``simulate(view=True, linger=0)``: the server answers during the run and stops after
+    it."""
     seen, urls = [], []
     start = live_mod.start
 
@@ -145,11 +166,48 @@ def test_simulate_with_view(tiny, monkeypatch):
         return v
 
     monkeypatch.setattr(live_mod, "start", spy)
-    run = mjx_radar.simulate(tiny, trials=TRIALS, steps=STEPS, view_port=0, progress=False)
+    run = mjx_radar.simulate(tiny, trials=TRIALS, steps=STEPS, view_port=0, progress=False,
+                             linger=0)  # fmt: skip
     assert run.steps == STEPS and len(urls) == 1
     assert seen == list(range(1, STEPS // tiny.timing.control_every + 1))
     with pytest.raises(urllib.error.URLError):
         get(urls[0])
+
+
+def test_linger_serves_the_whole_run_then_stops(tiny, monkeypatch, capsys):
+    """``simulate(view=True, linger=S)``: after the run the server stays S seconds (a page
+    opened then gets the whole run, from step 1 to the last, finished), then stops."""
+    seen, views = {}, []
+    start = live_mod.start
+
+    def spy(*args, **kwargs):
+        v = start(*args, **kwargs)
+        views.append(v)
+        linger = v.linger
+
+        def read_then_linger(seconds=None):
+            t = threading.Thread(target=linger, args=(seconds,))
+            t.start()
+            time.sleep(0.3)  # lingering now: a late client reads the run
+            seen["last"] = get_json(v.url + "state.json?trial=0")
+            seen["first"] = get_json(v.url + "state.json?trial=0&step=1")
+            seen["alive"] = t.is_alive()
+            t.join()
+
+        v.linger = read_then_linger
+        return v
+
+    monkeypatch.setattr(live_mod, "start", spy)
+    t0 = time.perf_counter()
+    mjx_radar.simulate(tiny, trials=[0], steps=STEPS, view_port=0, progress=False, linger=1.5)
+    assert time.perf_counter() - t0 >= 1.5 and seen["alive"]
+    assert seen["last"]["finished"] and seen["last"]["step"] == STEPS
+    assert seen["first"]["step"] == 1 and seen["first"]["ends"][-1] == STEPS
+    assert "stays at" in capsys.readouterr().err
+    with pytest.raises(urllib.error.URLError):
+        get(views[0].url)
+    with pytest.raises(InputError, match="linger = -1"):
+        mjx_radar.simulate(tiny, steps=STEPS, view=True, linger=-1)
 
 
 def test_cli_busy_port_is_one_line_before_compiling(tmp_path, capsys):
@@ -181,7 +239,7 @@ def test_cli_run_with_view(tmp_path, capsys, monkeypatch):
                         or views[-1])  # fmt: skip
     out = tmp_path / "r"
     assert cli_main.main(["run", "smoke", "--steps", "8", "--rollouts", "analytic", "--out",
-                          str(out), "--view-port", "0"]) == 0  # fmt: skip
+                          str(out), "--view-port", "0", "--view-linger", "0"]) == 0  # fmt: skip
     err = capsys.readouterr().err
     assert f"live view: {views[0].url}" in err and (out / "run.json").is_file()
     assert views[0]._seq == 2 + 1 and views[0]._finished  # 2 segments, then finish()
@@ -228,7 +286,7 @@ def test_interactive_linger_serves_until_ctrl_c(tiny, capsys):
     old = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         threading.Timer(0.3, check_then_interrupt).start()
-        view.linger(True)  # returns on Ctrl-C
+        view.linger()  # None: until Ctrl-C; returns on it
     finally:
         signal.signal(signal.SIGINT, old)
     assert seen == [-1]  # the server answered while linger waited (no segment was fed)

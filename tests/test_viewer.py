@@ -340,9 +340,8 @@ def test_detection_counts_equal_the_metrics(tmp_path):
     metrics = pd.read_parquet(d / "metrics.parquet")
     fig, _ = viewer.build_figure(d, max_frames=12, samples=2)
     ks = viewer_budget.frame_steps(120, 12)
-    traces = [t for t in fig.data if t.legendgroup == "counts" and t.name != "current step "
-              "(counts)"]  # fmt: skip
     names = ["detections", "visible pairs", "false alarms"]
+    traces = [t for t in fig.data if t.type == "scatter" and t.name in [*names, "targets present"]]
     assert [t.name for t in traces] == names * 2  # per trial; no targets present (constant)
     for j in (0, 1):
         rows = metrics[metrics.trial == j].sort_values("step")

@@ -221,7 +221,7 @@ def test_live_page_redraws_the_scene(browser):
         assert page.evaluate("window.liveState.seq") == -1
         for seg in range(2):
             view.update(4 * (seg + 1), _records(seg))
-            page.wait_for_function(f"() => window.liveState.seq === {seg + 1}")
+            page.wait_for_function(f"() => window.liveState.step === {4 * (seg + 1)}")
             state = page.evaluate(STATE_JS)
             data = {d["name"]: d["xyz"] for d in state["data"]}
             k = 4 * (seg + 1)  # the latest step received
@@ -230,7 +230,7 @@ def test_live_page_redraws_the_scene(browser):
         assert "step 8 of 80" in page.text_content("#status")
         page.select_option("#trial", "1")  # trial 5: the same synthetic data, read again
         page.wait_for_function("() => window.liveState.trial === 1")
-        view.linger(False)  # the run ends: the page says so and keeps the last state
+        view.linger(0)  # the run ends, the server stops: the page says so, keeps its state
         page.wait_for_function("() => window.liveState.ended")
         assert "ended" in page.text_content("#status")
     finally:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from mjx_radar.api.run import Run
+from mjx_radar.errors import InputError
 
 
 def simulate(
@@ -26,6 +27,7 @@ def simulate(
     view: bool = False,
     view_port: int | None = None,
     *,
+    linger: float | None = None,
     planner: str | None = None,
     rollouts: str | None = None,
     precision: str = "float32",
@@ -48,8 +50,12 @@ def simulate(
         progress: show a progress bar on stderr.
         cache: use the persistent compilation cache (as the command line does).
         view: a live 3-D view while it simulates (``run --view``, docs/viewer.md): URL on
-            stderr; the server stops when this returns (the page keeps the last state).
+            stderr; after the run the server keeps serving the whole run (a page opened
+            then replays it from the start) for ``linger`` seconds, then this returns.
         view_port: its port on 127.0.0.1 (default 8765; 0: any free one; implies ``view``).
+        linger: with the view, seconds it stays after the run (``run --view-linger``):
+            ``None`` (default): until Ctrl-C (``KeyboardInterrupt``, caught: the run is
+            still returned); 0: it stops when the run ends.
         planner: a registered planner moving the radars instead of the method's own
             (``run --planner``; :func:`mjx_radar.register_planner`).
         rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (``run --rollouts``;
@@ -91,10 +97,27 @@ def simulate(
         cache_dir=cache_dir,
         plugins=plugins,
     )
-    return _simulate(req, progress, (view or view_port is not None, view_port))
+    if linger is not None and (
+        isinstance(linger, bool) or not isinstance(linger, int | float) or not 0 <= linger < 1e9
+    ):
+        raise InputError(f"linger = {linger!r}: must be None or seconds >= 0")
+    return _simulate(req, progress, (view or view_port is not None, view_port, linger))
 
 
-def _simulate(req, progress: bool, view=(False, None)) -> Run:
+def bar_phase(bar):
+    """The runner's ``phase`` callback for a tqdm bar: the phase as its description, and
+    the bar's clock restarted when simulating starts (its rate and time left leave out
+    the compilation)."""
+
+    def phase(name: str) -> None:
+        bar.set_description_str(name)
+        if name == "simulating":
+            bar.reset(total=bar.total)
+
+    return phase
+
+
+def _simulate(req, progress: bool, view=(False, None, 0)) -> Run:
     from tqdm import tqdm
 
     from mjx_radar.api import run_case
@@ -108,10 +131,13 @@ def _simulate(req, progress: bool, view=(False, None)) -> Run:
         with tqdm(
             total=steps, unit="step", desc="closed loop", file=sys.stderr, disable=not progress
         ) as bar:
-            res = run_case.execute(req, bar.update, bar.set_description_str, live)
-    finally:
+            res = run_case.execute(req, bar.update, bar_phase(bar), live)
+    except BaseException:
         if live is not None:
-            live.linger(False)
+            live.close()
+        raise
+    if live is not None:
+        live.linger(view[2])
     time_s = s.timing.dt_filter * np.arange(1, steps + 1)
     frame = results.metrics_frame(s.name, method, ids, time_s, res)
     arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}

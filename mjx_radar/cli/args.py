@@ -69,6 +69,17 @@ def check_placement(scenario, seed: int, trials: int) -> None:
         raise InputError(str(err)) from None
 
 
+def linger(text: str) -> float:
+    """``--view-linger``: seconds >= 0 the live view stays after the run."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--view-linger = {text!r}: must be a number") from None
+    if not value >= 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"--view-linger = {value}: must be finite and >= 0")
+    return value
+
+
 def port(text: str) -> int:
     """``--view-port``: a TCP port in [0, 65535] (0: any free port)."""
     try:

@@ -13,8 +13,8 @@ written atomically, ``run.json`` last; an interrupted write removes what it wrot
 interrupted overwrite never leaves a directory that looks complete. Trials whose
 filter diverged (``res["diverged"]``) make the command exit 1 after writing the
 results, unless ``--keep-diverged``. ``--view`` serves a live view of the run
-(:mod:`mjx_radar.viz.live`) at the URL it prints; in a terminal it keeps serving the
-final state after the results are written, until Ctrl-C.
+(:mod:`mjx_radar.viz.live`) at the URL it prints; after the results are written it keeps
+serving the whole run until Ctrl-C, or ``--view-linger`` seconds.
 """
 
 from __future__ import annotations
@@ -159,7 +159,7 @@ def main(args) -> int:
     finally:
         lock.release()
         if live is not None:
-            live.linger(sys.stdin.isatty() and sys.stdout.isatty())
+            live.linger(args.view_linger)
 
 
 def _live_view(args, s, trials, steps):
@@ -179,6 +179,7 @@ def _run(req, live=None):
     from tqdm import tqdm
 
     from mjx_radar.api import run_case
+    from mjx_radar.api.simulate import bar_phase
 
     with tqdm(total=req.steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
-        return run_case.execute(req, bar.update, bar.set_description_str, live, checks=False)
+        return run_case.execute(req, bar.update, bar_phase(bar), live, checks=False)

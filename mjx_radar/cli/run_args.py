@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjx_radar.cli.args import method_name, port, positive_int, seed
+from mjx_radar.cli.args import linger, method_name, port, positive_int, seed
 from mjx_radar.task.method import METHODS
 
 
@@ -65,6 +65,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="PORT",
         help="port of the live view on 127.0.0.1 (default 8765, 0: any free port; implies --view)",
+    )
+    p.add_argument(
+        "--view-linger",
+        type=linger,
+        default=None,
+        metavar="SECONDS",
+        help="after the run, keep the live view this long (default: until Ctrl-C; 0: stop)",
     )
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
     p.add_argument(

@@ -18,8 +18,27 @@ def main(args) -> int:
         check_placement(s, s.seed, 1)
     print(
         f"ok: {s.name}: {s.n_radars} radars, {s.n_targets} targets, {s.timing.steps} steps "
-        f"of {s.timing.dt_filter} s, control every {s.timing.dt_control} s, "
-        f"{len(s.obstacles)} obstacles"
-        + (f", {len(s.moving_obstacles)} moving obstacles" if s.moving_obstacles else "")
+        f"of {s.timing.dt_filter} s, control every {s.timing.dt_control} s; " + ", ".join(world(s))
     )
     return 0
+
+
+def world(s) -> list[str]:
+    """What the scenario adds to the paper's open flat world, in a few words each (or
+    "flat open ground" when nothing)."""
+    out = [f"{len(s.obstacles)} obstacles"] if s.obstacles else []
+    if s.moving_obstacles:
+        out.append(f"{len(s.moving_obstacles)} moving obstacles")
+    if s.terrain is not None:
+        t = s.terrain
+        out.append(f"terrain {t.extent_x:g} x {t.extent_y:g} m ({t.path.rsplit('/', 1)[-1]})")
+    fixed = sum(not ov.mobile for ov in s.radar_override)
+    if fixed:
+        out.append(f"{fixed} fixed radar sites")
+    d = s.detection
+    if d.model != "perfect" or d.clutter:
+        out.append(f"detection {d.model}" + (" with clutter" if d.clutter else ""))
+    moves = sorted({tm.model for tm in s.target_motion if tm.model != "cv"})
+    if moves:
+        out.append("target motion " + "/".join(moves))
+    return out or ["flat open ground, no obstacles"]

@@ -12,7 +12,9 @@ the segments where needed so the view updates at least once per simulated second
 Routes (:mod:`mjx_radar.viz.live_http`): ``/`` the page (:mod:`mjx_radar.viz.live_page`),
 ``/plotly.min.js``, ``/figure.json`` the initial figure (built from the scenario before the
 run), ``/state.json?trial=J&since=SEQ`` the layers at the latest step of trial position J
-(only ``{"seq": SEQ}`` if nothing new).
+(only ``{"seq": SEQ, "ends": [...]}`` if nothing new), ``&step=K`` at filter step K (every
+segment is kept: :mod:`mjx_radar.viz.live_state`). After the run, :meth:`LiveView.linger`
+keeps serving until Ctrl-C or for a number of seconds.
 """
 
 from __future__ import annotations
@@ -28,23 +30,11 @@ import numpy as np
 from mjx_radar.errors import InputError
 from mjx_radar.viz import live_page
 from mjx_radar.viz.live_http import handler, plotly_js
-from mjx_radar.viz.run_dir import Trial
+from mjx_radar.viz.live_state import Records, grow_box, paths_box, trial_at
 from mjx_radar.viz.viewer_counts import count_columns
 
 DEFAULT_PORT = 8765
 SAMPLES = 16  # MPPI samples drawn per state (the highest weights)
-STEP_KEYS = (
-    "target",
-    "mean",
-    "cov_diag",
-    "radar",
-    "rmse_pos",
-    "crlb_pos",
-    "detections",
-    "visible_pairs",
-    "false_alarms",
-    "targets_present",
-)
 
 
 def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> int:
@@ -102,8 +92,7 @@ class LiveView:
         self.scenario, self.trials, self.steps = scenario, list(trials), steps
         self.samples = samples
         self._lock = threading.Lock()
-        self._parts: list[dict] = []  # per segment: STEP_KEYS -> [T, steps of the segment, ...]
-        self._control = None  # acting control step: plan_xy, sample_xy, sample_weight [T, ...]
+        self._records = Records()  # every segment's records (references), from the start
         self._seq, self._finished, self._figure, self._box = 0, False, None, None
         self._cache: dict = {}
         self.page_bytes = live_page.page(scenario.name, self.trials).encode()
@@ -130,14 +119,8 @@ class LiveView:
     def update(self, done: int, records) -> None:
         """The runner's ``on_segment``: keeps the segment's records (``(StepRecord,
         ControlRecord)`` of numpy arrays ``[T, ...]``); ``done`` filter steps so far."""
-        steps_rec, controls = records
-        part = {k: getattr(steps_rec, k) for k in STEP_KEYS}
-        control = tuple(
-            getattr(controls, k)[:, -1] for k in ("plan_xy", "sample_xy", "sample_weight")
-        )
         with self._lock:
-            self._parts.append(part)
-            self._control = control
+            self._records.add(done, records)
             self._seq += 1
 
     def runner_options(self) -> dict:
@@ -150,18 +133,16 @@ class LiveView:
             "on_segment": self.update,
         }
 
-    def linger(self, interactive: bool) -> None:
-        """At the end of the run: marks it finished; if ``interactive`` serves the final
-        state until Ctrl-C (a line on stderr says so); then stops the server."""
+    def linger(self, seconds: float | None = None) -> None:
+        """At the end of the run: marks it finished, serves the whole run for ``seconds``
+        (``None``: until Ctrl-C; 0: not at all; Ctrl-C ends it early, a line on stderr
+        says so), then stops the server. Any page opened meanwhile replays the run."""
         self.finish()
-        if interactive:
-            print(
-                f"live view: the final state stays at {self.url} until Ctrl-C",
-                file=sys.stderr,
-                flush=True,
-            )
+        if seconds is None or seconds > 0:
+            until = "until Ctrl-C" if seconds is None else f"for {seconds:g} s (Ctrl-C: stop)"
+            print(f"live view: the run stays at {self.url} {until}", file=sys.stderr, flush=True)
             try:
-                threading.Event().wait()
+                threading.Event().wait(seconds)
             except KeyboardInterrupt:
                 pass
         self.close()
@@ -182,62 +163,13 @@ class LiveView:
 
     def _snapshot(self):
         with self._lock:
-            if len(self._parts) > 1:  # concatenate once, keep the result
-                self._parts = [
-                    {k: np.concatenate([p[k] for p in self._parts], axis=1) for k in STEP_KEYS}
-                ]
-            return (
-                self._parts[0] if self._parts else None,
-                self._control,
-                self._seq,
-                self._finished,
-            )
-
-    def _trial(self, a: dict, control, j: int) -> Trial:
-        m, timing = a["target"].shape[2], self.scenario.timing
-        plan, sample_xy, weight = control
-        return Trial(
-            meta={"r2t": float(self.scenario.mpc.r2t)},
-            scenario=self.scenario,
-            target=a["target"][j],
-            mean=a["mean"][j].reshape(-1, m, 6)[..., :3],
-            sigma=np.sqrt(np.maximum(a["cov_diag"][j].reshape(-1, m, 6)[..., :3], 0)),
-            radar=a["radar"][j],
-            sample_xy=sample_xy[j][None],
-            sample_weight=weight[j][None],
-            every=timing.control_every,
-            dt=float(timing.dt_filter),
-        )
-
-    def _paths_box(self) -> tuple:
-        """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run."""
-        init = np.asarray(self.scenario.target_init, float)
-        t = np.linspace(0.0, self.steps * self.scenario.timing.dt_filter, 11)[:, None, None]
-        path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
-        top = 1.15 * float(path[:, 2].max())
-        if self.scenario.terrain is not None:  # the whole grid's top: the surface fits
-            from mjx_radar.world.terrain import node_heights
-
-            top = max(top, 1.1 * float(node_heights(self.scenario.terrain).max()))
-        return path[:, :2].min(0), path[:, :2].max(0), max(top, 1.0)
-
-    def _grow_box(self, tr: Trial) -> tuple:
-        """Scene box ``(lo, hi, ztop)``: the drones' paths and what was seen (radars with
-        their R2T discs); it never shrinks (the page relayouts and redraws the ground)."""
-        lo, hi = tr.bounds()
-        box = self._box or self._paths_box()
-        self._box = (
-            np.minimum(lo, box[0]),
-            np.maximum(hi, box[1]),
-            max(box[2], 1.15 * float(tr.target[..., 2].max())),
-        )
-        return self._box
+            return self._records.arrays(), list(self._records.ends), self._seq, self._finished
 
     def _build_figure(self) -> None:
         """The figure before any data: the ground extent holds the drones' paths and the
         radars' placement square (or fixed starts) with their R2T discs."""
         s = self.scenario
-        lo, hi, ztop = self._paths_box()
+        lo, hi, ztop = paths_box(s, self.steps)
         w = float(s.placement_half_width)
         radars = (
             np.asarray(s.radar_init, float)[:, :2] if s.radar_init else np.array([[-w, -w], [w, w]])
@@ -254,31 +186,36 @@ class LiveView:
     def figure_bytes(self) -> bytes:
         return self._figure
 
-    def state_bytes(self, j: int, since: int) -> bytes:
-        a, control, seq, finished = self._snapshot()
-        if a is None or since == seq:
-            return json.dumps({"seq": seq if a is not None else -1}).encode()
-        key = (seq, j)
+    def state_bytes(self, j: int, since: int, step: int | None = None) -> bytes:
+        """``/state.json``: trial position ``j`` at filter step ``step`` (1-based, clamped to
+        the steps received; ``None``: the latest, only ``{"seq": ...}`` if ``since`` is
+        the newest segment already)."""
+        got, ends, seq, finished = self._snapshot()
+        if got is None or (step is None and since == seq):
+            return json.dumps({"seq": seq if got is not None else -1, "ends": ends}).encode()
+        upto = ends[-1] if step is None else min(max(int(step), 1), ends[-1])
+        key = (seq, j, upto)
         if key not in self._cache:
-            tr = self._trial(a, control, j)
+            a, c = got
+            tr = trial_at(self.scenario, a, c, j, upto)
+            self._box = grow_box(self._box or paths_box(self.scenario, self.steps), tr)
             dt = self.scenario.timing.dt_filter
             curves = (
-                dt * np.arange(1, tr.steps + 1),
-                a["rmse_pos"][j],
-                a["crlb_pos"][j],
-                {c: a[c][j] for c in self._cols},
+                dt * np.arange(1, upto + 1),
+                a["rmse_pos"][j, :upto],
+                a["crlb_pos"][j, :upto],
+                {col: a[col][j, :upto] for col in self._cols},
             )
             body = live_page.state_json(
                 tr,
-                control[0][j][None],
+                c["plan_xy"][j],
                 self.samples,
                 curves,
-                seq,
+                (seq, ends),
                 self.steps,
                 finished,
-                self._anim,
-                self._metrics,
-                self._grow_box(tr),
+                (self._anim, self._metrics),
+                self._box,
             )
             self._cache = {key: body.encode()}  # only the newest is asked for again
         return self._cache[key]

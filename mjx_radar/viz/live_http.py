@@ -36,9 +36,10 @@ def handler(live):
                     body, kind = live.figure_bytes(), "application/json"
                 elif url.path == "/state.json":
                     j, since = int(q.get("trial", ["0"])[0]), int(q.get("since", ["-1"])[0])
+                    step = int(q["step"][0]) if "step" in q else None
                     if not 0 <= j < len(live.trials):
                         raise ValueError(j)
-                    body, kind = live.state_bytes(j, since), "application/json"
+                    body, kind = live.state_bytes(j, since, step), "application/json"
                 else:
                     self.send_error(404)
                     return

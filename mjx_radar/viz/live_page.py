@@ -23,86 +23,15 @@ import json
 import numpy as np
 
 from mjx_radar.viz import viewer_counts as counts
-from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
-
-PAGE = """<!DOCTYPE html>
-<html><head><meta charset="utf-8"><title>mjx-radar live: {name}</title>
-<link rel="icon" href="data:,">
-<script src="plotly.min.js"></script>
-<style>body {{font-family: sans-serif; margin: 6px}} #status {{margin-left: 1em}}</style>
-</head><body>
-<label>trial <select id="trial">{options}</select></label><span id="status">waiting for the
-first segment (compiling)...</span>
-<div id="plot" style="height: 92vh"></div>
-<script>
-var gd = document.getElementById('plot'), statusEl = document.getElementById('status');
-var seq = -1, trial = 0, ranges = null;
-window.liveState = {{seq: -1, step: 0, finished: false, ended: false}};
-document.getElementById('trial').onchange = function (e) {{
-  trial = Number(e.target.value); seq = -1;
-}};
-function sleep(ms) {{ return new Promise(function (r) {{ setTimeout(r, ms); }}); }}
-function apply(s) {{  // one Plotly.react: one redraw of the scene per state
-  var d = gd.data, lay = gd.layout;
-  s.anim.forEach(function (i, n) {{
-    d[i] = Object.assign({{}}, d[i], {{x: s.layers[n].x, y: s.layers[n].y, z: s.layers[n].z}});
-  }});
-  var w = s.anim[6];
-  d[w] = Object.assign({{}}, d[w], {{line: Object.assign({{}}, d[w].line, {{color: s.sample_w}})}});
-  var xs = [s.time, s.time, [s.t, s.t]], ys = [s.rmse, s.crlb, s.now];
-  s.counts.forEach(function (c) {{ xs.push(s.time); ys.push(c); }});
-  if (s.counts.length) {{
-    xs.push(s.counts.map(function () {{ return s.t; }})); ys.push(s.counts_now);
-  }}
-  s.metrics.forEach(function (i, n) {{
-    d[i] = Object.assign({{}}, d[i], {{x: xs[n], y: ys[n]}});
-  }});
-  var r = JSON.stringify(s.ranges);
-  if (r !== ranges) {{
-    ranges = r;
-    d[0] = Object.assign({{}}, d[0], {{x: s.ground[0], y: s.ground[1], z: s.ground[2]}});
-    var sc = Object.assign({{}}, lay.scene);
-    ['xaxis', 'yaxis', 'zaxis'].forEach(function (a, n) {{
-      sc[a] = Object.assign({{}}, sc[a], {{range: s.ranges[n]}});
-    }});
-    lay = Object.assign({{}}, lay, {{scene: sc}});
-  }}
-  return Plotly.react(gd, d.slice(), lay);
-}}
-async function run() {{
-  for (;;) {{
-    try {{
-      var f = await (await fetch('figure.json')).json();
-      if (f.ready) {{
-        await Plotly.newPlot(gd, f.data, f.layout, {{displaylogo: false}});
-        break;
-      }}
-    }} catch (e) {{ statusEl.textContent = 'no server: the run has ended'; return; }}
-    await sleep(500);
-  }}
-  for (;;) {{
-    var s;
-    try {{
-      s = await (await fetch('state.json?trial=' + trial + '&since=' + seq)).json();
-    }} catch (e) {{
-      statusEl.textContent = 'the run has ended and its server stopped: this is its last state';
-      window.liveState.ended = true;
-      return;
-    }}
-    if (s.seq !== seq && s.layers) {{
-      await apply(s);
-      seq = s.seq;
-      window.liveState = {{seq: s.seq, step: s.step, finished: s.finished, ended: false,
-                          trial: trial}};
-      statusEl.textContent = 'step ' + s.step + ' of ' + s.steps + ' (t = ' + s.t.toFixed(2) +
-        ' s)' + (s.finished ? ': run finished' : '');
-    }}
-    await sleep(250);
-  }}
-}}
-run();
-</script></body></html>
-"""
+from mjx_radar.viz.live_html import PAGE
+from mjx_radar.viz.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
+from mjx_radar.viz.viewer_traces import (
+    fixed_sites,
+    frame_traces,
+    layer_styles,
+    static_traces,
+)
+from mjx_radar.viz.viewer_world import aspect
 
 
 def _num(a) -> list:
@@ -138,9 +67,11 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
         fig.add_trace(trace)
     first = len(fig.data)
     n = scenario.n_radars
-    for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n)):
+    moving = bool(getattr(scenario, "moving_obstacles", ()))
+    for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n), moving):
         fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
+    fig.add_trace(sample_legend(lo))
     for name, colour in (("RMSE", "rgb(0,90,200)"), ("PCRLB", "rgb(220,0,0)")):
         fig.add_trace(
             go.Scatter(
@@ -166,11 +97,12 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
         for trace in [*counts.count_traces(cols), counts.cursor_trace()]:
             metrics.append(len(fig.data))
             fig.add_trace(trace, row=2, col=2)
+    hide_blocked_entry(fig, scenario)
     fig.update_layout(
         title={"text": title, "font": {"size": 13}},
         template="plotly_white",
         margin={"l": 10, "r": 10, "t": 50, "b": 10},
-        legend={"groupclick": "toggleitem"},
+        legend=legend_per_layer(fig),
         uirevision="live",
         scene=_scene(lo, hi, ztop),
         **counts.layout(bool(cols)),
@@ -197,45 +129,33 @@ def _ground(lo, hi) -> list[list[float]]:
 
 def _scene(lo, hi, ztop: float) -> dict:
     r = ranges(lo, hi, ztop)
-    span = max(r[0][1] - r[0][0], 1.0)
     return {
         "xaxis": {"range": r[0], "title": {"text": "x [m]"}},
         "yaxis": {"range": r[1], "title": {"text": "y [m]"}},
         "zaxis": {"range": r[2], "title": {"text": "z [m]"}},
-        "aspectmode": "manual",
-        "aspectratio": {"x": 1.0, "y": (r[1][1] - r[1][0]) / span, "z": 0.4},
+        **aspect((r[0][1] - r[0][0], r[1][1] - r[1][0])),
     }
 
 
-def state_json(
-    tr,
-    plan_xy,
-    samples: int,
-    curves,
-    seq: int,
-    steps: int,
-    finished: bool,
-    anim: list,
-    metrics: list,
-    box,
-) -> str:
-    """``/state.json``: the layers at the latest step of ``tr`` and the metrics so far.
+def state_json(tr, plan_xy, samples: int, curves, seq, steps: int, finished: bool, idx, box) -> str:
+    """``/state.json``: the layers at the last step of ``tr`` and the metrics up to it.
 
     Args:
-        tr: :class:`~mjx_radar.viz.run_dir.Trial` of the steps received (its
-            ``sample_xy`` holds the acting control step only).
-        plan_xy: ``[1, H, N, 2]`` the acting plan.
+        tr: :class:`~mjx_radar.viz.run_dir.Trial` of the steps shown (1 .. K).
+        plan_xy: ``[C, H, N, 2]`` the plans received.
         samples: MPPI samples drawn (the highest weights).
-        curves: ``(time [K], rmse [K], crlb [K], {count column: [K]})`` so far.
-        seq: segments received; steps: the run's filter steps; finished: the run ended.
-        anim, metrics: trace indices of the layers and of RMSE, PCRLB, marker.
+        curves: ``(time [K], rmse [K], crlb [K], {count column: [K]})`` up to the step.
+        seq: ``(segments received, [the steps at their ends])``; steps: the run's filter
+            steps; finished: the run ended.
+        idx: ``(layer trace indices, metrics trace indices)``.
         box: ``(lo, hi, ztop)`` of the scene ranges.
     """
     k = tr.steps - 1
     layers = frame_traces(tr, k, samples, plan_xy)
     time, rmse, crlb, count = curves
     out = {
-        "seq": seq,
+        "seq": seq[0],
+        "ends": seq[1],
         "step": k + 1,
         "steps": steps,
         "finished": finished,
@@ -248,8 +168,8 @@ def state_json(
         "now": [_num(rmse[k : k + 1])[0], _num(crlb[k : k + 1])[0]],
         "counts": [_num(c) for c in count.values()],
         "counts_now": [_num(c[k : k + 1])[0] for c in count.values()],
-        "anim": anim,
-        "metrics": metrics,
+        "anim": idx[0],
+        "metrics": idx[1],
         "ranges": ranges(*box),
         "ground": _ground(*box[:2]),
     }

@@ -33,8 +33,15 @@ from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS, menus, slider
-from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
-from mjx_radar.viz.viewer_world import terrain_nodes
+from mjx_radar.viz.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
+from mjx_radar.viz.viewer_los import visibility
+from mjx_radar.viz.viewer_traces import (
+    fixed_sites,
+    frame_traces,
+    layer_styles,
+    static_traces,
+)
+from mjx_radar.viz.viewer_world import aspect, terrain_nodes
 
 
 def _metrics(rd: RunDir):
@@ -115,6 +122,8 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
     boxes = np.array([tr.bounds() for tr in trs])
     lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
+    for car in rd.scenario.moving_obstacles:  # the vehicles' roads in the scene too
+        lo, hi = np.minimum(lo, np.min(car.path, 0)), np.maximum(hi, np.max(car.path, 0))
     ztop, zlow = max(float(max(tr.target[..., 2].max() for tr in trs)) * 1.15, 1.0), 0.0
     cols = counts.count_columns(rd.scenario, metrics)
     fig = counts.subplots(bool(cols))
@@ -124,12 +133,13 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             ztop, zlow = max(ztop, 1.1 * float(trace["z"].max())), float(trace["z"].min())
     first = len(fig.data)
     for style, data in zip(
-        layer_styles(n, m, fixed_sites(rd.scenario, n)),
-        frame_traces(trs[0], ks[0], samples, None),
+        layer_styles(n, m, fixed_sites(rd.scenario, n), bool(rd.scenario.moving_obstacles)),
+        frame_traces(trs[0], ks[0], samples, None, np.ones((n, m), bool)),
         strict=True,
     ):
         fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
-    anim = list(range(first, len(fig.data) + 1))  # the layers and the metrics marker
+    fig.add_trace(sample_legend(lo))
+    anim = [*range(first, len(fig.data) - 1), len(fig.data)]  # the layers and the metrics marker
     fig.add_trace(
         go.Scatter(
             x=[],
@@ -168,8 +178,9 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             metric_idx[-1].append(len(fig.data))
             fig.add_trace(trace.update(x=time, y=count[c], visible=j == 0), row=2, col=2)
         plan = None if plans is None else plans[t]
+        vis = visibility(rd.scenario, tr.radar[ks, :, :3], tr.target[ks, :, :3], (ks + 1) * tr.dt)
         for i, k in enumerate(ks):
-            data = frame_traces(tr, k, samples, plan)
+            data = frame_traces(tr, k, samples, plan, vis[i])
             data.append(dict(type="scatter", x=[time[k]] * 2, y=[rmse[k], crlb[k]]))
             if cols:
                 data.append(
@@ -205,6 +216,7 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     )
     pad = 0.05 * float(max(hi - lo))
     span = np.maximum(hi - lo + 2 * pad, 1.0)
+    hide_blocked_entry(fig, rd.scenario)
     fig.update_layout(
         title={
             "text": f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
@@ -212,17 +224,15 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             "font": {"size": 13},
         },
         template="plotly_white",
-        height=760,
         margin={"l": 10, "r": 10, "t": 70, "b": 10},
         updatemenus=menus(trials, ids, metric_idx),
         sliders=sliders,
-        legend={"groupclick": "toggleitem"},
+        legend=legend_per_layer(fig),
         scene={
             "xaxis": {"range": [lo[0] - pad, hi[0] + pad], "title": {"text": "x [m]"}},
             "yaxis": {"range": [lo[1] - pad, hi[1] + pad], "title": {"text": "y [m]"}},
             "zaxis": {"range": [min(zlow, 0.0), ztop], "title": {"text": "z [m]"}},
-            "aspectmode": "manual",
-            "aspectratio": {"x": 1.0, "y": float(span[1] / span[0]), "z": 0.4},
+            **aspect(span),
         },
         **counts.layout(bool(cols)),
     )
@@ -258,6 +268,7 @@ def view(
         fig,
         include_plotlyjs=True,
         full_html=True,
+        default_height="96vh",
         auto_play=False,
         post_script=TRIAL_JS,
         config={"displaylogo": False},

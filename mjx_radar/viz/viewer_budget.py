@@ -79,7 +79,8 @@ def fit_budget(tr, ks, plan, trials: int, samples: int | None, n_trials: int | N
     Only what the caller left as ``None`` is lowered: samples first (32, 16, 8), then
     the number of trials (at least one).
     """
-    frame = frame_traces(tr, ks[-1], 1, plan)
+    visible = np.ones((tr.radar.shape[1], tr.target.shape[1]), bool)  # the size: the same
+    frame = frame_traces(tr, ks[-1], 1, plan, visible)
     fixed = sum(a.nbytes for d in frame for a in (d["x"], d["y"], d["z"])) - frame[6]["x"].nbytes
     per_sample = frame[6]["x"].nbytes * 13 / 4  # x, y, z float32 and the weight per point
 

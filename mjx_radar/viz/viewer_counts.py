@@ -116,15 +116,15 @@ def subplots(has_counts: bool):
         return make_subplots(
             rows=1,
             cols=2,
-            column_widths=[0.64, 0.36],
-            horizontal_spacing=0.08,
+            column_widths=[0.7, 0.3],
+            horizontal_spacing=0.06,
             specs=[[{"type": "scene"}, {"type": "xy"}]],
         )
     return make_subplots(
         rows=2,
         cols=2,
-        column_widths=[0.64, 0.36],
-        horizontal_spacing=0.08,
+        column_widths=[0.7, 0.3],
+        horizontal_spacing=0.06,
         vertical_spacing=0.1,
         row_heights=[0.6, 0.4],
         specs=[[{"type": "scene", "rowspan": 2}, {"type": "xy"}], [None, {"type": "xy"}]],

@@ -35,9 +35,13 @@ LAYERS = (
     ("plan", "plan"),
     ("lines of sight", "los"),
     ("fixed sites", "radars"),
+    ("blocked lines of sight", "los"),
+    ("vehicles", "world"),
 )
 FIXED_SYMBOL = "cross"  # fixed radar sites (mobile radars: "square")
 SAMPLE_SCALE = "Plasma"
+VISIBLE_RGB = "rgb(20,20,20)"  # lines of sight: opaque and 3 px, legible over terrain
+BLOCKED_RGB = "rgb(215,0,0)"  # blocked ones: dashed
 
 
 def _rgb(c) -> str:
@@ -141,9 +145,10 @@ def fixed_sites(scenario, n: int) -> np.ndarray:
     return fixed
 
 
-def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
+def layer_styles(n: int, m: int, fixed=None, vehicles: bool = False) -> list[dict]:
     """The constant attributes of the :data:`LAYERS` traces (names, colours, widths);
-    ``fixed [N]`` bool: the fixed sites (the "fixed sites" legend entry only if any)."""
+    ``fixed [N]`` bool: the fixed sites (the "fixed sites" legend entry only if any);
+    ``vehicles``: the scenario has moving obstacles (their legend entry)."""
     radar_c = [_rgb(RADAR_RGB[i % len(RADAR_RGB)]) for i in range(n)]
     target_c = [_rgb(TARGET_RGB[i % len(TARGET_RGB)]) for i in range(m)]
     styles = [
@@ -165,6 +170,7 @@ def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
         dict(mode="lines", line={"color": "rgb(200,160,0)", "width": 4}),
         dict(
             mode="lines",
+            showlegend=False,  # its entry is sample_legend(): see there
             line={
                 "color": [],
                 "colorscale": SAMPLE_SCALE,
@@ -175,14 +181,14 @@ def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
                 "colorbar": {
                     "title": {"text": "MPPI weight"},
                     "len": 0.4,
-                    "x": 0.57,
+                    "x": 0.64,
                     "y": 0.8,
                     "thickness": 12,
                 },
             },
         ),
         dict(mode="lines", line={"color": "rgb(0,160,60)", "width": 5}),
-        dict(mode="lines", line={"color": "rgb(150,150,150)", "width": 1}, opacity=0.5),
+        dict(mode="lines", line={"color": VISIBLE_RGB, "width": 3}),
         dict(
             mode="markers+text",
             marker={"size": 12, "symbol": FIXED_SYMBOL, "color": radar_c},
@@ -190,6 +196,8 @@ def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
             textposition="top center",
             showlegend=fixed is not None and bool(np.any(fixed)),
         ),
+        dict(mode="lines", line={"color": BLOCKED_RGB, "width": 3, "dash": "dash"}),
+        dict(mode="lines", line={"color": "rgb(170,60,20)", "width": 5}, showlegend=vehicles),
     ]
     return [
         dict(type="scatter3d", name=name, legendgroup=group, hoverinfo="skip", **style)
@@ -197,7 +205,7 @@ def layer_styles(n: int, m: int, fixed=None) -> list[dict]:
     ]
 
 
-def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[dict]:
+def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=None) -> list[dict]:
     """The data of the :data:`LAYERS` traces at filter step ``k`` of a trial.
 
     Args:
@@ -205,7 +213,11 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
         k: filter step (0-based).
         samples: at most this many MPPI samples, the highest weights.
         plan_xy: ``[C, H, N, 2]`` planned radar paths of the trial, or ``None``.
+        visible: ``[N, M]`` bool line of sight at the step, or ``None``: computed here
+            (:func:`mjx_radar.viz.viewer_los.visibility`; pass it for many frames at once).
     """
+    from mjx_radar.viz import viewer_los
+
     radar = tr.radar[k, :, :3].astype(np.float32)
     n, m = radar.shape[0], tr.target.shape[1]
     _, _, present = world_state(tr, k, m)
@@ -233,7 +245,10 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
         plan_pts = polylines(np.concatenate([plan, plan_z], -1))
     else:
         plan_pts = np.zeros((0, 3), np.float32)
-    los = segments(np.repeat(radar, m, 0), np.tile(target, (n, 1)))
+    t = (k + 1) * tr.dt
+    if visible is None:
+        visible = viewer_los.visibility(sc, radar[None], target[None], [t])[0]
+    los, blocked = viewer_los.los_segments(radar, target, visible)
     ring = rings(radar, tr.meta["r2t"])
     if getattr(sc, "terrain", None) is not None:
         ring[:, 2] = ground_z(sc, ring[:, :2], 0.5)
@@ -249,6 +264,8 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None) -> list[d
         plan_pts,
         los,
         np.where(fixed, radar, np.nan),
+        blocked,
+        viewer_los.vehicle_lines(getattr(sc, "moving_obstacles", ()), t),
     ]
     out = [dict(type="scatter3d", **_xyz(p)) for p in points]
     out[6]["line"] = {"color": sample_w}

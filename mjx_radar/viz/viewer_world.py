@@ -33,6 +33,18 @@ def _rgb(c) -> str:
     return f"rgb({r},{g},{b})"
 
 
+def aspect(xy_span, scale: float = 1.2, z: float = 0.5) -> dict:
+    """The scene's ``aspectratio`` and ``camera``: x and y true to scale, the longer side
+    ``scale`` (plotly's cube is 1: the box fills the scene's domain), z ``z``."""
+    sx, sy = (max(float(v), 1.0) for v in xy_span)
+    k = scale / max(sx, sy)
+    return {
+        "aspectmode": "manual",
+        "aspectratio": {"x": sx * k, "y": sy * k, "z": z},
+        "camera": {"eye": {"x": 0.95, "y": -1.3, "z": 0.8}},
+    }
+
+
 def terrain_nodes(terrain, lo, hi, max_nodes: int = TERRAIN_NODES):
     """``(xs [nx], ys [ny], heights [ny, nx], stride)``: the grid nodes drawn.
 
