@@ -19,6 +19,7 @@ import jax.numpy as jnp
 
 from mjx_radar.control import gradient, mppi, sampling
 from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.task.planner import proposal_std
 
 
 class PlanCarry(NamedTuple):
@@ -35,8 +36,7 @@ class _Sequential(Planner):
         self.horizon, self.n = sc.mpc.horizon, sc.n_radars
         self.lower = env.action_bounds[0].reshape(-1)
         self.upper = env.action_bounds[1].reshape(-1)
-        std = jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)])
-        self.std = jnp.where(self.upper > 0, jnp.tile(std, self.n), 0.0)
+        self.std = proposal_std(sc, self.upper)
         self.samples, self.iterations = sc.mppi.samples, sc.mppi.iterations
 
     def init(self) -> PlanCarry:

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mjx_radar.task.method import parse_method
+
 #: trajectory arrays of ``trajectories.npz`` (those present in the result)
 TRAJECTORY_KEYS = (
     "target",
@@ -29,12 +31,6 @@ TRAJECTORY_KEYS = (
 )
 
 
-def _planner_of(method: str) -> str:
-    """The planner of a method name: ``"METHOD+PLANNER"``, else the method's default."""
-    base, plus, planner = method.partition("+")
-    return planner if plus else ("hold" if base == "stationary" else "mppi")
-
-
 def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **extra) -> dict:
     """The contents of ``run.json`` (see :mod:`mjx_radar.rundir.results`)."""
     from mjx_radar.estimation.sensing import noise_constant
@@ -46,7 +42,7 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
         "scenario_file": "scenario.toml",  # relative to the run directory
         "source_scenario": extra.pop("source_scenario", None),
         "method": method,
-        "planner": extra.pop("planner", None) or _planner_of(method),
+        "planner": extra.pop("planner", None) or parse_method(method).planner,
         "seed": int(seed),
         "trials": int(len(trials)),
         "trial_ids": [int(t) for t in trials],

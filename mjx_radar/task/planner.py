@@ -38,6 +38,13 @@ def control_box(scenario) -> tuple[jax.Array, jax.Array]:
     return lower, upper
 
 
+def proposal_std(scenario, upper: jax.Array) -> jax.Array:
+    """``[2N]`` sampling std ``[std_accel, std_alpha, ...]`` (rad/s²), 0 where ``upper``
+    is 0 (the fixed sites of a mixed fleet never move)."""
+    std = jnp.array([scenario.mppi.std_accel, jnp.deg2rad(scenario.mppi.std_alpha_deg)])
+    return jnp.where(upper > 0, jnp.tile(std, scenario.n_radars), 0.0)
+
+
 def make_planner(task) -> Callable:
     """Returns ``plan(radar_state[N,6], mean[6M], cov[6M,6M], u_plan[H,2N], key, params)``.
 
@@ -52,10 +59,7 @@ def make_planner(task) -> Callable:
     sc = task.scenario
     cost_fn = objective.make_objective(task)
     lower, upper = control_box(sc)
-    init_std = jnp.tile(
-        jnp.array([sc.mppi.std_accel, jnp.deg2rad(sc.mppi.std_alpha_deg)]), sc.n_radars
-    )
-    init_std = jnp.where(upper > 0, init_std, 0.0)  # fixed sites of a mixed fleet: no noise
+    init_std = proposal_std(sc, upper)
 
     @precision.pinned
     def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key, params):
