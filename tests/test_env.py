@@ -3,6 +3,8 @@ contract, registered planners, and the runner as a planner-driven scan of the en
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -181,3 +183,39 @@ def test_study_keeps_planner_method_names(tmp_path):
         "stationary", "ddr-sfim", "ddr-sfim+ps", "ddr-sfim+cem"
     ]  # fmt: skip
     assert frame["method"].notna().all()
+
+
+def test_registered_sensor_and_tracker_are_selected_by_the_scenario(tiny):
+    """``[measurement] model`` accepts a registered sensor and ``[filter] tracker`` a
+    registered tracker (one-line refusal for unknown names); the task and the environment
+    use them."""
+    import mjx_radar
+    from mjx_radar.env import filter_ops
+    from mjx_radar.estimation.measurement import RangeModel
+    from mjx_radar.scenario.reader import ScenarioError
+
+    with pytest.raises(ScenarioError, match=r"measurement\.model = 'twin': must be one of range"):
+        tiny.replace(measurement={"model": "twin"})
+    with pytest.raises(ScenarioError, match=r"filter\.tracker = 'mine': must be one of auto"):
+        tiny.replace(filter={"tracker": "mine"})
+    calls = []
+
+    def mine(task, params):
+        calls.append(task.measurement.name)
+        return filter_ops.ckf_bank(task, params)
+
+    @dataclasses.dataclass(frozen=True)
+    class Twin(RangeModel):
+        name: str = "twin"
+
+    mjx_radar.register_sensor("twin", Twin)
+    mjx_radar.register_tracker("mine", mine)
+    try:
+        s = tiny.replace(measurement={"model": "twin"}, filter={"tracker": "mine"})
+        env = make(s, "ddr-sfim")
+        assert isinstance(env.task.measurement, Twin) and calls == ["twin"]
+        with pytest.raises(TypeError, match="MeasurementModel subclass"):
+            mjx_radar.register_sensor("bad", object)
+    finally:
+        mjx_radar.unregister_sensor("twin")
+        mjx_radar.unregister_tracker("mine")
