@@ -81,3 +81,16 @@ def test_clean_synthetic_tree_passes(tmp_path):
         {"io/a.py": "X = 1\n", "world/w.py": "from mjx_radar.io import a\n"},
     )
     assert _checker().main([str(pkg)]) == 0
+
+
+def test_every_package_is_installed():
+    """pyproject's explicit package list names every subpackage (a wheel would lack it)."""
+    import tomllib
+
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {
+        ".".join(p.parent.relative_to(REPO).parts)
+        for p in (REPO / "mjx_radar").rglob("__init__.py")
+        if "__pycache__" not in p.parts
+    }
+    assert found - listed == set(), f"pyproject.toml [tool.setuptools] packages lacks {found - listed}"
