@@ -21,10 +21,14 @@ frames = [
 ]
 metrics = pd.concat(frames, ignore_index=True)
 per_trial = metrics.groupby(["method", "trial"], observed=True).agg(
-    rmse=("rmse_pos", "mean"), crlb=("crlb_pos", "mean"), lost=("lost", "max"))
+    rmse=("rmse_pos", "mean"), crlb=("crlb_pos", "mean"), lost=("lost", "max")
+)
 table = per_trial.groupby("method", observed=True).agg(
-    rmse_median=("rmse", "median"), rmse_mean=("rmse", "mean"), pcrlb=("crlb", "mean"),
-    lost_trials=("lost", "sum"))
+    rmse_median=("rmse", "median"),
+    rmse_mean=("rmse", "mean"),
+    pcrlb=("crlb", "mean"),
+    lost_trials=("lost", "sum"),
+)
 stationary = table.loc["stationary", "rmse_median"]
 table["vs_stationary_%"] = 100.0 * (1.0 - table["rmse_median"] / stationary)
 print(table.round(3).to_string())

@@ -38,7 +38,9 @@ lines = []
 for name, run in (("without", free), ("with", homed)):
     xy = run.trajectories.radar_states.sel(radar_state=["x", "y"]).isel(step=-1)
     dist = float(((xy**2).sum("radar_state") ** 0.5).mean())  # mean over trials and radars
-    lines.append(f"{name:>7} stay_home: radars end {dist:7.1f} m from the origin on average, "
-                 f"mean RMSE {run.summary()['rmse_pos']:.3f} m")
+    lines.append(
+        f"{name:>7} stay_home: radars end {dist:7.1f} m from the origin on average, "
+        f"mean RMSE {run.summary()['rmse_pos']:.3f} m"
+    )
 print("\n".join(lines))
 (args.out / "custom_cost.txt").write_text("\n".join(lines) + "\n")

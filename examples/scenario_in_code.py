@@ -21,15 +21,20 @@ scenario = Scenario(
     # drones: rows [x, y, z, vx, vy, vz] in m and m/s
     target_init=((0.0, 20.0, 60.0, 12.0, 4.0, 0.0), (-20.0, -10.0, 45.0, -8.0, 10.0, 0.0)),
     # fixed radar starts [x, y, heading], required with obstacles
-    radar_init=tuple((250.0 * math.cos(a), 250.0 * math.sin(a), a + math.pi)
-                     for a in (2 * math.pi * i / n for i in range(n))),
+    radar_init=tuple(
+        (250.0 * math.cos(a), 250.0 * math.sin(a), a + math.pi)
+        for a in (2 * math.pi * i / n for i in range(n))
+    ),
     obstacles=(
         Obstacle(kind="box", pos=(120.0, 120.0, 0.0), size=(30.0, 20.0, 25.0)),  # half extents
         Obstacle(kind="cylinder", pos=(-120.0, 100.0, 0.0), size=(15.0, 20.0)),  # r, half height
     ),
     timing=Timing(steps=16 if args.small else 400),
-    mpc=MPCConfig(horizon=8 if args.small else 15, los=True,  # occlusion-aware planner
-                  rollout="analytic" if args.small else "mjx"),  # small: compiles faster
+    mpc=MPCConfig(
+        horizon=8 if args.small else 15,
+        los=True,  # occlusion-aware planner
+        rollout="analytic" if args.small else "mjx",
+    ),  # small: compiles faster
     mppi=MPPIConfig(samples=64, iterations=3) if args.small else MPPIConfig(),
 )
 scenario = mjx_radar.validate(scenario)  # the rules of a TOML file; ScenarioError if not

@@ -15,9 +15,16 @@ scenarios = ["smoke"] if args.small else ["paper_3r4t", "paper_6r3t"]
 methods = ["stationary", "ddr-sfim"] if args.small else ["stationary", "ccr-sfim", "ddr-sfim"]
 trials, chunk, steps = (4, 2, 16) if args.small else (64, 32, None)
 
-study = mjx_radar.run_study(scenarios, methods=methods, trials=trials, chunk=chunk,
-                            steps=steps, out=args.out / "study", resume=True,
-                            rollouts="analytic" if args.small else None)
+study = mjx_radar.run_study(
+    scenarios,
+    methods=methods,
+    trials=trials,
+    chunk=chunk,
+    steps=steps,
+    out=args.out / "study",
+    resume=True,
+    rollouts="analytic" if args.small else None,
+)
 table = study.summary()  # one row per scenario and method, as in report.md
 print(table[["scenario", "method", "median_rmse_pos", "lost_trial_rate"]].to_string(index=False))
 report = study.report()  # summary.csv, report.md and figures in the study directory

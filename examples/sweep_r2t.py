@@ -25,8 +25,14 @@ for r2t in values:
     s = base.replace(mpc={"r2t": r2t})  # validated: a bad value is a one-line ScenarioError
     run = mjx_radar.simulate(s, "ddr-sfim", trials=trials, steps=steps, seed=0, progress=False)
     per_trial = run.metrics.groupby("trial")["rmse_pos"].mean()  # time-averaged RMSE per trial
-    rows.append({"r2t": r2t, "rmse_median": per_trial.median(), "rmse_mean": per_trial.mean(),
-                 "lost_trials": run.summary()["lost_trials"]})
+    rows.append(
+        {
+            "r2t": r2t,
+            "rmse_median": per_trial.median(),
+            "rmse_mean": per_trial.mean(),
+            "lost_trials": run.summary()["lost_trials"],
+        }
+    )
 table = pd.DataFrame(rows)
 table.to_csv(args.out / "sweep_r2t.csv", index=False)
 print(table.to_string(index=False))
@@ -34,8 +40,11 @@ print(table.to_string(index=False))
 fig, ax = plt.subplots(figsize=(5, 3.5))
 ax.plot(table["r2t"], table["rmse_median"], "o-", label="median over trials")
 ax.plot(table["r2t"], table["rmse_mean"], "s--", label="mean over trials")
-ax.set(xlabel="R2T keep-out [m]", ylabel="time-averaged position RMSE [m]",
-       title=f"{base.name}, DDR-SFIM, {trials} trials")
+ax.set(
+    xlabel="R2T keep-out [m]",
+    ylabel="time-averaged position RMSE [m]",
+    title=f"{base.name}, DDR-SFIM, {trials} trials",
+)
 ax.legend()
 fig.tight_layout()
 fig.savefig(args.out / "sweep_r2t.png", dpi=120)

@@ -119,7 +119,8 @@ class Registry:
         """The entry called ``name``.
 
         Raises:
-            ValueError: one line naming the known entries.
+            ValueError: one line naming the known entries (or, for a built-in whose
+                optional dependency is missing, the remedy).
         """
         if isinstance(name, str):
             if name in self._user:
@@ -128,7 +129,11 @@ class Registry:
                 obj = self._builtin[name]
                 if isinstance(obj, str):  # "module:attribute", imported on first use
                     module, attr = obj.split(":")
-                    obj = self._builtin[name] = getattr(importlib.import_module(module), attr)
+                    try:
+                        loaded = importlib.import_module(module)
+                    except ImportError as err:  # an optional dependency: one line
+                        raise ValueError(f"{self.kind} {name!r}: {err}") from None
+                    obj = self._builtin[name] = getattr(loaded, attr)
                 return obj
         raise ValueError(f"{self.kind}: {name!r} is not one of {', '.join(self.names())}")
 
@@ -171,6 +176,8 @@ PLANNERS = Registry(
         "cem": "mjx_radar.planners.zoo:CEMPlanner",
         "grad": "mjx_radar.planners.zoo:GradientPlanner",
         "hybrid": "mjx_radar.planners.zoo:HybridPlanner",
+        "cmaes": "mjx_radar.planners.evolution:CMAESPlanner",
+        "sep-cmaes": "mjx_radar.planners.evolution:SepCMAESPlanner",
     },
 )
 #: trackers by name (:mod:`mjx_radar.env.filter_ops`): ``[filter] tracker``

@@ -1,37 +1,70 @@
 """Which planner wins per millisecond: a study of every planner at several compute budgets.
 
-For each scenario and each budget (rollouts per control call = ``mppi.samples x
-mppi.iterations``, the iterations kept, the samples scaled), runs one resumable study
-(``mjx_radar.run_study``) of ``METHOD+PLANNER`` for every planner on common random
-numbers (one study per planner), then writes ``DIR/planners.csv``: median position RMSE
-with its 90 % HDI upper end, the lost-trial rate and the simulation's wall time per
-control call of a chunk (``chunk`` trials vmapped together)::
+For each scenario, one resumable study (``mjx_radar.run_study``: its programs compile
+concurrently) of ``METHOD+PLANNER`` for every planner and budget on common random
+numbers (same seeds, same trials: only the planner differs). The budget B is rollouts
+per control call, the same for all: the sampling planners (mppi, ps, cem, cmaes,
+sep-cmaes) run ``mppi.iterations`` rounds of ``B / iterations`` samples; ``grad`` takes
+``B / 3`` gradient steps (one step: a forward and a reverse pass, about three
+rollouts); ``hybrid`` samples half the budget and polishes with ``B / 6`` steps. Writes
+``DIR/planners.csv``: per scenario, budget and planner the paper's time-averaged
+median position RMSE and 90 % HDI upper end (``study.summary()``), the per-trial mean
+RMSE's median with its 90 % HDI (arviz), and the lost-trial rate::
 
     python scripts/compare_planners.py --out DIR [--scenarios paper_3r4t,hills_4r4t]
-        [--planners mppi,ps,cem,grad,hybrid] [--budgets 1000,300,100] [--trials 500]
-        [--method ddr-sfim] [--steps N] [--chunk 250]
+        [--planners mppi,ps,cem,grad,hybrid,cmaes] [--budgets 1000,300,100]
+        [--trials 500,200] [--method ddr-sfim] [--steps N] [--chunk 500]
 
-The per-call figure here is the batch's (a study chunk); ``scripts/bench_mppi.py`` times
-one MPPI call alone. docs/planners.md says what was run and what it found.
+``--trials`` gives one count per scenario (or one for all). The ms per control call
+comes from ``scripts/bench_planners.py`` (one call timed alone); ``scripts/plot_planners.py``
+draws the Pareto figure from both files. docs/planners.md says what was run and found.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 
 def budget_variant(scenario, rollouts: int):
-    """``scenario`` with ``mppi.samples`` set so that samples x iterations ~ ``rollouts``."""
+    """``scenario`` at a budget of ``rollouts`` rollout-equivalents per control call."""
     it = scenario.mppi.iterations
-    samples = max(2, round(rollouts / it))
-    name = f"{scenario.name}_b{rollouts}"
-    return scenario.replace(name=name, mppi={"samples": samples})
+    return scenario.replace(
+        name=f"{scenario.name}_b{rollouts}",
+        mppi={"samples": max(4, round(rollouts / it))},
+        planner={
+            "gradient_steps": max(1, round(rollouts / 3)),
+            "polish_steps": max(1, round(rollouts / 6)),
+        },
+    )
+
+
+def per_trial(metrics: pd.DataFrame) -> pd.DataFrame:
+    """Median and 90 % HDI of the per-trial time-mean position RMSE, and lost trials."""
+    import arviz as az
+
+    trial = metrics.groupby(["scenario", "method", "trial"]).agg(
+        rmse=("rmse_pos", "mean"), lost=("lost", "max")
+    )
+    rows = []
+    for (sc, m), g in trial.groupby(level=[0, 1]):
+        lo, hi = az.hdi(g["rmse"].to_numpy(), hdi_prob=0.9)
+        rows.append(
+            {
+                "scenario": sc,
+                "method": m,
+                "trial_rmse_median": float(np.median(g["rmse"])),
+                "trial_rmse_hdi_lo": float(lo),
+                "trial_rmse_hdi_hi": float(hi),
+                "lost_trials": int(g["lost"].sum()),
+                "trials": len(g),
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def main(argv=None) -> int:
@@ -40,51 +73,42 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--scenarios", default="paper_3r4t")
-    p.add_argument("--planners", default="mppi,ps,cem,grad,hybrid")
+    p.add_argument("--planners", default="mppi,ps,cem,grad,hybrid,cmaes")
     p.add_argument("--budgets", default="1000,300,100")
     p.add_argument("--method", default="ddr-sfim")
-    p.add_argument("--trials", type=int, default=500)
+    p.add_argument("--trials", default="500")
     p.add_argument("--steps", type=int, default=None)
-    p.add_argument("--chunk", type=int, default=250)
+    p.add_argument("--chunk", type=int, default=500)
     args = p.parse_args(argv)
-    planners = args.planners.split(",")
-    rows = []
-    for name in args.scenarios.split(","):
+    names = args.scenarios.split(",")
+    trials = [int(t) for t in args.trials.split(",")]
+    trials = trials * len(names) if len(trials) == 1 else trials
+    frames = []
+    for name, n in zip(names, trials, strict=True):
         base = mjx_radar.load_scenario(name)
-        for budget in (int(b) for b in args.budgets.split(",")):
-            s = budget_variant(base, budget)
-            steps = args.steps or s.timing.steps
-            calls = (steps // s.timing.control_every) * math.ceil(args.trials / args.chunk)
-            for planner in planners:  # one study each: its own simulation time
-                out = args.out / s.name / planner
-                study = mjx_radar.run_study(
-                    s,
-                    methods=[args.method],
-                    planners=[planner],
-                    trials=args.trials,
-                    chunk=min(args.chunk, args.trials),
-                    out=out,
-                    steps=args.steps,
-                    resume=(out / "study.json").exists(),
-                    progress=False,
-                )
-                r = study.summary().iloc[0]
-                meta = json.loads((out / "study.json").read_text())
-                rows.append(
-                    {
-                        "scenario": name,
-                        "rollouts": s.mppi.samples * s.mppi.iterations,
-                        "planner": planner,
-                        "median_rmse_pos": r["median_rmse_pos"],
-                        "hdi_hi_pos": r["hdi_hi_pos"],
-                        "lost_trial_rate": r["lost_trial_rate"],
-                        "ms_per_call_of_batch": 1e3 * meta["sim_s"] / calls,
-                    }
-                )
-    frame = pd.DataFrame(rows)
-    args.out.mkdir(parents=True, exist_ok=True)
-    frame.to_csv(args.out / "planners.csv", index=False)
-    print(frame.to_string(index=False))
+        variants = [budget_variant(base, int(b)) for b in args.budgets.split(",")]
+        out = args.out / name
+        study = mjx_radar.run_study(
+            variants,
+            methods=[args.method],
+            planners=args.planners.split(","),
+            trials=n,
+            chunk=min(args.chunk, n),
+            out=out,
+            steps=args.steps,
+            resume=(out / "study.json").exists(),
+            progress=False,
+        )
+        summ = study.summary()[
+            ["scenario", "method", "median_rmse_pos", "hdi_hi_pos", "lost_trial_rate"]
+        ]
+        frame = summ.merge(per_trial(study.metrics), on=["scenario", "method"])
+        frame.insert(0, "base", name)
+        frame.insert(2, "rollouts", frame["scenario"].str.rsplit("_b", n=1).str[1].astype(int))
+        frame.insert(3, "planner", frame["method"].str.partition("+")[2].replace("", "mppi"))
+        frames.append(frame)
+        pd.concat(frames).to_csv(args.out / "planners.csv", index=False)  # after each scenario
+        print(frame.to_string(index=False), flush=True)
     return 0
 
 

@@ -62,7 +62,8 @@ def main() -> int:
             run = mjx_radar.simulate(s, method, trials=lost.index.to_numpy(), steps=steps,
                                      seed=seed, progress=False)  # fmt: skip
             again = run.metrics.groupby("trial").agg(
-                lost=("lost", "max"), diverged=("diverged", "max"), rmse=("rmse_pos", "mean"))
+                lost=("lost", "max"), diverged=("diverged", "max"), rmse=("rmse_pos", "mean")
+            )
             for t, before in lost.iterrows():
                 rows.append({"scenario": name, "method": method, "trial": int(t),
                              "cause": "diverged" if before["diverged"] else "lost",
@@ -71,8 +72,11 @@ def main() -> int:
                              "rmse_rerun": again.loc[t, "rmse"]})  # fmt: skip
             args.out.parent.mkdir(parents=True, exist_ok=True)  # after each group: partial
             pd.DataFrame(rows).to_csv(args.out.with_suffix(".csv"), index=False)
-            print(f"{name} {method}: {len(lost)} lost trials rerun, "
-                  f"{int(again['lost'].gt(0).sum())} lost again", flush=True)
+            print(
+                f"{name} {method}: {len(lost)} lost trials rerun, "
+                f"{int(again['lost'].gt(0).sum())} lost again",
+                flush=True,
+            )
     table = pd.DataFrame(rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.out.with_suffix(".csv"), index=False)

@@ -87,10 +87,14 @@ def test_every_package_is_installed():
     """pyproject's explicit package list names every subpackage (a wheel would lack it)."""
     import tomllib
 
-    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    listed = set(
+        tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
+    )
     found = {
         ".".join(p.parent.relative_to(REPO).parts)
         for p in (REPO / "mjx_radar").rglob("__init__.py")
         if "__pycache__" not in p.parts
     }
-    assert found - listed == set(), f"pyproject.toml [tool.setuptools] packages lacks {found - listed}"
+    assert found - listed == set(), (
+        f"pyproject.toml [tool.setuptools] packages lacks {found - listed}"
+    )

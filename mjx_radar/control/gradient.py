@@ -46,7 +46,7 @@ def descend(
     learning_rate: float = 0.05,
     optimizer: str = "adam",
 ) -> GradientResult:
-    """Projected gradient descent (optax ``adam`` or ``sgd``) from ``mean``.
+    """Projected gradient descent (optax ``adam``, ``sgd`` or ``lbfgs``) from ``mean``.
 
     Args:
         cost_fn: ``u[H, D] -> (cost[], aux)``, differentiable in ``u``.
@@ -54,7 +54,9 @@ def descend(
         steps: gradient steps (>= 1).
         lower, upper: ``[D]`` control bounds (a zero-width dimension stays fixed).
         learning_rate: step size in normalised coordinates (the box is [-1, 1]).
-        optimizer: ``"adam"`` or ``"sgd"``.
+        optimizer: ``"adam"``, ``"sgd"`` or ``"lbfgs"`` (optax's L-BFGS with its zoom
+            line search, ``learning_rate`` unused: each step costs the line search's
+            extra cost evaluations, up to 20 forward rollouts).
 
     Returns:
         :class:`GradientResult` with the best sequence visited.
@@ -63,7 +65,10 @@ def descend(
 
     if steps < 1:
         raise ValueError(f"descend: steps = {steps} must be >= 1")
-    opt = {"adam": optax.adam, "sgd": optax.sgd}[optimizer](learning_rate)
+    if optimizer == "lbfgs":
+        opt = optax.lbfgs(linesearch=optax.scale_by_zoom_linesearch(max_linesearch_steps=20))
+    else:
+        opt = {"adam": optax.adam, "sgd": optax.sgd}[optimizer](learning_rate)
     mean = jnp.asarray(mean, jnp.result_type(float))
     h, d = mean.shape
     lower = jnp.broadcast_to(jnp.asarray(lower, mean.dtype), (h, d))
@@ -89,7 +94,11 @@ def descend(
         best_aux = jax.tree_util.tree_map(lambda a, b: jnp.where(better, a, b), aux, best_aux)
         best_cost = jnp.where(better, cost, best_cost)
         g = jnp.where(jnp.isfinite(g), g, 0.0)  # a contact's non-smooth point: no step
-        updates, state = opt.update(g, state, z)
+        if optimizer == "lbfgs":  # the line search evaluates the cost along the step
+            value_fn = lambda zz: loss(zz)[0]  # noqa: E731
+            updates, state = opt.update(g, state, z, value=cost, grad=g, value_fn=value_fn)
+        else:
+            updates, state = opt.update(g, state, z)
         z = jnp.clip(optax.apply_updates(z, updates), -1.0, 1.0) * (half > 0)
         return (z, state, best_z, best_cost, best_aux), cost
 

@@ -6,8 +6,9 @@ form), warm-started from its previous plan shifted by one control step, inside
 ``env.action_bounds``. The compute budget is the scenario's MPPI budget,
 ``mppi.samples x mppi.iterations`` rollouts per control call, for the sampling planners;
 the gradient planner takes ``GradientPlanner.steps`` gradient steps (one step costs about
-three rollouts: forward and reverse mode). Settings are class attributes: subclass and
-register to change them (docs/extending.md).
+three rollouts: forward and reverse mode). Their settings are the scenario's
+``[planner]`` table (:class:`~mjx_radar.scenario.schema_planner.PlannerConfig`,
+docs/planners.md).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ class PlanCarry(NamedTuple):
     record: ControlRecord  # the last call's record
 
 
-class _Sequential(Planner):
+class SequencePlanner(Planner):
     """Shared: warm start, bounds, the objective of an observation, the record."""
 
     def __init__(self, env):
@@ -38,6 +39,7 @@ class _Sequential(Planner):
         self.upper = env.action_bounds[1].reshape(-1)
         self.std = proposal_std(sc, self.upper)
         self.samples, self.iterations = sc.mppi.samples, sc.mppi.iterations
+        self.settings = sc.planner  # the [planner] table
 
     def init(self) -> PlanCarry:
         zeros = jnp.zeros((self.n, 2))
@@ -62,7 +64,7 @@ class _Sequential(Planner):
         return carry.record
 
 
-class PredictiveSamplingPlanner(_Sequential):
+class PredictiveSamplingPlanner(SequencePlanner):
     """Predictive sampling (hydrax / MJPC's baseline): the best of ``samples`` Gaussian
     perturbations of the incumbent, ``iterations`` times."""
 
@@ -76,16 +78,14 @@ class PredictiveSamplingPlanner(_Sequential):
         return self._carry(cost, res.mean, res.samples, res.costs, res.weights, res.aux)
 
 
-class CEMPlanner(_Sequential):
+class CEMPlanner(SequencePlanner):
     """The cross-entropy method: refit a diagonal Gaussian to the ``elite_fraction`` best."""
 
     name = "cem"
-    elite_fraction = 0.1
-    std_min_fraction = 0.05  # of the initial std: the search never collapses
 
     def plan(self, carry: PlanCarry, obs, key):
         cost = self.env.objective(obs)
-        elite = max(1, int(round(self.elite_fraction * self.samples)))
+        elite = max(1, int(round(self.settings.elite_fraction * self.samples)))
         res = sampling.cross_entropy(
             cost,
             carry.u_plan,
@@ -96,33 +96,36 @@ class CEMPlanner(_Sequential):
             self.lower,
             self.upper,
             elite,
-            self.std_min_fraction * self.std,
+            self.settings.std_floor * self.std,  # the search never collapses
         )
         return self._carry(cost, res.mean, res.samples, res.costs, res.weights, res.aux)
 
 
-class GradientPlanner(_Sequential):
-    """Gradient MPC: ``steps`` projected Adam steps through the rollouts and the
-    information objective, from the shifted previous plan."""
+class GradientPlanner(SequencePlanner):
+    """Gradient MPC: ``[planner] gradient_steps`` projected optax steps (Adam by default)
+    through the rollouts and the information objective, from the shifted previous plan."""
 
     name = "grad"
-    steps = 20
-    learning_rate = 0.05
 
     def plan(self, carry: PlanCarry, obs, key):
         cost = self.env.objective(obs)
+        st = self.settings
         res = gradient.descend(
-            cost, carry.u_plan, self.steps, self.lower, self.upper, self.learning_rate
+            cost,
+            carry.u_plan,
+            st.gradient_steps,
+            self.lower,
+            self.upper,
+            st.learning_rate,
+            st.optimizer,
         )
         return self._carry(cost, res.mean)
 
 
-class HybridPlanner(_Sequential):
+class HybridPlanner(SequencePlanner):
     """Predictive sampling (half the iterations), then gradient polish of the best."""
 
     name = "hybrid"
-    polish_steps = 10
-    learning_rate = 0.02
 
     def plan(self, carry: PlanCarry, obs, key):
         cost = self.env.objective(obs)
@@ -136,8 +139,15 @@ class HybridPlanner(_Sequential):
             self.lower,
             self.upper,
         )
+        st = self.settings
         pol = gradient.descend(
-            cost, res.mean, self.polish_steps, self.lower, self.upper, self.learning_rate
+            cost,
+            res.mean,
+            st.polish_steps,
+            self.lower,
+            self.upper,
+            st.polish_learning_rate,
+            st.optimizer,
         )
         mean = jnp.where(pol.best_cost < res.best_cost, pol.mean, res.mean)
         return self._carry(cost, mean, res.samples, res.costs, res.weights, res.aux)

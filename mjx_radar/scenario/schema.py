@@ -1,6 +1,7 @@
 """Typed, immutable scenario configuration (SPEC defaults; tables also in schema_detection,
-schema_filter, schema_world, schema_terrain): frozen, hashable dataclasses (static under
-``jax.jit``), SI units; each field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
+schema_filter, schema_planner, schema_world, schema_terrain): frozen, hashable dataclasses
+(static under ``jax.jit``), SI units; each field's allowed range is its metadata
+(:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, runtim
 from mjx_radar.scenario.names import accept_toml_names
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
+from mjx_radar.scenario.schema_planner import PlannerConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
 from mjx_radar.scenario.schema_world import MovingObstacle, RadarOverride, TargetMotion, positive
@@ -249,6 +251,10 @@ class Scenario:
     detection: DetectionConfig = field(
         default_factory=DetectionConfig,
         metadata=table("detection probability, clutter, association (docs/detection.md)"),
+    )
+    planner: PlannerConfig = field(
+        default_factory=PlannerConfig,
+        metadata=table("settings of the planner zoo: cem, grad, hybrid, cmaes (docs/planners.md)"),
     )
 
     @property
