@@ -34,3 +34,20 @@ def test_one_line_near_the_map_limit(monkeypatch):
     assert line.count("\n") == 1 and "vm.max_map_count = 65530" in line and "sysctl" in line
     assert not live_programs.warn_near_map_limit(io.StringIO())  # once per process
     assert live_programs.map_usage() is None or live_programs.map_usage()[0] > 0
+
+
+def test_a_study_keeps_all_its_programs_alive(monkeypatch):
+    """keep_alive(n) raises the capacity for the block: a study's programs, compiled at
+    once, are not evicted (and loaded again) before their chunks run."""
+    from mjx_radar.engine import live_programs
+
+    monkeypatch.setenv("MJX_RADAR_LIVE_PROGRAMS", "2")
+    cache = live_programs.LiveCache()
+    with live_programs.keep_alive(5):
+        assert live_programs.capacity() == 5
+        for k in range(5):
+            cache[k] = object()
+        assert list(cache) == [0, 1, 2, 3, 4]
+    assert live_programs.capacity() == 2
+    cache["new"] = object()  # back to the user's bound at the next insertion
+    assert list(cache) == [4, "new"]

@@ -130,9 +130,8 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
 
 
 def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
-    from tqdm import tqdm
 
-    from mjx_radar.engine import resources, runner
+    from mjx_radar.engine import live_programs, resources, runner
     from mjx_radar.study import driver
 
     joining = worker.kind != "single"  # workers share the directory
@@ -159,28 +158,9 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         f"{len(todo)} chunk(s) to run on {n_dev} device(s): {devices}",
         file=sys.stderr,
     )
-    if todo:
-        steps0 = todo[0].steps
-        shapes = [(c.scenario, c.method) for c in todo if c.steps == steps0]
-        print(f"study: compiling for {n_dev} device(s) ...", file=sys.stderr)
-        wall = runner.precompile(shapes, args.chunk * n_dev, steps0, mesh=mesh)
-        times.compile_s += wall
-        print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
-    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
-    with tqdm(
-        total=total,
-        unit="trial-step",
-        desc="study",
-        file=sys.stderr,
-        dynamic_ncols=True,
-        disable=not todo or not args.progress,
-    ) as bar:
-        for group in driver.rounds(todo, n_dev):
-            bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
-            done = sum(c.last - c.first + 1 for c in group)
-            driver.run_round(
-                group, args.chunk, n_dev, mesh, lambda k, n=done: bar.update(k * n), times
-            )
+    programs = len({(c.scenario, c.method) for c in todo})
+    with live_programs.keep_alive(programs):  # compiled once, none loaded again
+        _compile_and_run(args, todo, n_dev, mesh, times)
     if worker.kind == "distributed":
         # Every process waits: JAX's shutdown barrier gives up after 300 s, so a process
         # that left early would abort the others. Process 0 then consolidates.
@@ -204,6 +184,37 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         f"{meta['sim_s']:.1f} s)"
     )
     return 0
+
+
+def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
+    """Compiles the chunks' programs at once, then runs the chunks round by round."""
+    from tqdm import tqdm
+
+    from mjx_radar.engine import runner
+    from mjx_radar.study import driver
+
+    if todo:
+        steps0 = todo[0].steps
+        shapes = [(c.scenario, c.method) for c in todo if c.steps == steps0]
+        print(f"study: compiling for {n_dev} device(s) ...", file=sys.stderr)
+        wall = runner.precompile(shapes, args.chunk * n_dev, steps0, mesh=mesh)
+        times.compile_s += wall
+        print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
+    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
+    with tqdm(
+        total=total,
+        unit="trial-step",
+        desc="study",
+        file=sys.stderr,
+        dynamic_ncols=True,
+        disable=not todo or not args.progress,
+    ) as bar:
+        for group in driver.rounds(todo, n_dev):
+            bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
+            done = sum(c.last - c.first + 1 for c in group)
+            driver.run_round(
+                group, args.chunk, n_dev, mesh, lambda k, n=done: bar.update(k * n), times
+            )
 
 
 def wait_for(chunks, timeout_s: float = 7 * 24 * 3600.0) -> None:
