@@ -57,8 +57,8 @@ def test_gospa_matches_stone_soup_on_random_sets(order):
             _states(est[exists]), _states(truth[present])
         )
         v = ref.value
-        for name, mine in (("distance", got.gospa), ("localisation", got.localisation),
-                           ("missed", got.missed), ("false", got.false)):  # fmt: skip
+        pairs = {"distance": got.gospa, "localisation": got.localisation}
+        for name, mine in (pairs | {"missed": got.missed, "false": got.false}).items():
             assert mine == pytest.approx(v[name], rel=RTOL, abs=1e-9), name
         ospa = ss.OSPAMetric(c=cutoff, p=order).compute_OSPA_distance(
             _states(est[exists]), _states(truth[present])
@@ -177,19 +177,18 @@ def test_assignments_match_stone_soup_switching_over_time():
 
 
 def _events(assign, present, exists):
-    sw, br = continuity_events(np.asarray(assign)[None], np.asarray(present)[None],
-                               np.asarray(exists)[None])  # fmt: skip
+    sw, br = continuity_events(*(np.asarray(x)[None] for x in (assign, present, exists)))
     return sw[0].tolist(), br[0].tolist()
 
 
 def test_continuity_events_by_hand():
     on2, on3 = np.ones((5, 2), bool), np.ones((5, 3), bool)
     # a swap at step 2: both tracks switch label, both truths' tracks break
-    assert _events([[0, 1], [0, 1], [1, 0], [1, 0], [1, 0]], on2, on2) == (
-        [0, 0, 2, 0, 0], [0, 0, 2, 0, 0])  # fmt: skip
+    swap = [[0, 1], [0, 1], [1, 0], [1, 0], [1, 0]]
+    assert _events(swap, on2, on2) == ([0, 0, 2, 0, 0], [0, 0, 2, 0, 0])
     # truth 1 loses its track at step 1 and regains it at 3: one break, no switch
-    assert _events([[0, 1], [0, -1], [0, -1], [0, 1], [0, 1]], on2, on2) == (
-        [0] * 5, [0, 1, 0, 0, 0])  # fmt: skip
+    lost = [[0, 1], [0, -1], [0, -1], [0, 1], [0, 1]]
+    assert _events(lost, on2, on2) == ([0] * 5, [0, 1, 0, 0, 0])
     # track 1 leaves truth 1 (step 1) and later takes truth 2 (step 3): a label switch
     # across the gap, and truth 2's track 2 breaks then
     a = [[0, 1, 2], [0, -1, 2], [0, -1, 2], [0, -1, 1], [0, -1, 1]]
@@ -202,3 +201,19 @@ def test_continuity_events_by_hand():
     here = on2.copy()
     here[2:, 1] = False
     assert _events([[0, 1], [0, 1], [0, -1], [0, -1], [0, -1]], here, on2) == ([0] * 5, [0] * 5)
+
+
+def test_metrics_settings_are_host_only():
+    """``[metrics]`` changes neither the compiled shape nor the runtime parameters."""
+    import jax
+
+    from mjx_radar.scenario.reader import load_scenario
+    from mjx_radar.task.method import parse_method
+    from mjx_radar.task.params import shape_key, task_params
+
+    s = load_scenario("smoke")
+    other = s.replace(metrics={"gospa_cutoff": 20.0, "gospa_order": 2.0})
+    assert other.metrics.gospa_cutoff == 20.0 and shape_key(other) == shape_key(s)
+    method = parse_method("ddr-sfim")
+    a, b = (jax.tree.leaves(task_params(x, method)) for x in (s, other))
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))

@@ -1,16 +1,18 @@
 """Typed, immutable scenario configuration (SPEC defaults; tables also in schema_detection,
-schema_filter, schema_world, schema_terrain): frozen, hashable dataclasses (static under
-``jax.jit``), SI units; each field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
+schema_metrics, schema_filter, schema_world, schema_terrain): frozen, hashable dataclasses
+(static under ``jax.jit``), SI units; each field's allowed range is its metadata
+(:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, runtime, table
+from mjx_radar.io.checks import choice, col, flag, host, name_rule, rows, rule, runtime, table
 from mjx_radar.scenario.names import accept_toml_names
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
+from mjx_radar.scenario.schema_metrics import MetricsConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
 from mjx_radar.scenario.schema_world import MovingObstacle, RadarOverride, TargetMotion, positive
@@ -249,6 +251,10 @@ class Scenario:
     detection: DetectionConfig = field(
         default_factory=DetectionConfig,
         metadata=table("detection probability, clutter, association (docs/detection.md)"),
+    )
+    metrics: MetricsConfig = field(
+        default_factory=MetricsConfig,
+        metadata=host(table("GOSPA / OSPA settings (docs/tracking_metrics.md)")),
     )
 
     @property
