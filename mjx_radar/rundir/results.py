@@ -4,7 +4,7 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
 
     DIR/run.json           metadata: scenario, method, seed, trials, steps, dt_filter,
                            dt_control, n_radars, n_targets, r2t, r2r, noise_constant,
-                           wall_s, control_hz
+                           wall_s, control_hz, gospa_cutoff, gospa_order
     DIR/scenario.toml      the scenario file used (verbatim copy)
     DIR/metrics.parquet    long format, one row per (trial, step): scenario, method,
                            trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
