@@ -68,3 +68,19 @@ def test_run_summary(tmp_path):
     assert out["label_switches"] == int(cols["label_switches"].sum())
     old = Run(scenario, "m", 0, np.arange(T), K, _frame(with_sets=False)[0], {}, {})
     assert np.isnan(old.summary()["ospa"])
+
+
+def test_run_options_override_the_scenario_and_are_checked(capsys):
+    import mjx_radar.cli.main as cli
+    from mjx_radar.api import run_case
+    from mjx_radar.io.checks import ScenarioError
+
+    req = run_case.request("smoke", gospa_cutoff=20.0, gospa_order=2.0)
+    assert (req.scenario.metrics.gospa_cutoff, req.scenario.metrics.gospa_order) == (20.0, 2.0)
+    assert run_case.request("smoke").scenario.metrics.gospa_cutoff == 50.0
+    with pytest.raises(ScenarioError, match=r"^gospa_order = 0.5: must be a number in \[1.0"):
+        run_case.request("smoke", gospa_order=0.5)
+    assert cli.main(["run", "smoke", "--gospa-cutoff", "-3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("--gospa-cutoff = -3.0: must be a number in (0.0, 100000.0]"), err
+    assert "\n" not in err
