@@ -78,6 +78,11 @@ class Run:
     def summary(self) -> dict:
         """The figures ``mjx-radar run`` prints (RMSE and PCRLB in m, times in s).
 
+        ``gospa`` and ``ospa`` [m] are means over trials and steps (with the scenario's
+        ``[metrics]`` cutoff and order), ``gospa_localisation`` / ``_missed`` / ``_false``
+        the means of GOSPA's parts [m^p]; ``label_switches`` and ``broken_tracks`` count
+        the events of every trial (docs/tracking_metrics.md).
+
         Example:
             >>> run = mjx_radar.simulate("smoke", trials=2)  # doctest: +SKIP
             >>> run.summary()["rmse_pos"]  # doctest: +SKIP
@@ -95,6 +100,7 @@ class Run:
             "crlb_pos": float(m["crlb_pos"].mean()),
             "lost_trials": int((lost > 0).sum()),
             "diverged_trials": int((m.groupby("trial")["diverged"].max() > 0).sum()),
+            **_set_summary(m),
             "control_hz": self.meta.get("control_hz"),
             "compile_s": self.meta.get("compile_s"),
             "sim_s": self.meta.get("sim_s"),
@@ -213,6 +219,17 @@ class Run:
         from mjx_radar.viz.viewer import view
 
         return view(self._saved(), path, trial, max_frames, samples).path
+
+
+def _set_summary(m: pd.DataFrame) -> dict:
+    """Mean GOSPA (and parts, m^p), OSPA and the trials' label switches and broken tracks
+    (totals over trials); NaN for a run directory written before these columns."""
+    out = {}
+    for c in ("gospa", "gospa_localisation", "gospa_missed", "gospa_false", "ospa"):
+        out[c] = float(m[c].mean()) if c in m.columns else float("nan")
+    for c in ("label_switches", "broken_tracks"):
+        out[c] = int(m[c].sum()) if c in m.columns else float("nan")
+    return out
 
 
 def _check_int(name: str, value, lo: int, hi: int) -> None:

@@ -34,6 +34,8 @@ RUN_DEFAULTS = {
     "cache": True,
     "cache_dir": None,
     "plugins": (),
+    "gospa_cutoff": None,  # None: the scenario's [metrics] (docs/tracking_metrics.md)
+    "gospa_order": None,
 }
 MAX_TRIALS = 100_000
 PRECISIONS = ("float32", "float64")
@@ -96,7 +98,8 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
         cli: name the options in messages as the command line does (``--steps``).
         **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
-            ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``.
+            ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``,
+            ``gospa_cutoff``, ``gospa_order`` (override the scenario's ``[metrics]``).
 
     Raises:
         ScenarioError: one line naming the option and its allowed values.
@@ -129,6 +132,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
                 f"{label('rollouts')} = {o['rollouts']!r}: must be one of mjx, analytic"
             )
         s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=o["rollouts"]))
+    s = _with_metrics(s, o, label)
     name = o["method"].strip() if isinstance(o["method"], str) else o["method"]
     if isinstance(name, str):
         base, plus, own = name.partition("+")
@@ -177,6 +181,18 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         o["cache"],
         cache_dir,
     )
+
+
+def _with_metrics(s, o: dict, label):
+    """``s`` with the run's GOSPA cutoff / order, checked by the ``[metrics]`` rules."""
+    given = {k: o[k] for k in ("gospa_cutoff", "gospa_order") if o[k] is not None}
+    try:
+        return s.replace(metrics=given) if given else s
+    except ScenarioError as err:
+        msg = str(err)
+        for k in given:
+            msg = msg.replace(f"metrics.{k}", label(k))
+        raise ScenarioError(msg) from None
 
 
 def process_options(req: RunRequest) -> None:

@@ -34,6 +34,8 @@ def simulate(
     deterministic: bool = False,
     cache_dir: str | Path | None = None,
     plugins=(),
+    gospa_cutoff: float | None = None,
+    gospa_order: float | None = None,
 ) -> Run:
     """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
 
@@ -65,6 +67,8 @@ def simulate(
             must be set before JAX starts, else a one-line ``InputError``).
         cache_dir: the persistent compilation cache's folder (``--cache-dir``).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
+        gospa_cutoff, gospa_order: GOSPA / OSPA cutoff c [m] and order p
+            (``--gospa-cutoff``, ``--gospa-order``; default the scenario's ``[metrics]``).
 
     Returns:
         The run (not saved; :meth:`Run.save` writes it).
@@ -96,6 +100,8 @@ def simulate(
         cache=cache,
         cache_dir=cache_dir,
         plugins=plugins,
+        gospa_cutoff=gospa_cutoff,
+        gospa_order=gospa_order,
     )
     if linger is not None and (
         isinstance(linger, bool) or not isinstance(linger, int | float) or not 0 <= linger < 1e9

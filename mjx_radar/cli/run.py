@@ -111,6 +111,8 @@ def main(args) -> int:
         cache=not getattr(args, "no_cache", False),
         cache_dir=getattr(args, "cache_dir", None),
         plugins=args.plugin,
+        gospa_cutoff=getattr(args, "gospa_cutoff", None),
+        gospa_order=getattr(args, "gospa_order", None),
     )
     s, steps, seed_ = req.scenario, req.steps, req.seed
     args.method = req.method.name  # "METHOD+PLANNER" with --planner

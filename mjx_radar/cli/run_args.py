@@ -73,6 +73,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="after the run, keep the live view this long (default: until Ctrl-C; 0: stop)",
     )
+    for name, what in (("cutoff", "cutoff c [m]"), ("order", "order p")):
+        p.add_argument(
+            f"--gospa-{name}",
+            type=float,
+            default=None,
+            metavar="X",
+            help=f"GOSPA / OSPA {what} (default: the scenario's [metrics] gospa_{name})",
+        )
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
     p.add_argument(
         "--keep-diverged",

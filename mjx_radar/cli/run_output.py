@@ -81,5 +81,19 @@ def summary(s, args, res, out: Path) -> None:
         f"the batch of {args.trials} (real time: {1 / s.timing.dt_control:g} Hz), "
         f"compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
         f"{int(np.asarray(res['lost']).any(axis=-1).sum())} of {args.trials} trial(s) lost track; "
-        f"results in {out}"
+        f"{set_line(s, res)}; results in {out}"
+    )
+
+
+def set_line(s, res) -> str:
+    """Mean GOSPA (its parts), OSPA and track continuity of the run, in words."""
+    m = s.metrics
+    parts = "/".join(
+        f"{np.mean(res['gospa_' + k]):.2f}" for k in ("localisation", "missed", "false")
+    )
+    return (
+        f"mean GOSPA {np.mean(res['gospa']):.3f} m (c = {m.gospa_cutoff:g} m, p = "
+        f"{m.gospa_order:g}; localisation/missed/false {parts} m^p), OSPA "
+        f"{np.mean(res['ospa']):.3f} m, {int(np.sum(res['label_switches']))} label switch(es), "
+        f"{int(np.sum(res['broken_tracks']))} broken track(s)"
     )

@@ -72,7 +72,7 @@ def record_template(full: bool):
     if full:
         steps = records.StepRecord(*[0] * len(records.StepRecord._fields))
         return steps, records.ControlRecord(*[0] * len(records.ControlRecord._fields))
-    return {k: 0 for k in results.METRIC_COLUMNS}, None
+    return {k: 0 for k in results.LOOP_COLUMNS + records.SET_KEYS}, None
 
 
 def _traced(
@@ -114,7 +114,8 @@ def _traced(
         carry = jax.tree.unflatten(carry_tree, leaves)
         carry, steps, controls = closed_loop.advance(task, params, carry, periods, planner)
         if not full:
-            steps = {k: getattr(steps, k) for k in results.METRIC_COLUMNS}
+            sets = records.estimate_sets(steps.target, steps.mean, steps.present)
+            steps = {k: getattr(steps, k) for k in results.LOOP_COLUMNS} | sets
             controls = None
         out = [x for x, keep in zip(jax.tree.leaves(carry), live, strict=True) if keep]
         return (*out, *jax.tree.leaves((steps, controls)))

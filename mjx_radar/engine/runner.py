@@ -112,10 +112,11 @@ def run_trials(
 
     Returns:
         dict of numpy arrays: the metrics (:data:`mjx_radar.rundir.results.METRIC_COLUMNS`)
-        [T, K], and if ``full`` the fields of ``StepRecord`` / ``ControlRecord`` with
-        leading [T, ...]; plus ``placement_ok`` [T], ``compile_s`` (ahead-of-time
-        compilation, 0 if this process compiled it before), ``sim_s`` (the simulation),
-        ``wall_s`` (both) and ``control_hz`` (control periods per second of the batch).
+        [T, K] (GOSPA, OSPA and continuity: on the host after the loop), and if ``full``
+        the fields of ``StepRecord`` / ``ControlRecord`` with leading [T, ...]; plus
+        ``placement_ok`` [T], ``compile_s`` (ahead-of-time compilation, 0 if this process
+        compiled it before), ``sim_s`` (the simulation), ``wall_s`` (both) and
+        ``control_hz`` (control periods per second of the batch).
     """
     every = scenario.timing.control_every
     if steps % every:
@@ -179,6 +180,7 @@ def run_trials(
             res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
     res["placement_ok"] = np.concatenate([np.asarray(w[4]) for w in workers])
     sim_s = time.perf_counter() - t0
+    res |= _set_columns(scenario, res, full)
     res |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
     res["control_hz"] = (steps // every) / sim_s
     return res
@@ -213,6 +215,20 @@ def device_programs(
         return parallel([lambda d=d: one(d) for d in devices])
     first = parallel([lambda: one(devices[0])])
     return first + parallel([lambda d=d: one(d) for d in devices[1:]])
+
+
+def _set_columns(scenario: Scenario, res: dict, full: bool) -> dict:
+    """GOSPA, OSPA and continuity per trial and step (host, after the run; the sets of a
+    metrics-only run are dropped from ``res``)."""
+    from mjx_radar.env.records import SET_KEYS, estimate_sets
+    from mjx_radar.rundir.results import set_columns
+
+    if full:
+        sets = estimate_sets(res["target"], res["mean"], res["present"])
+    else:
+        sets = {k: res.pop(k) for k in SET_KEYS}
+    cfg = scenario.metrics
+    return set_columns(sets, cfg.gospa_cutoff, cfg.gospa_order)
 
 
 def _get(rec, k):

@@ -108,6 +108,7 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
             flags_h.lost | diverged,
             diverged,
             jnp.sum(here).astype(jnp.int32),
+            here,
         )
         seen = jnp.ones((n, m), bool) if obs.seen is None else obs.seen
         return type(loop)(data, mean, cov, pfim, health, modes), (rec, seen)

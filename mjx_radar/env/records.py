@@ -36,6 +36,28 @@ class StepRecord(NamedTuple):
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
     targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
+    present: jax.Array  # [M] bool the targets present at this step
+
+
+#: the sets of the GOSPA metrics (issue 35), in the metrics-only output of the loop
+SET_KEYS = ("truth_pos", "present", "track_pos", "track_exists")
+
+
+def estimate_sets(target, mean, present) -> dict:
+    """The truths and the estimates as sets (:mod:`mjx_radar.estimation.gospa`).
+
+    Works on jax and numpy arrays with any leading axes (``[..., M, 6]``, ``[..., 6M]``,
+    ``[..., M]``). The tracker keeps one track per target (the bank, known association):
+    track m exists while target m is present.
+
+    Returns:
+        ``{"truth_pos": [..., M, 3], "present": [..., M], "track_pos": [..., M, 3],
+        "track_exists": [..., M]}`` (:data:`SET_KEYS`).
+    """
+    m = target.shape[-2]
+    track = mean.reshape(*mean.shape[:-1], m, 6)[..., :3]
+    truth = target[..., :3]
+    return {"truth_pos": truth, "present": present, "track_pos": track, "track_exists": present}
 
 
 class TrialResult(NamedTuple):

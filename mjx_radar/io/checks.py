@@ -110,6 +110,18 @@ def is_runtime(field_: Any) -> bool:
     return bool(field_.metadata.get("runtime"))
 
 
+def host(meta: dict) -> dict:
+    """Marks a field's metadata as a *host* setting: read on the host after the run (the
+    GOSPA cutoff), never an input of a compiled program, so the compiled shape blanks it
+    and it is no runtime parameter either."""
+    return {**meta, "host": True}
+
+
+def is_host(field_: Any) -> bool:
+    """Whether a dataclass field is marked :func:`host`."""
+    return bool(field_.metadata.get("host"))
+
+
 def _meta(value: Any, toml: str | None, **extra: Any) -> dict:
     return {"rule": value, **({"toml": toml} if toml else {}), **extra}
 

@@ -4,7 +4,7 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
 
     DIR/run.json           metadata: scenario, method, seed, trials, steps, dt_filter,
                            dt_control, n_radars, n_targets, r2t, r2r, noise_constant,
-                           wall_s, control_hz
+                           wall_s, control_hz, gospa_cutoff, gospa_order
     DIR/scenario.toml      the scenario file used (verbatim copy)
     DIR/metrics.parquet    long format, one row per (trial, step): scenario, method,
                            trial, step, time_s, rmse_pos [m], rmse_state [m, m/s],
@@ -16,7 +16,11 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
                            values kept finite), lost [0/1] (lost-track flag of
                            that step: env.track_health, docs/statistics.md),
                            targets_present [-] (targets present at that step:
-                           M, fewer with [[target_motion]] appear / leave)
+                           M, fewer with [[target_motion]] appear / leave),
+                           gospa [m], gospa_localisation / gospa_missed /
+                           gospa_false [m^p] (its parts), ospa [m], label_switches
+                           [-], broken_tracks [-] (events at that step; sums per
+                           trial): SET_COLUMNS, docs/tracking_metrics.md
     DIR/trajectories.npz   arrays (T trials, K filter steps, C = K / control_every
                            control steps, S kept MPPI samples, H horizon):
                              time_s [K], target [T,K,M,6], mean [T,K,6M],
@@ -40,7 +44,7 @@ import pandas as pd
 
 from mjx_radar.io.atomic import atomic_write  # also used as results.atomic_write
 
-METRIC_COLUMNS = (
+LOOP_COLUMNS = (  # computed in the closed loop, per step
     "rmse_pos",
     "rmse_state",
     "nees",
@@ -53,6 +57,34 @@ METRIC_COLUMNS = (
     "diverged",  # 1.0 when the filter became non-finite / not positive definite, else 0.0
     "targets_present",  # targets present at that step (M unless [[target_motion]] appear/leave)
 )
+SET_COLUMNS = (  # computed on the host from the loop's sets (set_columns, docs/tracking_metrics.md)
+    "gospa",  # GOSPA [m] of the present targets vs the existing tracks ([metrics] c, p)
+    "gospa_localisation",  # its localisation part: sum of d^p over assigned pairs [m^p]
+    "gospa_missed",  # its missed-target part: c^p/2 per unassigned target [m^p]
+    "gospa_false",  # its false-track part: c^p/2 per unassigned track [m^p]
+    "ospa",  # OSPA [m] (same c, p)
+    "label_switches",  # tracks whose assigned target changed at that step [-]
+    "broken_tracks",  # present targets whose track changed or was lost at that step [-]
+)
+METRIC_COLUMNS = LOOP_COLUMNS + SET_COLUMNS
+
+
+def set_columns(sets: dict, cutoff: float, order: float) -> dict:
+    """The :data:`SET_COLUMNS` ``[T, K]`` of a run from its sets.
+
+    Args:
+        sets: :data:`mjx_radar.env.records.SET_KEYS` arrays ``[T, K, ...]``
+            (:func:`mjx_radar.env.records.estimate_sets`).
+        cutoff: GOSPA / OSPA cutoff c [m]; order: their order p.
+    """
+    from mjx_radar.estimation.continuity import continuity_events
+    from mjx_radar.estimation.gospa import set_metrics
+
+    truth, here = sets["truth_pos"], sets["present"]
+    out = set_metrics(truth, here, sets["track_pos"], sets["track_exists"], cutoff, order)
+    switches, broken = continuity_events(out.assignment, here, sets["track_exists"])
+    cols = (out.gospa, out.localisation, out.missed, out.false, out.ospa, switches, broken)
+    return {k: np.asarray(v, np.float64) for k, v in zip(SET_COLUMNS, cols, strict=True)}
 
 
 def metrics_frame(

@@ -63,6 +63,8 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
         "deterministic": bool(extra.pop("deterministic", False)),
         "lost_trials": int(np.asarray(res["lost"]).any(axis=-1).sum()),
         "lost_steps": int(np.asarray(res["lost"]).sum()),
+        "gospa_cutoff": s.metrics.gospa_cutoff,
+        "gospa_order": s.metrics.gospa_order,
     }
     if any(ov.radar_eq for ov in s.radar_override):  # a mixed fleet: C of each radar
         from mjx_radar.scenario.fleet import radar_equation

@@ -1,17 +1,18 @@
 """Typed, immutable scenario configuration (SPEC defaults; tables also in schema_detection,
-schema_filter, schema_planner, schema_world, schema_terrain): frozen, hashable dataclasses
-(static under ``jax.jit``), SI units; each field's allowed range is its metadata
-(:mod:`mjx_radar.io.checks`)."""
+schema_metrics, schema_filter, schema_planner, schema_world, schema_terrain): frozen,
+hashable dataclasses (static under ``jax.jit``), SI units; each field's allowed range is
+its metadata (:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import choice, col, flag, name_rule, rows, rule, runtime, table
+from mjx_radar.io.checks import choice, col, flag, host, name_rule, rows, rule, runtime, table
 from mjx_radar.scenario.names import accept_toml_names
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
+from mjx_radar.scenario.schema_metrics import MetricsConfig
 from mjx_radar.scenario.schema_planner import PlannerConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
@@ -255,6 +256,10 @@ class Scenario:
     planner: PlannerConfig = field(
         default_factory=PlannerConfig,
         metadata=table("settings of the planner zoo: cem, grad, hybrid, cmaes (docs/planners.md)"),
+    )
+    metrics: MetricsConfig = field(
+        default_factory=MetricsConfig,
+        metadata=host(table("GOSPA / OSPA settings (docs/tracking_metrics.md)")),
     )
 
     @property

@@ -213,6 +213,11 @@ def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:
     return frame
 
 
+def _gospa_settings(scenario) -> dict:
+    """The GOSPA / OSPA cutoff and order a scenario's columns were computed with."""
+    return {"cutoff": scenario.metrics.gospa_cutoff, "order": scenario.metrics.gospa_order}
+
+
 def start_manifest(out: Path, scenarios, config: dict, manifest: dict | None) -> dict:
     """Creates (or extends) ``manifest.json`` and the scenario copies."""
     from mjx_radar.rundir import results
@@ -263,6 +268,7 @@ def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices:
         "chunk": config["chunk"],
         "precision": config["precision"],
         "rollouts": {s.name: s.mpc.rollout for s, *_ in scenarios},
+        "gospa": {s.name: _gospa_settings(s) for s, *_ in scenarios},
         "wall_s": time.perf_counter() - times.start,
         "compile_s": times.compile_s,
         "sim_s": times.sim_s,

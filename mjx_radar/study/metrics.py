@@ -24,6 +24,9 @@ Definitions (T trials, K steps of one scenario and method):
   (:func:`mjx_radar.estimation.pcrlb.rmse_vs_bound`).
 * One number per scenario and method: the mean over the K steps of each per-step
   statistic (``mean_rmse_pos``, ``median_rmse_pos``, ``hdi_hi_pos``, ``kept_rmse_pos``).
+* **GOSPA, OSPA** (docs/tracking_metrics.md): means over trials and steps of the
+  per-step values and GOSPA parts; **label switches / broken tracks per trial**: the
+  mean over trials of each trial's number of events.
 * **Reduction** of a DDR-MPPI method vs a baseline (stationary; the CCR-MPPI
   method with the same information kind):
   ``100 (1 - value_DDR / value_baseline)`` percent (positive = DDR is better), on
@@ -45,6 +48,9 @@ from mjx_radar.task.method import METHODS
 
 HDI_PROB = 0.9
 _VALUES = ("rmse_pos", "rmse_state", "crlb_pos")
+#: multi-target columns (docs/tracking_metrics.md): per-step means; NaN in older studies
+SET_VALUES = ("gospa", "gospa_localisation", "gospa_missed", "gospa_false", "ospa")
+EVENTS = ("label_switches", "broken_tracks")  # per-step event counts: summed per trial
 STATS = ("mean", "median", "hdi", "kept")
 #: summary column of each statistic a reduction is computed on
 STAT_COLUMN = {
@@ -151,7 +157,8 @@ def per_step(frame: pd.DataFrame, prob: float = HDI_PROB) -> pd.DataFrame:
         ``hdi_state_lo/hi``; ``rms_pos`` and ``crlb_rms`` (square roots of the means of
         squares); ``kept_pos`` (mean over never-lost trials), ``lost_frac`` (trials lost
         at this step), ``ever_lost_frac`` (trials lost at this or an earlier step); the
-        last three NaN without a ``lost`` column.
+        last three NaN without a ``lost`` column; the means over trials of
+        :data:`SET_VALUES` and :data:`EVENTS` (NaN in studies without them).
     """
     rows = []
     for (scen, meth), g in frame.groupby(["scenario", "method"], observed=True, sort=False):
@@ -176,6 +183,8 @@ def per_step(frame: pd.DataFrame, prob: float = HDI_PROB) -> pd.DataFrame:
             out["kept_pos"] = kept_mean(pos, lost.any(axis=1))
             out["lost_frac"] = lost.mean(axis=0)
             out["ever_lost_frac"] = np.logical_or.accumulate(lost, axis=1).mean(axis=0)
+        for c in SET_VALUES + EVENTS:
+            out[c] = _wide(g, c).mean(axis=0).to_numpy() if c in g.columns else np.nan
         rows.append(out)
     return pd.concat(rows, ignore_index=True)
 
@@ -223,7 +232,10 @@ def summary(steps: pd.DataFrame, frame: pd.DataFrame | None = None) -> pd.DataFr
     Returns:
         Columns ``scenario, method, mean_rmse_pos, median_rmse_pos, hdi_hi_pos,
         kept_rmse_pos, mean_rmse_state, hdi_hi_state, mean_crlb_pos, rms_rmse_pos,
-        rms_crlb_pos, lost_trial_rate, lost_step_rate`` and, for DDR-MPPI methods,
+        rms_crlb_pos, lost_trial_rate, lost_step_rate``, ``mean_gospa``,
+        ``mean_gospa_{localisation,missed,false}``, ``mean_ospa`` (means over trials and
+        steps), ``label_switches_per_trial``, ``broken_tracks_per_trial`` (NaN in studies
+        without them) and, for DDR-MPPI methods,
         ``red_{mean,median,hdi,kept}_vs_{stationary,ccr}`` in percent (NaN when the
         baseline is not in the study, for other methods, or without lost flags for
         ``kept``) and ``n_kept_vs_{stationary,ccr}`` (trials kept by both).
@@ -241,6 +253,8 @@ def summary(steps: pd.DataFrame, frame: pd.DataFrame | None = None) -> pd.DataFr
         rms_crlb_pos=("crlb_rms", lambda x: float(np.sqrt(np.mean(np.square(x))))),
         lost_trial_rate=("ever_lost_frac", "last"),
         lost_step_rate=("lost_frac", "mean"),
+        **{f"mean_{c}": (c, "mean") for c in SET_VALUES},
+        **{f"{c}_per_trial": (c, lambda x: float(x.sum(min_count=1))) for c in EVENTS},
     ).reset_index()
     for tag in ("stationary", "ccr"):
         for stat in STATS:

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import detection, measurement
-from mjx_radar.io.checks import is_runtime
+from mjx_radar.io.checks import is_host, is_runtime
 from mjx_radar.scenario.schema import DetectionConfig, Scenario
 from mjx_radar.task.method import Method, MethodFlags
 from mjx_radar.world.moving import MovingParams, moving_params
@@ -110,11 +110,12 @@ def _blank(value):
 
 def blank_runtime(obj):
     """``obj`` (a config dataclass) with every field marked runtime blanked (nested tables
-    and tuples of tables too): what the field metadata says enters programs as arguments."""
+    and tuples of tables too): what the field metadata says enters programs as arguments.
+    Host settings (:func:`~mjx_radar.io.checks.host`, read after the run) are blanked too."""
     changes = {}
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
-        if is_runtime(f):
+        if is_runtime(f) or is_host(f):
             changes[f.name] = _blank(value)
         elif dataclasses.is_dataclass(value):
             changes[f.name] = blank_runtime(value)
