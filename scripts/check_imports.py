@@ -43,6 +43,7 @@ FLOORS = [
     "task",  # task, objective, the MPC step
     "planners",  # the planner contract and its plug-ins (MPPI, hold, registered ones)
     "env",  # the pure closed loop (paper Algorithm 1), placement
+    "learning",  # learned policies: features, brax / gymnasium adapters, PPO, policy:DIR
     "rundir",  # the result format: run directories written and read
     "engine",  # compiled programs, caches, devices, batching, runner
     "study",  # multi-cell studies
