@@ -80,17 +80,24 @@ class PolicyPlanner(Planner):
 
 def load_policy(checkpoint, state: dict):
     """``policy(features [F], key) -> (action [2N], extras)`` of a brax PPO checkpoint
-    (deterministic), its parameters as constants."""
+    (deterministic: the mode), its parameters as constants.
+
+    The network is rebuilt from ``policy.json``'s configuration (brax 0.14's
+    ``load_config`` fails on the ``None`` kernel initialiser it saves itself)."""
     try:
+        from brax.training.acme import running_statistics
         from brax.training.agents.ppo import checkpoint as ppo_ckpt
+        from brax.training.agents.ppo import networks
     except ImportError:
         raise ScenarioError(
             "planner policy: needs the rl extra (pip install -e '.[rl]': brax)"
         ) from None
-    from mjx_radar.learning.train import PPOConfig, network_factory
+    from mjx_radar.learning.train import config_of, network_factory
 
-    saved = state["config"]
-    config = PPOConfig(
-        **{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}}
+    network = network_factory(config_of(state))(
+        state["observation_size"],
+        state["action_size"],
+        preprocess_observations_fn=running_statistics.normalize,
     )
-    return ppo_ckpt.load_policy(checkpoint, network_factory(config), deterministic=True)
+    params = ppo_ckpt.load(checkpoint)
+    return networks.make_inference_fn(network)(params, deterministic=True)

@@ -79,6 +79,12 @@ def network_factory(config: PPOConfig):
     )
 
 
+def config_of(state: dict) -> PPOConfig:
+    """The :class:`PPOConfig` saved in a ``policy.json``."""
+    saved = state["config"]
+    return PPOConfig(**{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}})
+
+
 def read_state(out) -> dict | None:
     """``DIR/policy.json`` as a dict (None when absent)."""
     path = Path(out) / "policy.json"
@@ -137,10 +143,7 @@ def train_policy(
                 f"out = {str(out)!r}: trained on {state['scenario']} / {state['method']}, "
                 f"not {sc.name} / {method}"
             )
-        saved = state["config"]
-        config = PPOConfig(
-            **{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}}
-        )
+        config = config_of(state)
     config = config or PPOConfig()
     _check(config, steps)
     env = brax_env.make(sc, method)

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import shlex
 import shutil
 import sys
@@ -145,6 +146,16 @@ def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> d
     return manifest
 
 
+def file_label(method: str) -> str:
+    """``method`` as a file-name part: unchanged unless it holds characters other than
+    letters, digits, ``._+-`` (``ddr-sfim+policy:runs/p1``), then those as ``_`` plus a
+    digest of the name (distinct names stay distinct)."""
+    safe = re.sub(r"[^A-Za-z0-9._+-]", "_", method)
+    if safe == method:
+        return method
+    return f"{safe[:60]}-{hashlib.sha256(method.encode()).hexdigest()[:8]}"
+
+
 def all_chunks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[Chunk]:
     """Every chunk in study order."""
     chunks = []
@@ -152,7 +163,7 @@ def all_chunks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[C
         for method in methods:
             for first in range(0, trials, chunk):
                 last = min(first + chunk, trials) - 1
-                path = out / "chunks" / f"{s.name}__{method}__{first}-{last}.parquet"
+                path = out / "chunks" / f"{s.name}__{file_label(method)}__{first}-{last}.parquet"
                 chunks.append(Chunk(s, method, steps, seed, first, last, path))
     return chunks
 
