@@ -43,11 +43,11 @@ FLOORS = [
     "task",  # task, objective, the MPC step
     "planners",  # the planner contract and its plug-ins (MPPI, hold, registered ones)
     "env",  # the pure closed loop (paper Algorithm 1), placement
-    "learning",  # learned policies: features, brax / gymnasium adapters, PPO, policy:DIR
     "rundir",  # the result format: run directories written and read
     "engine",  # compiled programs, caches, devices, batching, runner
     "study",  # multi-cell studies
     "viz",  # viewer, renderer, snapshots
+    "learning",  # learned policies: features, brax / gymnasium adapters, PPO, policy:DIR
     "api",  # Python API
     "cli",  # command line
     "facade",  # the package root: __init__, __main__, public alias modules

@@ -109,6 +109,7 @@ def train_policy(
     method: str = "ddr-sfim",
     config: PPOConfig | None = None,
     max_seconds: float | None = None,
+    cache_dir=None,
     log=print,
 ) -> dict:
     """Trains (or goes on training) a policy into ``out`` up to ``steps`` env steps.
@@ -120,6 +121,8 @@ def train_policy(
         method: the method whose noise model the tracker uses (``ddr-sfim``).
         config: PPO settings (a resumed directory keeps its own).
         max_seconds: stop after the evaluation past which another would not fit.
+        cache_dir: JAX's persistent compilation cache (default the package's, as the
+            command line: a resumed chunk then reuses the first chunk's programs).
         log: a function of one line of progress (``print``).
 
     Returns:
@@ -128,10 +131,13 @@ def train_policy(
     from brax.training.agents.ppo import checkpoint as ppo_ckpt
     from brax.training.agents.ppo import train as ppo
 
+    from mjx_radar.engine import compile_cache
     from mjx_radar.learning import brax_env, compat
     from mjx_radar.scenario.reader import load_scenario
 
     compat.ensure()
+    if not compile_cache.enabled():
+        compile_cache.enable(cache_dir)
 
     t0 = time.perf_counter()
     out = Path(out)
