@@ -118,3 +118,12 @@ def test_train_resume_and_evaluate_as_planner(short, tmp_path):
     run = mjx_radar.simulate(short, planner=f"policy:{out}", trials=1, cache=False)
     assert run.summary()["method"] == f"ddr-sfim+policy:{out}"
     assert np.isfinite(run.summary()["rmse_pos"])
+    # the first control of the run is the checkpoint's policy on the reset observation
+    from mjx_radar.learning.policy import load_policy
+
+    env = make(short)
+    obs = jax.jit(env.reset)(env.trial_key(short.seed, 0)).obs
+    policy = load_policy(out / state["checkpoint"], state)
+    a, _ = policy(features.features(env, obs), jax.random.PRNGKey(0))
+    u0 = np.asarray(run.trajectories.control.isel(trial=0))[0]
+    np.testing.assert_allclose(u0, np.asarray(features.action_to_control(env, a)), rtol=1e-4)

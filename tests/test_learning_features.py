@@ -135,3 +135,17 @@ def test_study_file_labels():
     assert file_label("ddr-sfim+ps") == "ddr-sfim+ps"
     a, b = file_label("ddr-sfim+policy:runs/a"), file_label("ddr-sfim+policy:runs_a")
     assert "/" not in a and ":" not in a and a != b
+
+
+def test_run_and_study_refuse_a_missing_policy_before_compiling(tmp_path):
+    from mjx_radar.api.run_case import request
+    from mjx_radar.errors import InputError
+    from mjx_radar.io.checks import ScenarioError
+    from mjx_radar.study.driver import load_scenarios
+
+    with pytest.raises(ScenarioError, match="no policy.json"):
+        request("smoke", planner=f"policy:{tmp_path}")
+    with pytest.raises(InputError, match="no policy.json"):
+        load_scenarios(["smoke"], [f"ddr-sfim+policy:{tmp_path}"], 2, None, 0, 2, None)
+    with pytest.raises(ScenarioError, match="'mppi' takes no ':ARGUMENT'"):
+        request("smoke", planner="mppi:x")

@@ -87,7 +87,9 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
         if m.partition("+")[0] not in METHODS:
             raise InputError(f"methods: {m!r} is not one of {', '.join(METHODS)}")
         try:  # a planner of its own ("METHOD+PLANNER"): registered in this process
-            PLANNERS.get(parse_method(m).planner)
+            planner = parse_method(m).planner
+            PLANNERS.get(planner)
+            PLANNERS.key((planner,))  # "policy:DIR": DIR checked before anything runs
         except ValueError as err:
             raise InputError(f"methods: {err}") from None
         if m in methods[:i]:
