@@ -127,3 +127,28 @@ def test_train_resume_and_evaluate_as_planner(short, tmp_path):
     a, _ = policy(features.features(env, obs), jax.random.PRNGKey(0))
     u0 = np.asarray(run.trajectories.control.isel(trial=0))[0]
     np.testing.assert_allclose(u0, np.asarray(features.action_to_control(env, a)), rtol=1e-4)
+
+
+def test_train_script_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "scripts" / "train_policy.py"
+    spec = importlib.util.spec_from_file_location("train_policy_script", path)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    out = str(tmp_path / "p")
+    cases = [
+        (["smoke", "--steps", "0", "--out", out], "steps = 0: must be an integer >= 1"),
+        (["smoke", "--steps", "9", "--out", out, "--num-envs", "3"], "num_envs = 3: must divide"),
+        (["nope", "--steps", "9", "--out", out], "nope"),
+        (["smoke", "--steps", "9", "--out", out, "--policy-hidden", "a"], "--policy-hidden"),
+    ]
+    for argv, message in cases:
+        assert script.main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and "\n" not in err and "Traceback" not in err
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "policy.json").write_text(json.dumps({"scenario": "x", "method": "ddr-sfim"}))
+    assert script.main(["smoke", "--steps", "9", "--out", out]) == 2
+    assert "trained on x / ddr-sfim, not smoke / ddr-sfim" in capsys.readouterr().err

@@ -128,18 +128,10 @@ def train_policy(
     Returns:
         ``DIR/policy.json``'s content (``steps_done``, ``checkpoint``, ...).
     """
-    from brax.training.agents.ppo import checkpoint as ppo_ckpt
-    from brax.training.agents.ppo import train as ppo
-
     from mjx_radar.engine import compile_cache
-    from mjx_radar.learning import brax_env, compat
+    from mjx_radar.learning import compat
     from mjx_radar.scenario.reader import load_scenario
 
-    compat.ensure()
-    if not compile_cache.enabled():
-        compile_cache.enable(cache_dir)
-
-    t0 = time.perf_counter()
     out = Path(out)
     sc = scenario if not isinstance(scenario, str | Path) else load_scenario(str(scenario))
     state = read_state(out)
@@ -152,6 +144,22 @@ def train_policy(
         config = config_of(state)
     config = config or PPOConfig()
     _check(config, steps)
+    compat.ensure()
+    ours = not compile_cache.enabled() and compile_cache.enable(cache_dir) is not None
+    try:
+        return _train(sc, steps, out, method, config, state, max_seconds, log)
+    finally:
+        if ours:  # the process's cache setting as it was
+            compile_cache.disable()
+
+
+def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
+    from brax.training.agents.ppo import checkpoint as ppo_ckpt
+    from brax.training.agents.ppo import train as ppo
+
+    from mjx_radar.learning import brax_env
+
+    t0 = time.perf_counter()
     env = brax_env.make(sc, method)
     factory = network_factory(config)
     if state is None:
