@@ -26,6 +26,7 @@ def short(tiny):
     return dataclasses.replace(tiny, timing=dataclasses.replace(tiny.timing, steps=20))
 
 
+@pytest.mark.slow  # compile-bound: ~30-70 s on the 2-core machine
 def test_brax_step_is_the_env_step(short):
     """One adapter step = one RadarEnv.step of the mapped action, with reward =
     -Σ log det P_pos - penalty; metric keys stay those of reset."""
@@ -45,6 +46,7 @@ def test_brax_step_is_the_env_step(short):
     assert s1.obs.shape == (benv.observation_size,)
 
 
+@pytest.mark.slow  # compile-bound: ~30-70 s on the 2-core machine
 def test_training_wrapper_draws_a_new_trial_each_episode(short):
     """After the episode's last period the slot restarts from a *new* placement."""
     benv = brax_env.make(short)
@@ -74,6 +76,7 @@ def test_gymnasium_env_passes_the_checker(short):
     assert env.observation_space.contains(obs) and "rmse_pos" in info
 
 
+@pytest.mark.slow  # compile-bound: ~30-70 s on the 2-core machine
 def test_gymnasium_vector_env_autoresets_next_step(short):
     from mjx_radar.learning.gym_env import RadarVectorEnv
 
