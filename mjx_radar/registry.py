@@ -116,12 +116,25 @@ class Registry:
         self._builtin[name] = obj
 
     def get(self, name: str) -> Any:
-        """The entry called ``name``.
+        """The entry called ``name``, or ``"name:ARGUMENT"`` for an entry that takes one.
+
+        An entry with a true ``takes_argument`` attribute (e.g. the planner
+        ``policy:DIR``, a trained policy read from ``DIR``) is returned as
+        ``functools.partial(entry, argument=ARGUMENT)``.
 
         Raises:
             ValueError: one line naming the known entries (or, for a built-in whose
-                optional dependency is missing, the remedy).
+                optional dependency is missing, the remedy), or an argument given to an
+                entry that takes none (or none given to one that needs it).
         """
+        if isinstance(name, str) and ":" in name:
+            base, _, arg = name.partition(":")
+            obj = self.get(base)
+            if not getattr(obj, "takes_argument", False):
+                raise ValueError(f"{self.kind} {name!r}: {base!r} takes no ':ARGUMENT'")
+            if not arg:
+                raise ValueError(f"{self.kind} {name!r}: give {base}:ARGUMENT")
+            return functools.partial(obj, argument=arg)
         if isinstance(name, str):
             if name in self._user:
                 return self._user[name]
@@ -138,6 +151,8 @@ class Registry:
         raise ValueError(f"{self.kind}: {name!r} is not one of {', '.join(self.names())}")
 
     def __contains__(self, name) -> bool:
+        if isinstance(name, str) and ":" in name:
+            name = name.partition(":")[0]
         return name in self._user or name in self._builtin
 
     def names(self) -> tuple[str, ...]:
@@ -150,13 +165,21 @@ class Registry:
 
     def key(self, names: tuple[str, ...] | None = None) -> tuple:
         """``((name, digest), ...)`` of registered entries (all, or those of ``names``
-        that are registered): part of the cache key of every program that uses them."""
+        that are registered), and for each ``"name:ARGUMENT"`` of ``names`` the entry's
+        ``argument_digest(ARGUMENT)`` (e.g. a trained policy's files): part of the cache
+        key of every program that uses them."""
         items = (
             self._user.items()
             if names is None
             else [(n, self._user[n]) for n in names if n in self._user]
         )
-        return tuple((n, code_digest(o)) for n, o in items)
+        out = tuple((n, code_digest(o)) for n, o in items)
+        for n in names or ():  # "name:ARGUMENT": what the argument names (a file's digest)
+            if isinstance(n, str) and ":" in n:
+                base, _, arg = n.partition(":")
+                digest = getattr(self.get(base), "argument_digest", None)
+                out += ((n, digest(arg) if digest else ""), *self.key((base,)))
+        return out
 
 
 def check_callable(kind: str, name: str, fn: Callable | None) -> None:
@@ -178,6 +201,7 @@ PLANNERS = Registry(
         "hybrid": "mjx_radar.planners.zoo:HybridPlanner",
         "cmaes": "mjx_radar.planners.evolution:CMAESPlanner",
         "sep-cmaes": "mjx_radar.planners.evolution:SepCMAESPlanner",
+        "policy": "mjx_radar.learning.policy:PolicyPlanner",  # policy:DIR (docs/learning.md)
     },
 )
 #: trackers by name (:mod:`mjx_radar.env.filter_ops`): ``[filter] tracker``

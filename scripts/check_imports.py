@@ -47,6 +47,7 @@ FLOORS = [
     "engine",  # compiled programs, caches, devices, batching, runner
     "study",  # multi-cell studies
     "viz",  # viewer, renderer, snapshots
+    "learning",  # learned policies: features, brax / gymnasium adapters, PPO, policy:DIR
     "api",  # Python API
     "cli",  # command line
     "facade",  # the package root: __init__, __main__, public alias modules

@@ -147,6 +147,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
     try:
         method = parse_method(name, o["planner"])
         PLANNERS.get(method.planner)
+        PLANNERS.key((method.planner,))  # "policy:DIR": DIR checked before compiling
     except ValueError as err:
         raise ScenarioError(str(err)) from None
     ids = trial_ids(o["trials"])

@@ -23,7 +23,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="NAME",
         help="a registered planner moving the radars instead of the method's own: mppi, "
-        "ps, cem, grad, hybrid, hold, or one a --plugin file registers (docs/extending.md)",
+        "ps, cem, grad, hybrid, hold, policy:DIR (a trained policy, docs/learning.md), or "
+        "one a --plugin file registers (docs/extending.md)",
     )
     p.add_argument(
         "--plugin",

@@ -43,7 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="A,B",
         help="run every planning method with each of these planners (mppi, ps, cem, "
-        "grad, hybrid, or registered by a --plugin file): METHOD+PLANNER",
+        "grad, hybrid, policy:DIR, or registered by a --plugin file): METHOD+PLANNER",
     )
     p.add_argument(
         "--plugin",

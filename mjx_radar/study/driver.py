@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import shlex
 import shutil
 import sys
@@ -86,7 +87,9 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
         if m.partition("+")[0] not in METHODS:
             raise InputError(f"methods: {m!r} is not one of {', '.join(METHODS)}")
         try:  # a planner of its own ("METHOD+PLANNER"): registered in this process
-            PLANNERS.get(parse_method(m).planner)
+            planner = parse_method(m).planner
+            PLANNERS.get(planner)
+            PLANNERS.key((planner,))  # "policy:DIR": DIR checked before anything runs
         except ValueError as err:
             raise InputError(f"methods: {err}") from None
         if m in methods[:i]:
@@ -145,6 +148,16 @@ def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> d
     return manifest
 
 
+def file_label(method: str) -> str:
+    """``method`` as a file-name part: unchanged unless it holds characters other than
+    letters, digits, ``._+-`` (``ddr-sfim+policy:runs/p1``), then those as ``_`` plus a
+    digest of the name (distinct names stay distinct)."""
+    safe = re.sub(r"[^A-Za-z0-9._+-]", "_", method)
+    if safe == method:
+        return method
+    return f"{safe[:60]}-{hashlib.sha256(method.encode()).hexdigest()[:8]}"
+
+
 def all_chunks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[Chunk]:
     """Every chunk in study order."""
     chunks = []
@@ -152,7 +165,7 @@ def all_chunks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[C
         for method in methods:
             for first in range(0, trials, chunk):
                 last = min(first + chunk, trials) - 1
-                path = out / "chunks" / f"{s.name}__{method}__{first}-{last}.parquet"
+                path = out / "chunks" / f"{s.name}__{file_label(method)}__{first}-{last}.parquet"
                 chunks.append(Chunk(s, method, steps, seed, first, last, path))
     return chunks
 

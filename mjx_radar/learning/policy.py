@@ -1,0 +1,103 @@
+"""The planner ``policy:DIR``: a trained policy moving the radars like any planner.
+
+``mjx-radar run SCENARIO --planner policy:DIR``, ``mjx-radar study ... --planners
+mppi,policy:DIR`` and ``simulate(..., planner="policy:DIR")`` run the policy that
+:func:`mjx_radar.learning.train.train_policy` wrote to ``DIR`` (its latest checkpoint),
+deterministically (the mode of its action distribution)::
+
+    a = tanh(μ_θ(normalise(features(obs))))          a ∈ [-1, 1]^{2N}
+    u = action_to_control(env, a)                     [N, 2] within the radars' limits
+
+One control call is one small MLP evaluation: no rollouts, no objective. The
+parameters are read on the host when the planner is made and enter the compiled
+program as constants; :meth:`PolicyPlanner.argument_digest` (a digest of the
+directory's policy files) is part of the program cache key, so a retrained policy
+recompiles. The policy must have been trained with the same numbers of radars and
+targets (the features' size); other scenario settings may differ (generalisation).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+from mjx_radar.io.checks import ScenarioError
+from mjx_radar.learning.features import action_to_control, feature_size, features
+from mjx_radar.planners.base import Planner
+
+
+def _policy_dir(argument: str) -> tuple[Path, dict]:
+    path = Path(argument).expanduser()
+    meta = path / "policy.json"
+    if not meta.is_file():
+        raise ScenarioError(f"planner policy:{argument}: no policy.json (train_policy.py --out)")
+    state = json.loads(meta.read_text())
+    if not state.get("checkpoint"):
+        raise ScenarioError(f"planner policy:{argument}: no checkpoint saved yet")
+    return path, state
+
+
+class PolicyPlanner(Planner):
+    """A policy trained by ``scripts/train_policy.py`` (module docstring).
+
+    Args:
+        env: the environment whose radars it moves.
+        argument: the policy directory ``DIR`` (``policy:DIR``).
+    """
+
+    takes_argument = True
+
+    def __init__(self, env, argument: str):
+        super().__init__(env)
+        path, state = _policy_dir(argument)
+        n, m = env.n_radars, env.n_targets
+        if (state["n_radars"], state["n_targets"]) != (n, m):
+            raise ScenarioError(
+                f"planner policy:{argument}: trained for {state['n_radars']} radars and "
+                f"{state['n_targets']} targets ({state['scenario']}), not {n} and {m}"
+            )
+        if state["observation_size"] != feature_size(n, m):
+            raise ScenarioError(f"planner policy:{argument}: features of another version")
+        self.source, self.state = str(path), state
+        self._policy = load_policy(path / state["checkpoint"], state)
+
+    def plan(self, carry, obs, key):
+        a, _ = self._policy(features(self.env, obs), key)
+        return action_to_control(self.env, a).astype(obs.mean.dtype), carry
+
+    @staticmethod
+    def argument_digest(argument: str) -> str:
+        """A digest of ``DIR/policy.json`` and the files of its latest checkpoint."""
+        path, state = _policy_dir(argument)
+        h = hashlib.sha256((path / "policy.json").read_bytes())
+        for f in sorted((path / state["checkpoint"]).rglob("*")):
+            if f.is_file():
+                h.update(f.relative_to(path).as_posix().encode())
+                h.update(f.read_bytes())
+        return h.hexdigest()[:16]
+
+
+def load_policy(checkpoint, state: dict):
+    """``policy(features [F], key) -> (action [2N], extras)`` of a brax PPO checkpoint
+    (deterministic: the mode), its parameters as constants.
+
+    The network is rebuilt from ``policy.json``'s configuration (brax 0.14's
+    ``load_config`` fails on the ``None`` kernel initialiser it saves itself)."""
+    try:
+        from brax.training.acme import running_statistics
+        from brax.training.agents.ppo import checkpoint as ppo_ckpt
+        from brax.training.agents.ppo import networks
+    except ImportError:
+        raise ScenarioError(
+            "planner policy: needs the rl extra (pip install -e '.[rl]': brax)"
+        ) from None
+    from mjx_radar.learning.train import config_of, network_factory
+
+    network = network_factory(config_of(state))(
+        state["observation_size"],
+        state["action_size"],
+        preprocess_observations_fn=running_statistics.normalize,
+    )
+    params = ppo_ckpt.load(checkpoint)
+    return networks.make_inference_fn(network)(params, deterministic=True)

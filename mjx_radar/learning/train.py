@@ -1,0 +1,280 @@
+"""PPO training of a placement policy with brax (``brax.training.agents.ppo.train``).
+
+:func:`train_policy` trains on :class:`~mjx_radar.learning.brax_env.BraxRadarEnv`
+(wrapped by :func:`~mjx_radar.learning.brax_env.wrap_for_training`) and writes a
+*policy directory* ``DIR``:
+
+* ``DIR/policy.json``: the scenario and method, N, M, the feature and action sizes, the
+  PPO and network configuration, the steps done, the latest checkpoint;
+* ``DIR/checkpoints/<steps:012d>/``: brax's checkpoint (orbax) of ``(normaliser,
+  policy, value)`` parameters and ``ppo_network_config.json`` (the network's factory
+  arguments), after every evaluation;
+* ``DIR/curve.csv``: the learning curve (one row per evaluation: env steps, wall time,
+  mean episode reward, information, penalty, mean position RMSE, lost tracks).
+
+Training is resumable in chunks (one GPU command here is limited to 10 minutes): a call
+with ``max_seconds`` stops after the first evaluation that would not leave time for
+another, and a later call with the same ``DIR`` continues from the latest checkpoint up
+to ``steps`` env steps (control periods) in all. A resumed chunk restarts the optimiser
+(Adam's moments) from zero; parameters and the observation normaliser carry over.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import time
+from pathlib import Path
+
+from mjx_radar.io.atomic import atomic_write_text
+from mjx_radar.io.checks import ScenarioError
+
+FORMAT = 1
+CURVE = ("steps", "wall_s", "reward", "information", "penalty", "rmse_pos", "lost")
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOConfig:
+    """brax PPO's settings (``ppo.train`` keywords) and the network's sizes."""
+
+    num_envs: int = 256
+    unroll_length: int = 10
+    batch_size: int = 256
+    num_minibatches: int = 8
+    num_updates_per_batch: int = 4
+    learning_rate: float = 3e-4
+    entropy_cost: float = 1e-3
+    discounting: float = 0.97
+    gae_lambda: float = 0.95
+    clipping_epsilon: float = 0.2
+    reward_scaling: float = 0.1
+    max_grad_norm: float = 1.0
+    num_eval_envs: int = 128
+    eval_every: int = 200_000  # env steps between evaluations (and checkpoints)
+    policy_hidden: tuple[int, ...] = (128, 128)
+    value_hidden: tuple[int, ...] = (256, 256)
+    seed: int = 0
+
+    def steps_per_update(self) -> int:
+        """Env steps of one PPO update: ``batch_size · unroll_length · num_minibatches``."""
+        return self.batch_size * self.unroll_length * self.num_minibatches
+
+
+class _OutOfTime(Exception):
+    """Raised from brax's progress callback to end a chunk after a checkpoint."""
+
+
+def network_factory(config: PPOConfig):
+    """brax's ``make_ppo_networks`` with the configured layer sizes."""
+    import functools
+
+    from brax.training.agents.ppo import networks
+
+    return functools.partial(
+        networks.make_ppo_networks,
+        policy_hidden_layer_sizes=tuple(config.policy_hidden),
+        value_hidden_layer_sizes=tuple(config.value_hidden),
+    )
+
+
+def config_of(state: dict) -> PPOConfig:
+    """The :class:`PPOConfig` saved in a ``policy.json``."""
+    saved = state["config"]
+    return PPOConfig(**{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}})
+
+
+def read_state(out) -> dict | None:
+    """``DIR/policy.json`` as a dict (None when absent)."""
+    path = Path(out) / "policy.json"
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _check(config: PPOConfig, steps: int) -> None:
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
+    if (config.batch_size * config.num_minibatches) % config.num_envs:
+        raise ScenarioError(
+            f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
+            f"{config.batch_size * config.num_minibatches}"
+        )
+
+
+def train_policy(
+    scenario,
+    steps: int,
+    out,
+    *,
+    method: str = "ddr-sfim",
+    config: PPOConfig | None = None,
+    max_seconds: float | None = None,
+    cache_dir=None,
+    log=print,
+) -> dict:
+    """Trains (or goes on training) a policy into ``out`` up to ``steps`` env steps.
+
+    Args:
+        scenario: a scenario (name, path or :class:`~mjx_radar.Scenario`).
+        steps: total env steps (control periods, over all parallel envs) to train.
+        out: the policy directory (module docstring); an existing one is resumed.
+        method: the method whose noise model the tracker uses (``ddr-sfim``).
+        config: PPO settings (a resumed directory keeps its own).
+        max_seconds: stop after the evaluation past which another would not fit.
+        cache_dir: JAX's persistent compilation cache (default the package's, as the
+            command line: a resumed chunk then reuses the first chunk's programs).
+        log: a function of one line of progress (``print``).
+
+    Returns:
+        ``DIR/policy.json``'s content (``steps_done``, ``checkpoint``, ...).
+    """
+    from mjx_radar.engine import compile_cache
+    from mjx_radar.learning import compat
+    from mjx_radar.scenario.reader import load_scenario
+
+    out = Path(out)
+    sc = scenario if not isinstance(scenario, str | Path) else load_scenario(str(scenario))
+    state = read_state(out)
+    if state is not None:
+        if state["scenario"] != sc.name or state["method"] != method:
+            raise ScenarioError(
+                f"out = {str(out)!r}: trained on {state['scenario']} / {state['method']}, "
+                f"not {sc.name} / {method}"
+            )
+        config = config_of(state)
+    config = config or PPOConfig()
+    _check(config, steps)
+    compat.ensure()
+    ours = not compile_cache.enabled() and compile_cache.enable(cache_dir) is not None
+    try:
+        return _train(sc, steps, out, method, config, state, max_seconds, log)
+    finally:
+        if ours:  # the process's cache setting as it was
+            compile_cache.disable()
+
+
+def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
+    from brax.training.agents.ppo import checkpoint as ppo_ckpt
+    from brax.training.agents.ppo import train as ppo
+
+    from mjx_radar.learning import brax_env
+
+    t0 = time.perf_counter()
+    env = brax_env.make(sc, method)
+    factory = network_factory(config)
+    if state is None:
+        state = {
+            "format": FORMAT,
+            "scenario": sc.name,
+            "method": method,
+            "n_radars": sc.n_radars,
+            "n_targets": sc.n_targets,
+            "observation_size": env.observation_size,
+            "action_size": env.action_size,
+            "episode_length": env.episode_length,
+            "config": dataclasses.asdict(config),
+            "steps_done": 0,
+            "wall_s": 0.0,
+            "chunks": 0,
+            "checkpoint": None,
+        }
+    out.mkdir(parents=True, exist_ok=True)
+    remaining = steps - state["steps_done"]
+    if remaining <= 0:
+        log(f"train: {out} already holds {state['steps_done']} >= {steps} steps")
+        return state
+    per_update = config.steps_per_update()
+    n_iters = max(1, math.ceil(remaining / max(config.eval_every, per_update)))
+    base, wall0 = state["steps_done"], state["wall_s"]
+    box = {"params": None, "last": time.perf_counter(), "longest": 0.0}
+    ckpt_config = ppo_ckpt.network_config(
+        observation_size=env.observation_size,
+        action_size=env.action_size,
+        normalize_observations=True,
+        network_factory=factory,
+    )
+
+    def keep_params(step, make_policy, params):
+        box["params"] = params
+
+    def progress(step, metrics):
+        if step == 0:
+            return
+        now = time.perf_counter()
+        box["longest"] = max(box["longest"], now - box["last"])
+        box["last"] = now
+        done = base + int(step)
+        ppo_ckpt.save(out / "checkpoints", done, box["params"], ckpt_config)
+        state.update(
+            steps_done=done, wall_s=wall0 + now - t0, checkpoint=f"checkpoints/{done:012d}"
+        )
+        _append_curve(out, state, metrics, env.episode_length)
+        _write_state(out, state)
+        log(
+            f"train: {done} steps, reward {metrics.get('eval/episode_reward', float('nan')):.4g}"
+            f", {now - t0:.0f} s"
+        )
+        if max_seconds is not None and (now - t0) + box["longest"] > max_seconds:
+            raise _OutOfTime
+
+    state["chunks"] += 1
+    restore = out / state["checkpoint"] if state["checkpoint"] else None
+    try:
+        ppo.train(
+            environment=env,
+            num_timesteps=remaining,
+            wrap_env_fn=brax_env.wrap_for_training,
+            episode_length=env.episode_length,
+            num_envs=config.num_envs,
+            unroll_length=config.unroll_length,
+            batch_size=config.batch_size,
+            num_minibatches=config.num_minibatches,
+            num_updates_per_batch=config.num_updates_per_batch,
+            learning_rate=config.learning_rate,
+            entropy_cost=config.entropy_cost,
+            discounting=config.discounting,
+            gae_lambda=config.gae_lambda,
+            clipping_epsilon=config.clipping_epsilon,
+            reward_scaling=config.reward_scaling,
+            max_grad_norm=config.max_grad_norm,
+            normalize_observations=True,
+            num_evals=n_iters + 1,
+            num_eval_envs=config.num_eval_envs,
+            deterministic_eval=True,
+            network_factory=factory,
+            seed=config.seed + 7919 * (state["chunks"] - 1),
+            progress_fn=progress,
+            policy_params_fn=keep_params,
+            restore_checkpoint_path=None if restore is None else str(restore),
+        )
+    except _OutOfTime:
+        log(f"train: stopped at {state['steps_done']} of {steps} steps (time budget)")
+    _write_state(out, state)
+    return state
+
+
+def _write_state(out: Path, state: dict) -> None:
+    atomic_write_text(out / "policy.json", json.dumps(state, indent=1) + "\n")
+
+
+def _append_curve(out: Path, state: dict, metrics: dict, length: int) -> None:
+    path = out / "curve.csv"
+    new = not path.is_file()
+
+    def per_step(key):
+        return float(metrics.get(f"eval/episode_{key}", float("nan"))) / length
+
+    row = [
+        state["steps_done"],
+        round(state["wall_s"], 3),
+        float(metrics.get("eval/episode_reward", float("nan"))),
+        per_step("information") * length,
+        per_step("penalty") * length,
+        per_step("rmse_pos"),
+        per_step("lost"),
+    ]
+    with path.open("a", newline="") as f:
+        w = csv.writer(f)
+        if new:
+            w.writerow(CURVE)
+        w.writerow(row)

@@ -1,0 +1,151 @@
+"""What a learned policy sees, does and is paid (issue 34), without the rl extra:
+features against numpy, the action map, the keep-out penalty against closed forms,
+planner names with an argument (``policy:DIR``) and their cache-key digests."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_radar.env import Observation, make
+from mjx_radar.learning import features as F
+from mjx_radar.registry import Registry
+from mjx_radar.study.driver import file_label
+
+
+@pytest.fixture(scope="module")
+def env(tiny):
+    return make(tiny, "ddr-sfim")
+
+
+def _obs(env, rng, radar_xy=None):
+    n, m = env.n_radars, env.n_targets
+    a = rng.normal(size=(6 * m, 6 * m))
+    cov = a @ a.T + 6 * m * np.eye(6 * m)
+    rs = np.zeros((n, 6))
+    rs[:, :2] = rng.uniform(-300, 300, (n, 2)) if radar_xy is None else radar_xy
+    rs[:, 3:] = rng.uniform(-1, 1, (n, 3))
+    return Observation(
+        radar_state=jnp.asarray(rs, jnp.float32),
+        mean=jnp.asarray(rng.normal(scale=100.0, size=6 * m), jnp.float32),
+        cov=jnp.asarray(cov, jnp.float32),
+        target_weight=jnp.ones(m),
+        detections=jnp.asarray(rng.uniform(size=(n, m)) < 0.5),
+        time=jnp.float32(0.0),
+        period=jnp.int32(0),
+    )
+
+
+def test_features_against_numpy(env):
+    """Each block of the features, recomputed in float64 numpy from the observation."""
+    rng = np.random.default_rng(3)
+    obs = _obs(env, rng)
+    f = np.asarray(F.features(env, obs), np.float64)
+    n, m = env.n_radars, env.n_targets
+    assert f.shape == (F.feature_size(n, m),) and np.all(np.isfinite(f))
+    sc, big_l = env.scenario, float(env.params.placement_half_width)
+    rs, mean, cov = (np.asarray(x, np.float64) for x in (obs.radar_state, obs.mean, obs.cov))
+    i = 0
+    radar = f[i : i + 7 * n].reshape(n, 7)
+    i += 7 * n
+    np.testing.assert_allclose(radar[:, :3], rs[:, :3] / big_l, atol=1e-6)
+    np.testing.assert_allclose(radar[:, 3], np.cos(rs[:, 3]), atol=1e-6)
+    np.testing.assert_allclose(radar[:, 6], rs[:, 5] / sc.limits.omega, atol=1e-6)
+    est = f[i : i + 6 * m].reshape(m, 6)
+    i += 6 * m
+    np.testing.assert_allclose(est[:, 3:], mean.reshape(m, 6)[:, 3:] / sc.limits.speed, atol=1e-6)
+    pairs = f[i : i + 3 * n * m].reshape(n, m, 3)
+    i += 3 * n * m
+    d = mean.reshape(m, 6)[None, :, :2] - rs[:, None, :2]
+    np.testing.assert_allclose(pairs[..., 0], np.hypot(d[..., 0], d[..., 1]) / big_l, rtol=1e-5)
+    beta = np.arctan2(d[..., 1], d[..., 0]) - rs[:, None, 3]
+    np.testing.assert_allclose(pairs[..., 2], np.sin(beta), atol=1e-5)
+    cf = f[i : i + 21 * m].reshape(m, 21)
+    i += 21 * m
+    for t in range(m):
+        blk = cov[6 * t : 6 * t + 6, 6 * t : 6 * t + 6]
+        sig = np.sqrt(np.diag(blk))
+        np.testing.assert_allclose(cf[t, :6], np.log10(sig), atol=1e-5)
+        corr = blk / np.outer(sig, sig)
+        np.testing.assert_allclose(cf[t, 6:], corr[np.triu_indices(6, 1)], atol=1e-5)
+    np.testing.assert_array_equal(f[i + m :], np.asarray(obs.detections, float).ravel())
+
+
+def test_action_map_hits_the_limits_and_inverts(env):
+    lower, upper = (np.asarray(b) for b in env.action_bounds)
+    n = env.n_radars
+    np.testing.assert_allclose(F.action_to_control(env, -np.ones(2 * n)), lower, rtol=1e-6)
+    np.testing.assert_allclose(F.action_to_control(env, np.ones(2 * n)), upper, rtol=1e-6)
+    np.testing.assert_allclose(F.action_to_control(env, 5 * np.ones(2 * n)), upper, rtol=1e-6)
+    a = np.linspace(-0.9, 0.9, 2 * n)
+    np.testing.assert_allclose(F.control_to_action(env, F.action_to_control(env, a)), a, atol=1e-6)
+
+
+def test_penalty_counts_close_radars(tiny):
+    """Two radars 1 m apart (< R2R) and far from the drones: the penalty is α1 (one pair
+    inside the keep-out); 600 m apart it is zero (smoke has no obstacles, no effort)."""
+    env = make(dataclasses.replace(tiny, mpc=dataclasses.replace(tiny.mpc, alpha_effort=0.0)))
+    rng = np.random.default_rng(0)
+    u = jnp.zeros((env.n_radars, 2))
+    far_t = _obs(env, rng, radar_xy=np.array([[-300.0, 0.0], [300.0, 0.0]]))
+    far_t = far_t._replace(mean=jnp.asarray(np.tile([0, 2000.0, 50, 0, 0, 0], env.n_targets)))
+    assert float(F.penalty(env, far_t, far_t, u)) == 0.0
+    close = far_t._replace(radar_state=far_t.radar_state.at[1, :2].set(jnp.array([-299.0, 0.0])))
+    np.testing.assert_allclose(float(F.penalty(env, close, close, u)), float(env.params.alpha_r2r))
+
+
+def test_registry_arguments_and_digests(tmp_path):
+    """``name:ARGUMENT`` reaches an entry that takes one; its digest enters the key."""
+    reg = Registry("planner", {"plain": "builtins:dict"})
+
+    class Takes:
+        takes_argument = True
+
+        def __init__(self, env, argument):
+            self.argument = argument
+
+        @staticmethod
+        def argument_digest(argument):
+            return (tmp_path / argument).read_text()
+
+    reg.register("takes", Takes)
+    (tmp_path / "a").write_text("v1")
+    assert reg.get("takes:a")(None).argument == "a" and "takes:a" in reg
+    key1 = reg.key(("takes:a",))
+    (tmp_path / "a").write_text("v2")
+    assert reg.key(("takes:a",)) != key1
+    with pytest.raises(ValueError, match="'plain' takes no ':ARGUMENT'"):
+        reg.get("plain:x")
+    with pytest.raises(ValueError, match="give takes:ARGUMENT"):
+        reg.get("takes:")
+
+
+def test_policy_planner_bad_dir_is_one_line(tmp_path, env):
+    from mjx_radar.io.checks import ScenarioError
+    from mjx_radar.planners import PLANNERS
+
+    with pytest.raises(ScenarioError, match="no policy.json"):
+        PLANNERS.get(f"policy:{tmp_path}")(env)
+
+
+def test_study_file_labels():
+    assert file_label("ddr-sfim+ps") == "ddr-sfim+ps"
+    a, b = file_label("ddr-sfim+policy:runs/a"), file_label("ddr-sfim+policy:runs_a")
+    assert "/" not in a and ":" not in a and a != b
+
+
+def test_run_and_study_refuse_a_missing_policy_before_compiling(tmp_path):
+    from mjx_radar.api.run_case import request
+    from mjx_radar.errors import InputError
+    from mjx_radar.io.checks import ScenarioError
+    from mjx_radar.study.driver import load_scenarios
+
+    with pytest.raises(ScenarioError, match="no policy.json"):
+        request("smoke", planner=f"policy:{tmp_path}")
+    with pytest.raises(InputError, match="no policy.json"):
+        load_scenarios(["smoke"], [f"ddr-sfim+policy:{tmp_path}"], 2, None, 0, 2, None)
+    with pytest.raises(ScenarioError, match="'mppi' takes no ':ARGUMENT'"):
+        request("smoke", planner="mppi:x")
