@@ -28,7 +28,7 @@ from mjx_radar.planners.base import Planner
 
 
 def _policy_dir(argument: str) -> tuple[Path, dict]:
-    path = Path(argument).expanduser()
+    path = Path(argument).expanduser().resolve()  # orbax reads absolute paths only
     meta = path / "policy.json"
     if not meta.is_file():
         raise ScenarioError(f"planner policy:{argument}: no policy.json (train_policy.py --out)")

@@ -132,7 +132,7 @@ def train_policy(
     from mjx_radar.learning import compat
     from mjx_radar.scenario.reader import load_scenario
 
-    out = Path(out)
+    out = Path(out).resolve()  # orbax writes to absolute paths only
     sc = scenario if not isinstance(scenario, str | Path) else load_scenario(str(scenario))
     state = read_state(out)
     if state is not None:
