@@ -1,7 +1,7 @@
 """Typed, immutable scenario configuration (SPEC defaults; tables also in schema_detection,
-schema_filter, schema_planner, schema_world, schema_terrain): frozen, hashable dataclasses
-(static under ``jax.jit``), SI units; each field's allowed range is its metadata
-(:mod:`mjx_radar.io.checks`)."""
+schema_filter, schema_planner, schema_tracker, schema_world, schema_terrain): frozen,
+hashable dataclasses (static under ``jax.jit``), SI units; each field's allowed range is its
+metadata (:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from mjx_radar.scenario.schema_filter import FilterConfig
 from mjx_radar.scenario.schema_planner import PlannerConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
+from mjx_radar.scenario.schema_tracker import TrackerConfig
 from mjx_radar.scenario.schema_world import MovingObstacle, RadarOverride, TargetMotion, positive
 
 SCENE = 1e5  # |x|, |y| bound of every position [m] (float32 keeps ~1 cm there)
@@ -255,6 +256,10 @@ class Scenario:
     planner: PlannerConfig = field(
         default_factory=PlannerConfig,
         metadata=table("settings of the planner zoo: cem, grad, hybrid, cmaes (docs/planners.md)"),
+    )
+    tracker: TrackerConfig = field(
+        default_factory=TrackerConfig,
+        metadata=table("multi-target association: pda, jpda, gnn (docs/tracking.md)"),
     )
 
     @property
