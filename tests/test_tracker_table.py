@@ -69,3 +69,13 @@ def test_joint_association_needs_clutter():
     # 17^4 events refused above; LBP has no enumeration and takes any candidates setting
     s = load_scenario("clutter_3r4t")
     assert s.replace(tracker={"association": "jpda", "marginals": "lbp", "candidates": 16})
+
+
+def test_run_option_association_sets_the_table():
+    """``simulate(association=)`` and ``run --association`` (one request, no compile)."""
+    from mjx_radar.api import run_case
+
+    req = run_case.request("clutter_3r4t", association="gnn")
+    assert req.scenario.tracker.association == "gnn" and tracker_name(req.scenario) == "gnn"
+    with pytest.raises(ScenarioError, match="^--association: tracker.association"):
+        run_case.request("clutter_3r4t", cli=True, association="mht")
