@@ -45,7 +45,7 @@ VARIANTS = {
 
 def variant(scenario, name: str):
     """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`)."""
-    return scenario.replace(name=f"{scenario.name}_{name}", **VARIANTS[name])
+    return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **VARIANTS[name])
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
