@@ -212,6 +212,8 @@ TRACKERS = Registry(
         "bank": "mjx_radar.env.filter_ops:ckf_bank",
         "imm": "mjx_radar.env.filter_ops:imm_bank",
         "pda": "mjx_radar.env.filter_ops:pda_bank",
+        "jpda": "mjx_radar.env.association_ops:jpda_bank",
+        "gnn": "mjx_radar.env.association_ops:gnn_bank",
     },
 )
 #: sensors (measurement models) by name (:mod:`mjx_radar.estimation.measurement`):

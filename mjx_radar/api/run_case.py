@@ -29,6 +29,7 @@ RUN_DEFAULTS = {
     "steps": None,
     "seed": None,
     "rollouts": None,
+    "association": None,
     "precision": "float32",
     "deterministic": False,
     "cache": True,
@@ -98,7 +99,8 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
         cli: name the options in messages as the command line does (``--steps``).
         **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
-            ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``,
+            ``association`` (``[tracker] association``: pda, jpda, gnn), ``precision``,
+            ``deterministic``, ``cache``, ``cache_dir``, ``plugins``,
             ``gospa_cutoff``, ``gospa_order`` (override the scenario's ``[metrics]``).
 
     Raises:
@@ -132,6 +134,11 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
                 f"{label('rollouts')} = {o['rollouts']!r}: must be one of mjx, analytic"
             )
         s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=o["rollouts"]))
+    if o["association"] is not None:  # the [tracker] table's rules and messages
+        try:
+            s = s.replace(tracker={"association": o["association"]})
+        except ScenarioError as err:
+            raise ScenarioError(f"{label('association')}: {err}") from None
     s = _with_metrics(s, o, label)
     name = o["method"].strip() if isinstance(o["method"], str) else o["method"]
     if isinstance(name, str):

@@ -30,6 +30,7 @@ def simulate(
     linger: float | None = None,
     planner: str | None = None,
     rollouts: str | None = None,
+    association: str | None = None,
     precision: str = "float32",
     deterministic: bool = False,
     cache_dir: str | Path | None = None,
@@ -62,6 +63,8 @@ def simulate(
             (``run --planner``; :func:`mjx_radar.register_planner`).
         rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (``run --rollouts``;
             default the scenario's).
+        association: ``"pda"``, ``"jpda"`` or ``"gnn"``: the scenario's ``[tracker]
+            association`` for this run (``run --association``; docs/tracking.md).
         precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
         deterministic: deterministic GPU kernels (``--deterministic``; on a GPU, XLA's flag
             must be set before JAX starts, else a one-line ``InputError``).
@@ -95,6 +98,7 @@ def simulate(
         steps=steps,
         seed=seed,
         rollouts=rollouts,
+        association=association,
         precision=precision,
         deterministic=deterministic,
         cache=cache,

@@ -106,6 +106,7 @@ def main(args) -> int:
         steps=args.steps,
         seed=args.seed,
         rollouts=args.rollouts,
+        association=getattr(args, "association", None),
         precision=getattr(args, "precision", "float32"),
         deterministic=bool(getattr(args, "deterministic", False)),
         cache=not getattr(args, "no_cache", False),

@@ -54,6 +54,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
     )
+    p.add_argument(
+        "--association",
+        default=None,
+        metavar="NAME",
+        help="association of cluttered scans: pda, jpda or gnn (the scenario's [tracker] "
+        "association; its other options in the TOML file, docs/tracking.md)",
+    )
     p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
     p.add_argument(
         "--view",

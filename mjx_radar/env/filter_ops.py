@@ -10,7 +10,9 @@ the scenario's; :func:`mjx_radar.register_tracker` adds one. Every tracker keeps
 joint interface ``mean [6M], cov [6M, 6M]`` (the combined estimate for the IMM), which
 is what the metrics, the lost-track detector and the planner see; a tracker's own
 state rides along as ``modes`` (the IMM's :class:`~mjx_radar.estimation.imm.ImmState`;
-``()`` for the others, so their programs and numbers are the same as before).
+``()`` for the others, so their programs and numbers are the same as before). ``"jpda"``
+and ``"gnn"`` (joint association of cluttered scans, ``[tracker]``) are in
+:mod:`mjx_radar.env.association_ops`.
 """
 
 from __future__ import annotations
@@ -48,13 +50,14 @@ class FilterOps(NamedTuple):
 
 
 def tracker_name(scenario) -> str:
-    """The scenario's tracker: ``[filter] tracker``, or by its options (clutter: ``"pda"``,
+    """The scenario's tracker: ``[filter] tracker``, or by its options (clutter:
+    ``[tracker] association``, ``"pda"`` by default,
     ``filter.motion = "imm"``: ``"imm"``, per-target: ``"bank"``, else ``"ckf"``)."""
     name = getattr(scenario.filter, "tracker", "auto")
     if name != "auto":
         return name
-    if scenario.detection.clutter:
-        return "pda"
+    if scenario.detection.clutter:  # [tracker] association: pda, jpda or gnn
+        return scenario.tracker.association
     if scenario.filter.motion == "imm":
         return "imm"
     return "bank" if scenario.filter.structure == "per-target" else "ckf"
@@ -69,7 +72,8 @@ def register_tracker(name: str, factory=None):
     """Registers a tracker: ``factory(task, params) -> FilterOps`` (usable as a decorator).
 
     Select it in a scenario with ``[filter] tracker = "name"``. Its code is part of the
-    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda`` (docs/extending.md).
+    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda``, ``jpda``, ``gnn``
+    (docs/extending.md).
     """
 
     def add(f):
@@ -143,6 +147,12 @@ def ckf_bank(task: RadarTask, params) -> FilterOps:
 def pda_bank(task: RadarTask, params) -> FilterOps:
     """``"pda"``: the per-target bank (covariance form) with sequential PDA of cluttered
     scans (:func:`~mjx_radar.env.scan.pda_update`)."""
+    return clutter_bank(task, params)
+
+
+def clutter_bank(task: RadarTask, params, assoc=None) -> FilterOps:
+    """The per-target bank (covariance form) updating from cluttered scans: per-target PDA,
+    or with ``assoc`` a joint association rule (:mod:`mjx_radar.env.association_ops`)."""
     sc, model = task.scenario, task.measurement
     bank = _cv_ops(task, params, per_target=True)
 
@@ -151,7 +161,8 @@ def pda_bank(task: RadarTask, params) -> FilterOps:
             return bank.update(mean, cov, modes, z, radar_pos, scan_, los)
         from mjx_radar.env.scan import pda_update
 
-        post = pda_update(sc, params, model, params.method.ccr, mean, cov, scan_, radar_pos, los)
+        ccr = params.method.ccr
+        post = pda_update(sc, params, model, ccr, mean, cov, scan_, radar_pos, los, assoc)
         return (*post, modes)
 
     return bank._replace(update=update)

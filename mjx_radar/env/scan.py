@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.env.streams import detection_streams_of
-from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, pda
+from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, jpda, pda
 
 
 class Scan(NamedTuple):
@@ -66,8 +66,10 @@ def observe(det_cfg, params, key, k, radar_pos, target_pos, z, vis) -> Scan:
     return Scan(seen, n_vis, n_det, n_fa, zs, valid)
 
 
-def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, los):
-    """Sequential PDA per target of a scan with clutter (per-target bank, covariance form).
+def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, los, assoc=None):
+    """Sequential PDA per target of a scan with clutter (per-target bank, covariance form),
+    or with ``assoc`` a joint association rule (:func:`mjx_radar.estimation.jpda.rule`) of
+    all targets per radar (:func:`mjx_radar.estimation.jpda.update_bank`).
 
     The filter's Pd of a pair is the model's at the predicted range (0 where ``los`` says
     the pair is blocked); the clutter density per unit measurement volume is
@@ -82,20 +84,12 @@ def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, l
     pd = detection.pair_probability(det_cfg.model, params.detection, d2)
     pd = pd if los is None else jnp.where(los, pd, 0.0)
     dp = params.detection
-    post = pda.update_bank(
-        means,
-        covs,
-        scan.zs,
-        scan.valid,
-        radar_pos,
-        model,
-        params.noise,
-        ccr,
-        pd,
-        clutter.density(dp, model.dim),
-        dp.gate,
-        dp.gate_probability,
-    )
+    args = (means, covs, scan.zs, scan.valid, radar_pos, model, params.noise, ccr, pd)
+    tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability)
+    if assoc is None:
+        post = pda.update_bank(*args, *tail)
+    else:
+        post = jpda.update_bank(*args, *tail, assoc)
     mean, cov = filter_bank.bank_to_joint(*post)
     if scenario.filter.ground_prior:
         mean, cov = ground_prior.apply_ground_prior(mean, cov)

@@ -31,7 +31,17 @@ import numpy as np
 from mjx_radar.estimation import ckf, linalg
 from mjx_radar.estimation.noise import NoiseParams, at_radar
 
-__all__ = ["pda_update", "association_weights", "update_bank", "irf_table", "irf", "planner_factor"]
+__all__ = [  # noqa: RUF022
+    "pda_update",
+    "association_weights",
+    "innovations",
+    "miss_ratio",
+    "mixture",
+    "update_bank",
+    "irf_table",
+    "irf",
+    "planner_factor",
+]
 
 
 def association_weights(d2, valid, b, gate):
@@ -47,6 +57,56 @@ def association_weights(d2, valid, b, gate):
     e = jnp.where(inside, jnp.exp(-0.5 * jnp.where(inside, d2, 0.0)), 0.0)
     den = b + jnp.sum(e)
     return b / den, e / den
+
+
+def innovations(mean, cov, z, h, R, residual=None):
+    """Cubature moments of one target and its innovations to a scan's measurements.
+
+    Args:
+        mean: ``[n]``; cov: ``[n, n]`` predicted moments.
+        z: ``[L, p]`` the scan's measurements (buffer).
+        h: ``h(x[n]) -> [p]``; R: ``[p, p]`` or ``R(ẑ[p]) -> [p, p]``.
+        residual: optional ``(a[p], b[p]) -> a − b`` (angles wrapped).
+
+    Returns:
+        ``(K[n, p], S[p, p], ν[L, p], d²[L], log det(2πS))`` with ``ν_i = z_i − ẑ`` and
+        ``d_i² = ν_iᵀ S⁻¹ ν_i``.
+    """
+    mean = jnp.asarray(mean)
+    dx = ckf.cubature_offsets(cov)
+    w = 1.0 / dx.shape[0]
+    ref = h(mean)
+    diff = (lambda a, b: a - b) if residual is None else residual
+    dv = jax.vmap(diff, in_axes=(0, None))(jax.vmap(h)(mean[None, :] + dx), ref)
+    m = jnp.mean(dv, axis=0)
+    z_hat, dz = ref + m, dv - m[None, :]
+    S = w * dz.T @ dz + (R(z_hat) if callable(R) else R)
+    Pxz = w * dx.T @ dz
+    K = linalg.psd_solve(S, Pxz.T).T  # [n, p]
+    nu = jax.vmap(diff, in_axes=(0, None))(jnp.asarray(z, mean.dtype), z_hat)  # [L, p]
+    d2 = jnp.sum(nu * linalg.psd_solve(S, nu.T).T, axis=-1)
+    logdet = linalg.logdet_psd(S) + nu.shape[-1] * jnp.log(2.0 * jnp.pi)
+    return K, S, nu, d2, logdet
+
+
+def miss_ratio(pd, density, logdet, pg):
+    """``b = λ √det(2πS) (1 − P_D P_G) / P_D`` (floored > 0) and the flag ``P_D > 0``."""
+    seen = pd > 0
+    pd_ = jnp.where(seen, pd, 1.0)
+    b = density * jnp.exp(0.5 * logdet) * (1.0 - pd_ * pg) / pd_
+    return jnp.maximum(b, jnp.finfo(jnp.result_type(logdet)).tiny), seen
+
+
+def mixture(mean, cov, K, S, nu, beta0, beta):
+    """The PDA posterior of weights ``β_0 + Σ_i β_i = 1`` (module doc)::
+
+    x⁺ = x + K ν,   P⁺ = β_0 P + (1 − β_0)(P − K S Kᵀ) + K (Σ_i β_i ν_i ν_iᵀ − ν νᵀ) Kᵀ
+    """
+    nu_c = beta @ nu
+    spread = (nu * beta[:, None]).T @ nu - jnp.outer(nu_c, nu_c)
+    new_mean = mean + K @ nu_c
+    new_cov = cov - (1.0 - beta0) * (K @ S @ K.T) + K @ spread @ K.T
+    return new_mean, linalg.symmetrize(new_cov)
 
 
 def pda_update(mean, cov, z, valid, h, R, pd, density, gate, pg, residual=None):
@@ -67,30 +127,10 @@ def pda_update(mean, cov, z, valid, h, R, pd, density, gate, pg, residual=None):
         ``(mean[n], cov[n, n])`` and the weights ``(β_0, β[L])``.
     """
     mean = jnp.asarray(mean)
-    dx = ckf.cubature_offsets(cov)
-    w = 1.0 / dx.shape[0]
-    ref = h(mean)
-    diff = (lambda a, b: a - b) if residual is None else residual
-    dv = jax.vmap(diff, in_axes=(0, None))(jax.vmap(h)(mean[None, :] + dx), ref)
-    m = jnp.mean(dv, axis=0)
-    z_hat, dz = ref + m, dv - m[None, :]
-    S = w * dz.T @ dz + (R(z_hat) if callable(R) else R)
-    Pxz = w * dx.T @ dz
-    K = linalg.psd_solve(S, Pxz.T).T  # [n, p]
-    nu = jax.vmap(diff, in_axes=(0, None))(jnp.asarray(z, mean.dtype), z_hat)  # [L, p]
-    d2 = jnp.sum(nu * linalg.psd_solve(S, nu.T).T, axis=-1)
-    p = nu.shape[-1]
-    seen = pd > 0
-    pd_ = jnp.where(seen, pd, 1.0)
-    logdet = linalg.logdet_psd(S) + p * jnp.log(2.0 * jnp.pi)
-    b = density * jnp.exp(0.5 * logdet) * (1.0 - pd_ * pg) / pd_
-    b = jnp.maximum(b, jnp.finfo(mean.dtype).tiny)
+    K, S, nu, d2, logdet = innovations(mean, cov, z, h, R, residual)
+    b, seen = miss_ratio(pd, density, logdet, pg)
     beta0, beta = association_weights(d2, valid & seen, b, gate)
-    nu_c = beta @ nu
-    spread = (nu * beta[:, None]).T @ nu - jnp.outer(nu_c, nu_c)
-    new_mean = mean + K @ nu_c
-    new_cov = cov - (1.0 - beta0) * (K @ S @ K.T) + K @ spread @ K.T
-    return (new_mean, linalg.symmetrize(new_cov)), (beta0, beta)
+    return mixture(mean, cov, K, S, nu, beta0, beta), (beta0, beta)
 
 
 def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, density, gate, pg):

@@ -29,6 +29,10 @@ The rules (docs/scenarios.md, "Plausibility"):
 * IMM (``filter.motion = "imm"``, docs/filters.md): needs ``filter.structure =
   "per-target"`` (the modes are per target), ``filter.form = "covariance"`` and no
   clutter (no IMM-PDA).
+* tracker (docs/tracking.md): ``tracker.association = "jpda"`` or ``"gnn"`` needs clutter
+  (without it the returns are labelled); the enumeration's ``(G + 1)^M`` events (exact
+  JPDA, GNN) at most ``MAX_EVENTS``, times ``M!`` for JPDA* at most ``MAX_STAR_WORK``;
+  JPDA* needs ``tracker.marginals = "exact"``.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import math
 
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.scenario.schema import Scenario
+from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK
 
 SPEED_OF_LIGHT = 299792458.0  # c [m/s] (same as estimation.sensing)
 MAX_SPEED = 1e3  # initial target speed [m/s]
@@ -53,6 +58,7 @@ def check_scenario(s: Scenario) -> None:
     _check_geometry(s)
     _check_detection(s)
     _check_imm(s)
+    _check_tracker(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
             f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "
@@ -228,4 +234,33 @@ def _check_imm(s: Scenario) -> None:
         raise ScenarioError(
             f'filter.motion = "imm": not with clutter (no IMM-PDA); set '
             f"detection.clutter_density = 0 (got {s.detection.clutter_density})"
+        )
+
+
+def _check_tracker(s: Scenario) -> None:
+    t, m = s.tracker, s.n_targets
+    if t.association == "pda":
+        return
+    if not s.detection.clutter:
+        raise ScenarioError(
+            f'tracker.association = "{t.association}": needs clutter (detection.clutter_density '
+            f'> 0); without it the returns are labelled: use tracker.association = "pda"'
+        )
+    exact = t.association == "gnn" or t.marginals == "exact"
+    events = (t.candidates + 1) ** m
+    if exact and events > MAX_EVENTS:
+        raise ScenarioError(
+            f"tracker.candidates = {t.candidates}: (candidates + 1)^M = {events} joint events "
+            f"for M = {m} targets exceed {MAX_EVENTS}; lower it, or use "
+            f'tracker.marginals = "lbp" (jpda)'
+        )
+    if t.jpda_star and (t.association != "jpda" or t.marginals != "exact"):
+        raise ScenarioError(
+            f'tracker.jpda_star = true: needs tracker.association = "jpda" and '
+            f'tracker.marginals = "exact" (got "{t.association}", "{t.marginals}")'
+        )
+    if t.jpda_star and events * math.factorial(m) > MAX_STAR_WORK:
+        raise ScenarioError(
+            f"tracker.jpda_star = true: (candidates + 1)^M x M! = {events * math.factorial(m)} "
+            f"for M = {m} targets exceeds {MAX_STAR_WORK}; lower tracker.candidates"
         )

@@ -1,7 +1,7 @@
 """Typed, immutable scenario configuration (SPEC defaults; tables also in schema_detection,
-schema_metrics, schema_filter, schema_planner, schema_world, schema_terrain): frozen,
-hashable dataclasses (static under ``jax.jit``), SI units; each field's allowed range is
-its metadata (:mod:`mjx_radar.io.checks`)."""
+schema_metrics, schema_filter, schema_planner, schema_tracker, schema_world,
+schema_terrain): frozen, hashable dataclasses (static under ``jax.jit``), SI units; each
+field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from mjx_radar.scenario.schema_metrics import MetricsConfig
 from mjx_radar.scenario.schema_planner import PlannerConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
+from mjx_radar.scenario.schema_tracker import TrackerConfig
 from mjx_radar.scenario.schema_world import MovingObstacle, RadarOverride, TargetMotion, positive
 
 SCENE = 1e5  # |x|, |y| bound of every position [m] (float32 keeps ~1 cm there)
@@ -260,6 +261,10 @@ class Scenario:
     metrics: MetricsConfig = field(
         default_factory=MetricsConfig,
         metadata=host(table("GOSPA / OSPA settings (docs/tracking_metrics.md)")),
+    )
+    tracker: TrackerConfig = field(
+        default_factory=TrackerConfig,
+        metadata=table("multi-target association: pda, jpda, gnn (docs/tracking.md)"),
     )
 
     @property

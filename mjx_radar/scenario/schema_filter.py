@@ -80,8 +80,9 @@ class FilterConfig:
             "auto",
             registry=TRACKERS,
             doc=(
-                "the tracker: auto (by the options above and [detection]: ckf, bank, imm or "
-                "pda), a built-in one, or one registered with mjx_radar.register_tracker"
+                "the tracker: auto (by the options above, [detection] and [tracker]: ckf, bank, "
+                "imm, pda, jpda or gnn), a built-in one, or one registered with "
+                "mjx_radar.register_tracker"
             ),
         ),
     )
