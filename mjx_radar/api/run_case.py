@@ -34,6 +34,7 @@ RUN_DEFAULTS = {
     "cache": True,
     "cache_dir": None,
     "plugins": (),
+    "masks": False,
 }
 MAX_TRIALS = 100_000
 PRECISIONS = ("float32", "float64")
@@ -53,6 +54,7 @@ class RunRequest:
     deterministic: bool = False
     cache: bool = True
     cache_dir: str | None = None
+    masks: bool = False
 
 
 def load_plugins(paths) -> None:
@@ -96,7 +98,8 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
         cli: name the options in messages as the command line does (``--steps``).
         **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
-            ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``.
+            ``precision``, ``deterministic``, ``cache``, ``cache_dir``, ``plugins``,
+            ``masks``.
 
     Raises:
         ScenarioError: one line naming the option and its allowed values.
@@ -162,7 +165,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         raise ScenarioError(
             f"{label('precision')} = {o['precision']!r}: must be one of float32, float64"
         )
-    for flag in ("deterministic", "cache"):
+    for flag in ("deterministic", "cache", "masks"):
         if not isinstance(o[flag], bool):
             raise ScenarioError(f"{label(flag)} = {o[flag]!r}: must be True or False")
     cache_dir = None if o["cache_dir"] is None else str(o["cache_dir"])
@@ -176,6 +179,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         o["deterministic"],
         o["cache"],
         cache_dir,
+        o["masks"],
     )
 
 
@@ -235,5 +239,6 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
             req.steps,
             progress=progress,
             phase=phase,
+            masks=req.masks,
             **view,
         )

@@ -34,6 +34,7 @@ def simulate(
     deterministic: bool = False,
     cache_dir: str | Path | None = None,
     plugins=(),
+    masks: bool = False,
 ) -> Run:
     """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
 
@@ -65,6 +66,9 @@ def simulate(
             must be set before JAX starts, else a one-line ``InputError``).
         cache_dir: the persistent compilation cache's folder (``--cache-dir``).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
+        masks: also record every radar-drone pair's line of sight and detection per
+            filter step (``--masks``): ``Run.trajectories``' ``visible`` and ``detected``
+            ``[trial, step, radar, target]`` (a program of its own; off by default).
 
     Returns:
         The run (not saved; :meth:`Run.save` writes it).
@@ -96,6 +100,7 @@ def simulate(
         cache=cache,
         cache_dir=cache_dir,
         plugins=plugins,
+        masks=masks,
     )
     if linger is not None and (
         isinstance(linger, bool) or not isinstance(linger, int | float) or not 0 <= linger < 1e9

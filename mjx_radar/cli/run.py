@@ -111,6 +111,7 @@ def main(args) -> int:
         cache=not getattr(args, "no_cache", False),
         cache_dir=getattr(args, "cache_dir", None),
         plugins=args.plugin,
+        masks=bool(getattr(args, "masks", False)),
     )
     s, steps, seed_ = req.scenario, req.steps, req.seed
     args.method = req.method.name  # "METHOD+PLANNER" with --planner

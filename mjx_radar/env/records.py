@@ -36,6 +36,13 @@ class StepRecord(NamedTuple):
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
     targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
+    visible: jax.Array  # [N, M] bool line of sight to a present target (sum: visible_pairs)
+    detected: jax.Array  # [N, M] bool visible and detected (sum: detections)
+
+
+#: the per-pair masks of :class:`StepRecord`: a run outputs them only when asked
+#: (``masks=True``; otherwise they are dropped before the program's outputs)
+MASK_FIELDS = ("visible", "detected")
 
 
 class TrialResult(NamedTuple):
