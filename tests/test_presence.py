@@ -80,7 +80,7 @@ def test_absent_target_costs_nothing_in_the_planner(tiny):
                                costs.information(h2, task, params), rtol=1e-6)  # fmt: skip
 
 
-def test_closed_loop_masks_absent_targets(tiny):
+def test_closed_loop_masks_absent_targets(tiny, tmp_path):
     import mjx_radar
 
     # target 1 appears at 0.5 s and leaves at 1.5 s (steps 20..59 of 80)
@@ -105,3 +105,5 @@ def test_closed_loop_masks_absent_targets(tiny):
     pairs = np.broadcast_to(here[None, :, None, :], (2, 80, 2, 2))  # [T, K, N, M]
     np.testing.assert_array_equal(ds.visible.values, pairs)
     np.testing.assert_array_equal(ds.detected.values, pairs)  # perfect detection
+    saved = mjx_radar.Run.load(run.save(tmp_path / "run")).trajectories  # trajectories.npz
+    np.testing.assert_array_equal(saved.visible.values, pairs)
