@@ -93,7 +93,7 @@ def test_validate_bundled_scenarios(capsys):
         assert capsys.readouterr().out.startswith(f"ok: {name}")
 
 
-def test_run_smoke_end_to_end(tmp_path):
+def test_run_smoke_end_to_end(tmp_path, capsys):
     # A real subprocess: console entry point, files, summary line.
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "mjx_radar", "run", "scenarios/smoke.toml", "--steps", "16",
@@ -114,9 +114,9 @@ def test_run_smoke_end_to_end(tmp_path):
     assert {"scenario", "method", "trial", "step", "time_s", "rmse_pos", "rmse_state"} <= set(
         df.columns
     )
-    # A complete run is not silently overwritten.
-    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    assert again.returncode == 2 and "--force" in again.stderr
+    # A complete run is not silently overwritten (refused before anything is compiled:
+    # in this process).
+    assert main(cmd[3:]) == 2 and "--force" in capsys.readouterr().err
 
 
 def test_run_with_a_plugin_planner(tmp_path):

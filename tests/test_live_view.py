@@ -199,7 +199,7 @@ def test_linger_serves_the_whole_run_then_stops(tiny, monkeypatch, capsys):
 
     monkeypatch.setattr(live_mod, "start", spy)
     t0 = time.perf_counter()
-    mjx_radar.simulate(tiny, trials=[0], steps=STEPS, view_port=0, progress=False, linger=1.5)
+    mjx_radar.simulate(tiny, trials=TRIALS, steps=STEPS, view_port=0, progress=False, linger=1.5)
     assert time.perf_counter() - t0 >= 1.5 and seen["alive"]
     assert seen["last"]["finished"] and seen["last"]["step"] == STEPS
     assert seen["first"]["step"] == 1 and seen["first"]["ends"][-1] == STEPS

@@ -80,12 +80,12 @@ def test_absent_target_costs_nothing_in_the_planner(tiny):
                                costs.information(h2, task, params), rtol=1e-6)  # fmt: skip
 
 
-def test_closed_loop_masks_absent_targets(tiny):
+def test_closed_loop_masks_absent_targets(tiny, tmp_path):
     import mjx_radar
 
     # target 1 appears at 0.5 s and leaves at 1.5 s (steps 20..59 of 80)
     s = tiny.replace(target_motion=(TargetMotion(target=1, appear=0.5, leave=1.5),))
-    run = mjx_radar.simulate(s, "stationary", trials=2, steps=80, progress=False)
+    run = mjx_radar.simulate(s, "stationary", trials=2, steps=80, progress=False, masks=True)
     met = run.metrics.sort_values(["trial", "step"])
     step = met["step"].to_numpy()
     expect = np.where((step >= 20) & (step < 60), 2, 1)
@@ -100,3 +100,10 @@ def test_closed_loop_masks_absent_targets(tiny):
     assert np.all(np.sqrt(e2[:, 19, 1]) < 5 * np.sqrt(3 * s.p0))
     assert np.all(np.isfinite(met["nees"])) and not met["lost"].any()
     assert dataclasses.asdict(s)["target_motion"][0]["appear"] == 0.5
+    # the per-pair masks (masks=True): every radar sees exactly the present targets
+    ds = run.trajectories
+    pairs = np.broadcast_to(here[None, :, None, :], (2, 80, 2, 2))  # [T, K, N, M]
+    np.testing.assert_array_equal(ds.visible.values, pairs)
+    np.testing.assert_array_equal(ds.detected.values, pairs)  # perfect detection
+    saved = mjx_radar.Run.load(run.save(tmp_path / "run")).trajectories  # trajectories.npz
+    np.testing.assert_array_equal(saved.visible.values, pairs)

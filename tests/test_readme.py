@@ -43,20 +43,17 @@ def test_python_api_block_runs():
     assert proc.stdout.strip().splitlines()[-1] == promised
 
 
-def test_scenarios_named_in_examples_validate():
+def test_scenarios_named_in_examples_validate(capsys, monkeypatch):
+    """In one process (``mjx-radar validate``'s own entry point; the console script's
+    exit codes are tested in test_cli and test_fuzz_validate)."""
+    from mjx_radar.cli.main import main
+
+    monkeypatch.chdir(REPO)
     names = sorted({w for cmd in _commands() for w in cmd if w.endswith(".toml")})
     assert "scenarios/smoke.toml" in names and len(names) >= 3
     for name in names:
-        proc = subprocess.run(
-            [sys.executable, "-m", "mjx_radar", "validate", name],
-            capture_output=True,
-            text=True,
-            cwd=REPO,
-            env=ENV,
-            timeout=120,
-        )
-        assert proc.returncode == 0, (name, proc.stderr)
-        assert proc.stdout.startswith("ok: ")
+        assert main(["validate", name]) == 0, (name, capsys.readouterr().err)
+        assert capsys.readouterr().out.startswith("ok: ")
 
 
 def test_video_example_works_after_quick_start():

@@ -37,6 +37,7 @@ RUN_DEFAULTS = {
     "plugins": (),
     "gospa_cutoff": None,  # None: the scenario's [metrics] (docs/tracking_metrics.md)
     "gospa_order": None,
+    "masks": False,
 }
 MAX_TRIALS = 100_000
 PRECISIONS = ("float32", "float64")
@@ -56,6 +57,7 @@ class RunRequest:
     deterministic: bool = False
     cache: bool = True
     cache_dir: str | None = None
+    masks: bool = False
 
 
 def load_plugins(paths) -> None:
@@ -100,7 +102,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         cli: name the options in messages as the command line does (``--steps``).
         **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
             ``association`` (``[tracker] association``: pda, jpda, gnn), ``precision``,
-            ``deterministic``, ``cache``, ``cache_dir``, ``plugins``,
+            ``deterministic``, ``cache``, ``cache_dir``, ``plugins``, ``masks``,
             ``gospa_cutoff``, ``gospa_order`` (override the scenario's ``[metrics]``).
 
     Raises:
@@ -174,7 +176,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         raise ScenarioError(
             f"{label('precision')} = {o['precision']!r}: must be one of float32, float64"
         )
-    for flag in ("deterministic", "cache"):
+    for flag in ("deterministic", "cache", "masks"):
         if not isinstance(o[flag], bool):
             raise ScenarioError(f"{label(flag)} = {o[flag]!r}: must be True or False")
     cache_dir = None if o["cache_dir"] is None else str(o["cache_dir"])
@@ -188,6 +190,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         o["deterministic"],
         o["cache"],
         cache_dir,
+        o["masks"],
     )
 
 
@@ -259,5 +262,6 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
             req.steps,
             progress=progress,
             phase=phase,
+            masks=req.masks,
             **view,
         )

@@ -37,6 +37,7 @@ def simulate(
     plugins=(),
     gospa_cutoff: float | None = None,
     gospa_order: float | None = None,
+    masks: bool = False,
 ) -> Run:
     """Runs the closed loop (``mjx-radar run``) and returns the :class:`Run`.
 
@@ -72,6 +73,9 @@ def simulate(
         plugins: Python files run first, e.g. to register planners (``--plugin``).
         gospa_cutoff, gospa_order: GOSPA / OSPA cutoff c [m] and order p
             (``--gospa-cutoff``, ``--gospa-order``; default the scenario's ``[metrics]``).
+        masks: also record every radar-drone pair's line of sight and detection per
+            filter step (``--masks``): ``Run.trajectories``' ``visible`` and ``detected``
+            ``[trial, step, radar, target]`` (a program of its own; off by default).
 
     Returns:
         The run (not saved; :meth:`Run.save` writes it).
@@ -106,6 +110,7 @@ def simulate(
         plugins=plugins,
         gospa_cutoff=gospa_cutoff,
         gospa_order=gospa_order,
+        masks=masks,
     )
     if linger is not None and (
         isinstance(linger, bool) or not isinstance(linger, int | float) or not 0 <= linger < 1e9

@@ -76,6 +76,18 @@ VARIABLES = {
         "MPPI costs of the kept samples",
     ),
     "diverged": ("diverged", ("trial", "step"), "1", "filter numerically failed"),
+    "visible": (
+        "visible",
+        ("trial", "step", "radar", "target"),
+        "1",
+        "line of sight to a present target (run with masks=True / --masks)",
+    ),
+    "detected": (
+        "detected",
+        ("trial", "step", "radar", "target"),
+        "1",
+        "pair visible and detected (run with masks=True / --masks)",
+    ),
 }
 
 
@@ -97,7 +109,9 @@ def to_dataset(arrays: dict, trials, scenario, method=None, metrics=None):
         method: the run's method: a scalar ``method`` coordinate, so the datasets of
             several methods ``xr.concat(..., dim="method")``.
         metrics: the run's metrics table: its per-step counts (:data:`COUNTS`) become
-            ``[trial, step]`` variables (the loop records counts, not per-pair masks).
+            ``[trial, step]`` variables; the per-pair masks ``visible`` and ``detected``
+            ``[trial, step, radar, target]`` are there when the run recorded them
+            (``masks=True``).
 
     Returns:
         The dataset; absent arrays are left out. ``present`` ``[step, target]`` is each

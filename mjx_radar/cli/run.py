@@ -114,6 +114,7 @@ def main(args) -> int:
         plugins=args.plugin,
         gospa_cutoff=getattr(args, "gospa_cutoff", None),
         gospa_order=getattr(args, "gospa_order", None),
+        masks=bool(getattr(args, "masks", False)),
     )
     s, steps, seed_ = req.scenario, req.steps, req.seed
     args.method = req.method.name  # "METHOD+PLANNER" with --planner

@@ -61,6 +61,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="association of cluttered scans: pda, jpda or gnn (the scenario's [tracker] "
         "association; its other options in the TOML file, docs/tracking.md)",
     )
+    p.add_argument(
+        "--masks",
+        action="store_true",
+        help="also record each radar-drone pair's line of sight and detection per step "
+        "(trajectories.npz: visible, detected [T,K,N,M])",
+    )
     p.add_argument("--video", action="store_true", help="render trial 0 to DIR/video.mp4")
     p.add_argument(
         "--view",

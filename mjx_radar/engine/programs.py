@@ -57,6 +57,7 @@ class Programs:
     n_params: int
     n_carry: int
     full: bool
+    masks: bool
     trial_sharding: NamedSharding
     replicated: NamedSharding
     source: str  # "traced" | "export cache"
@@ -67,10 +68,13 @@ def device_mesh(devices=None) -> Mesh:
     return Mesh(np.asarray(devices if devices is not None else jax.local_devices()), ("trial",))
 
 
-def record_template(full: bool):
-    """Pytree of the per-segment records (leaf values are placeholders)."""
+def record_template(full: bool, masks: bool = False):
+    """Pytree of the per-segment records (leaf values are placeholders; the per-pair
+    masks, :data:`~mjx_radar.env.records.MASK_FIELDS`, are ``None`` unless ``masks``)."""
     if full:
         steps = records.StepRecord(*[0] * len(records.StepRecord._fields))
+        if not masks:
+            steps = steps._replace(**dict.fromkeys(records.MASK_FIELDS))
         return steps, records.ControlRecord(*[0] * len(records.ControlRecord._fields))
     return {k: 0 for k in results.LOOP_COLUMNS + records.SET_KEYS}, None
 
@@ -84,6 +88,7 @@ def _traced(
     params_tree,
     c_shapes,
     planner: str = "mppi",
+    masks: bool = False,
 ):
     """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
 
@@ -117,6 +122,8 @@ def _traced(
             sets = records.estimate_sets(steps.target, steps.mean, steps.present)
             steps = {k: getattr(steps, k) for k in results.LOOP_COLUMNS} | sets
             controls = None
+        elif not masks:  # not outputs: XLA drops their computation (the same program)
+            steps = steps._replace(**dict.fromkeys(records.MASK_FIELDS))
         out = [x for x, keep in zip(jax.tree.leaves(carry), live, strict=True) if keep]
         return (*out, *jax.tree.leaves((steps, controls)))
 
@@ -153,7 +160,7 @@ def _variant(planner: str = "mppi") -> tuple:
     )
 
 
-def _key(shape, periods, full, batch, mesh, kind, planner="mppi") -> str:
+def _key(shape, periods, full, batch, mesh, kind, planner="mppi", masks=False) -> str:
     dev = mesh.devices.flat[0]
     parts = [
         repr(shape),
@@ -167,6 +174,8 @@ def _key(shape, periods, full, batch, mesh, kind, planner="mppi") -> str:
         *_variant(planner),
         compile_cache.code_fingerprint(),
     ]
+    if masks:
+        parts.append("masks")
     for obs in shape.obstacles:  # mesh files: their content, not only their path
         if obs.path and Path(obs.path).exists():
             parts.append(hashlib.sha256(Path(obs.path).read_bytes()).hexdigest())
@@ -187,6 +196,7 @@ def compile_programs(
     mesh=None,
     kind: str = "all",
     planner: str = "mppi",
+    masks: bool = False,
 ):
     """Ahead-of-time compiled :class:`Programs` of a scenario's shape; ``(programs, seconds)``.
 
@@ -200,6 +210,8 @@ def compile_programs(
             a method's ``kind`` (``"none"``, ``"sfim"``, ``"pfim"``: that method and the
             other noise model's) or ``"all"`` (every method).
         planner: the registered planner that drives the loop (:mod:`mjx_radar.planners`).
+        masks: with ``full``, also return the per-pair line-of-sight and detection masks
+            (``visible`` / ``detected`` ``[N, M]`` per step).
 
     Seconds are 0 when this process compiled them before.
     """
@@ -208,7 +220,8 @@ def compile_programs(
         raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
     shape = shape_key(scenario)
     PLANNERS.get(planner)  # an unknown name: one line before anything is traced
-    mem_key = (shape, periods, full, batch, mesh, kind, *_variant(planner))
+    masks = bool(full and masks)
+    mem_key = (shape, periods, full, batch, mesh, kind, *_variant(planner), masks)
     with _LOCK:
         if mem_key in _CACHE:
             return _CACHE[mem_key], 0.0
@@ -220,7 +233,7 @@ def compile_programs(
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=trial_sh)
     p_specs = [spec(x, rep) for x in p_leaves]
     store = compile_cache.program_dir()
-    key = _key(shape, periods, full, batch, mesh, kind, planner)
+    key = _key(shape, periods, full, batch, mesh, kind, planner, masks)
     path = store / f"loop-{key}.jaxexport" if store else None
     exported = export_cache.load(path) if path else None
     source = "export cache" if exported else "traced"
@@ -240,7 +253,7 @@ def compile_programs(
             if x.size > 0
         ]
         init, step = _traced(
-            task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes, planner
+            task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes, planner, masks
         )
         exported = None
         if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
@@ -255,7 +268,7 @@ def compile_programs(
     n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
     t1 = time.perf_counter()
     init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
-    progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, trial_sh, rep, source)
+    progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, masks, trial_sh, rep, source)
     t2 = time.perf_counter()
     with _LOCK:
         _CACHE[mem_key] = progs

@@ -89,6 +89,7 @@ def run_trials(
     mesh: Mesh | None = None,
     phase: Callable[[str], None] | None = None,
     on_segment: Callable[[int, tuple], None] | None = None,
+    masks: bool = False,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
@@ -109,6 +110,8 @@ def run_trials(
             ControlRecord)`` of numpy arrays ``[T, steps or control steps of the
             segment, ...]`` (if ``full``; else the metrics dict and ``None``). The next
             segment waits for it: keep it cheap (e.g. :meth:`mjx_radar.viz.live.LiveView.update`).
+        masks: with ``full``, also the per-pair masks ``visible`` and ``detected``
+            ``[T, K, N, M]`` (a program of its own; off: they are not computed).
 
     Returns:
         dict of numpy arrays: the metrics (:data:`mjx_radar.rundir.results.METRIC_COLUMNS`)
@@ -139,6 +142,7 @@ def run_trials(
         devices,
         method.kind,
         method.planner,
+        masks,
     )
     compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0
     if phase:
@@ -152,7 +156,7 @@ def run_trials(
         ids = jax.device_put(jnp.asarray(ids), prog.trial_sharding)
         *carry, ok = prog.init(ids, *p)
         workers.append([prog, p, ids, carry, ok])
-    template = record_template(full)
+    template = record_template(full, masks)
     chunks = []
 
     def advance(w):  # one segment on one device; returns its records on the host
@@ -174,6 +178,8 @@ def run_trials(
     res: dict = {}
     steps_t, controls_t = template
     for k in steps_t._fields if full else steps_t:
+        if _get(steps_t, k) is None:  # a mask not asked for
+            continue
         res[k] = np.concatenate([_get(c[0], k) for c in chunks], axis=1)
     if full:
         for k in controls_t._fields:
@@ -194,6 +200,7 @@ def device_programs(
     devices,
     kind: str = "all",
     planner: str = "mppi",
+    masks: bool = False,
 ) -> list:
     """``[(programs, seconds)]``: the single-device program of each device, each for
     ``batch`` trials. Every device runs the same per-device program, so a trial's
@@ -208,7 +215,8 @@ def device_programs(
     """
 
     def one(d):
-        return compile_programs(scenario, batch, periods, full, device_mesh([d]), kind, planner)
+        mesh = device_mesh([d])
+        return compile_programs(scenario, batch, periods, full, mesh, kind, planner, masks)
 
     devices = list(devices)
     if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:

@@ -92,6 +92,7 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         bound = jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)  # [M]
         everyone = None if motion is None else here
         crlb, rmse_pos, rmse_state, nees = presence.metrics(bound, truth, mean, cov_p, everyone)
+        seen = jnp.ones((n, m), bool) if obs.seen is None else obs.seen
         rec = StepRecord(
             truth,
             mean,
@@ -109,8 +110,9 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
             diverged,
             jnp.sum(here).astype(jnp.int32),
             here,
+            jnp.ones((n, m), bool) if vis is None else jnp.broadcast_to(vis, (n, m)),
+            seen,
         )
-        seen = jnp.ones((n, m), bool) if obs.seen is None else obs.seen
         return type(loop)(data, mean, cov, pfim, health, modes), (rec, seen)
 
     return filter_step

@@ -37,6 +37,13 @@ class StepRecord(NamedTuple):
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
     targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
     present: jax.Array  # [M] bool the targets present at this step
+    visible: jax.Array  # [N, M] bool line of sight to a present target (sum: visible_pairs)
+    detected: jax.Array  # [N, M] bool visible and detected (sum: detections)
+
+
+#: the per-pair masks of :class:`StepRecord`: a run outputs them only when asked
+#: (``masks=True``; otherwise they are dropped before the program's outputs)
+MASK_FIELDS = ("visible", "detected")
 
 
 #: the sets of the GOSPA metrics (issue 35), in the metrics-only output of the loop

@@ -27,7 +27,10 @@ Run directory schema (``mjx-radar run ... --out DIR``)::
                              cov_diag [T,K,6M], radar [T,K,N,6] ([x,y,z,theta,v,omega]),
                              control [T,C,N,2], plan_xy [T,C,H,N,2],
                              sample_xy [T,C,S,H,N,2], sample_weight [T,C,S],
-                             sample_cost [T,C,S]
+                             sample_cost [T,C,S]; with --masks
+                             (simulate(masks=True)) also visible [T,K,N,M]
+                             (line of sight to a present drone) and
+                             detected [T,K,N,M] (visible and detected), bool
 
 Every file is written to a temporary name in the same directory and renamed
 into place (atomic on POSIX), ``run.json`` last: a directory whose ``run.json``

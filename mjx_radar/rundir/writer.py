@@ -28,6 +28,8 @@ TRAJECTORY_KEYS = (
     "sample_weight",
     "sample_cost",
     "diverged",
+    "visible",  # with masks (run --masks / simulate(masks=True))
+    "detected",
 )
 
 

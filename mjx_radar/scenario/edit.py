@@ -157,6 +157,17 @@ def _field_names(cls: type) -> dict[str, dataclasses.Field]:
     return out
 
 
+def _allowed(obj: Any, prefix: str) -> str:
+    """The reader's tail of an unknown-field message: its keys in the file's order (none
+    at the top level, as the reader)."""
+    from mjx_radar.scenario.reader import config_fields, toml_name
+
+    if not prefix:
+        return ""
+    names = [toml_name(f) for f, _ in config_fields(type(obj))]
+    return "; allowed: " + ", ".join(names or sorted(x.name for x in dataclasses.fields(obj)))
+
+
 def _merge(obj: Any, changes: dict, prefix: str) -> Any:
     """``obj`` (a config dataclass) with ``changes``; nested dicts merge into tables."""
     names = _field_names(type(obj))
@@ -164,8 +175,7 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
     for key, value in changes.items():
         f = names.get(key)
         if f is None or (f.name not in [x.name for x in dataclasses.fields(obj)]):
-            allowed = ", ".join(sorted({x.name for x in dataclasses.fields(obj)}))
-            raise ScenarioError(f"{prefix}{key_name(key)}: unknown field; allowed: {allowed}")
+            raise ScenarioError(f"{prefix}{key_name(key)}: unknown field{_allowed(obj, prefix)}")
         current = getattr(obj, f.name)
         if isinstance(value, dict) and dataclasses.is_dataclass(current):
             value = _merge(current, value, f"{prefix}{key}.")

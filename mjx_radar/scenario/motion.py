@@ -222,6 +222,7 @@ def to_dict(tm: TargetMotion) -> dict:
         if key not in raw and getattr(tm, key) != _FIELDS[key].default:  # refused by the reader
             raw[key] = list(getattr(tm, key)) if key == "waypoints" else getattr(tm, key)
     raw |= {"sigma_w2": tm.sigma_w2, "appear": tm.appear}
-    if math.isfinite(tm.leave):
-        raw["leave"] = tm.leave
+    leave = tm.leave
+    if isinstance(leave, bool) or not isinstance(leave, int | float) or math.isfinite(leave):
+        raw["leave"] = leave  # never (inf) is the absence of the key; junk: the reader refuses
     return raw
