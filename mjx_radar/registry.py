@@ -188,6 +188,7 @@ TRACKERS = Registry(
         "bank": "mjx_radar.env.filter_ops:ckf_bank",
         "imm": "mjx_radar.env.filter_ops:imm_bank",
         "pda": "mjx_radar.env.filter_ops:pda_bank",
+        "managed": "mjx_radar.env.managed:managed_tracker",
     },
 )
 #: sensors (measurement models) by name (:mod:`mjx_radar.estimation.measurement`):

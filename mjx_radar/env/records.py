@@ -36,6 +36,9 @@ class StepRecord(NamedTuple):
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
     targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
+    present: jax.Array  # [M] bool which targets are present (the truth set of GOSPA)
+    track_pos: jax.Array  # [K, 3] estimated positions (K = M, the joint estimate, unless managed)
+    track_exist: jax.Array  # [K] bool estimates that exist (managed: confirmed tracks)
 
 
 class TrialResult(NamedTuple):

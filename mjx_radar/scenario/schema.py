@@ -15,6 +15,7 @@ from mjx_radar.scenario.schema_filter import FilterConfig
 from mjx_radar.scenario.schema_planner import PlannerConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
+from mjx_radar.scenario.schema_tracker import TrackManagementConfig
 from mjx_radar.scenario.schema_world import MovingObstacle, RadarOverride, TargetMotion, positive
 
 SCENE = 1e5  # |x|, |y| bound of every position [m] (float32 keeps ~1 cm there)
@@ -255,6 +256,12 @@ class Scenario:
     planner: PlannerConfig = field(
         default_factory=PlannerConfig,
         metadata=table("settings of the planner zoo: cem, grad, hybrid, cmaes (docs/planners.md)"),
+    )
+    tracker: TrackManagementConfig = field(
+        default_factory=TrackManagementConfig,
+        metadata=table(
+            "track management for an unknown number of drones (docs/track_management.md)"
+        ),
     )
 
     @property
