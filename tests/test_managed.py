@@ -76,6 +76,7 @@ def test_managed_env_tracks_unknown_drones():
     assert env.n_tracks == 6 and env.observation_size == 6 * 4 + 6 * 6 + 21 * 6 + 6 + 4 * 6
     state = jax.jit(env.reset)(env.trial_key(0, 0))
     assert state.obs.mean.shape == (36,) and float(jnp.sum(state.obs.target_weight)) == 0.0
+    assert env.observation_vector(state.obs).shape == (env.observation_size,)
     step = jax.jit(env.transition)
     for _ in range(env.episode_length):
         state, rec = step(state, jnp.zeros((4, 2)))
