@@ -49,13 +49,16 @@ def gospa(truth, present, est, exist, c: float, p: float = 2.0):
     return total ** (1 / p), loc, m - k, n - k
 
 
-def scenario_for(management: str, max_tracks: int, steps: int):
+def scenario_for(management: str, max_tracks: int, steps: int, options=()):
+    """raid_4r8t with the per-target filter (and the track table, ``options``: more
+    ``[tracker]`` fields as ``KEY=VALUE``)."""
     from mjx_radar.scenario.reader import load_scenario
 
     sc = load_scenario("raid_4r8t")
     changes = {"filter": {"structure": "per-target", "ground_prior": True}}
     if management == "managed":
-        changes["tracker"] = {"management": "managed", "max_tracks": max_tracks}
+        extra = {k: float(v) if "." in v else int(v) for k, v in (o.split("=") for o in options)}
+        changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
     return sc.replace(timing={"steps": steps}, **changes)
 
 
@@ -136,11 +139,13 @@ def main(argv=None):
     ap.add_argument("--management", default="managed,known")
     ap.add_argument("--max-tracks", type=int, default=16)
     ap.add_argument("--cutoff", type=float, default=50.0, help="GOSPA cut-off c [m]")
+    ap.add_argument("--tracker", action="append", default=[], metavar="KEY=VALUE",
+                    help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0")  # fmt: skip
     a = ap.parse_args(argv)
     cases = [(g, m) for g in a.management.split(",") for m in a.methods.split(",")]
     dt = None
     for management, method in cases:
-        sc = scenario_for(management, a.max_tracks, a.steps)
+        sc = scenario_for(management, a.max_tracks, a.steps, a.tracker)
         dt = sc.timing.dt_filter
         for t0 in range(0, a.trials, a.chunk):
             t1 = min(t0 + a.chunk, a.trials)

@@ -53,8 +53,15 @@ def sorted_scans(zs, valid):
     return jnp.take_along_axis(zs, order[..., None], 1), jnp.take_along_axis(valid, order, 1)
 
 
-def pda_associator(model, noise, ccr, det_model, det_params, density, gate, pg, reflect):
+def pda_associator(
+    model, noise, ccr, det_model, det_params, density, gate, pg, reflect, exclusive=True
+):
     """The per-track PDA associator (module docstring).
+
+    With ``exclusive`` each track's PDA at radar i uses only the returns of which it is
+    the likeliest track (``argmin_k nll``): the per-target PDA otherwise takes the
+    neighbouring drones' returns for its own and the tracks coalesce (issue 35); this
+    is the simple stand-in until a joint associator (JPDA, GNN) drops in.
 
     Args:
         model: measurement model (static); noise: ``NoiseParams``; ccr: the filter's flag.
@@ -63,36 +70,48 @@ def pda_associator(model, noise, ccr, det_model, det_params, density, gate, pg, 
         density: clutter density per unit measurement volume (> 0).
         gate, pg: the gate γ and its probability P_G.
         reflect: apply the ground prior (reflect ``ẑ < 0``) after the update (static).
+        exclusive: each return updates only its likeliest track (static).
     """
 
-    def one(x, P, on, zs, valid, radar_pos):
-        n = radar_pos.shape[0]
-        d2 = jnp.sum((x[None, :3] - radar_pos) ** 2, -1)
-        pd = jnp.where(on, detection.pair_probability(det_model, det_params, d2), 0.0)
-        pd = jnp.clip(pd, 0.0, 1.0 - 1e-6)  # b > 0 with perfect detection
-        gates = []
-        for i in range(n):  # radar after radar (static N)
-            r = radar_pos[i]
+    def radar_step(x, P, on, z, ok, r, own):
+        def h(x6):
+            return model.predict(r[None], x6[None, :3]).reshape(model.dim)
 
-            def h(x6, r=r):
-                return model.predict(r[None], x6[None, :3]).reshape(model.dim)
+        def R(zh):
+            return jnp.diag(model.variance(zh, own, ccr))
 
-            own = at_radar(noise, i)
+        nll = innovation_nll(x, P, z, h, R, model.residual, gate)
+        return jnp.where(ok & on, nll, jnp.inf), h, R
 
-            def R(zh, own=own):
-                return jnp.diag(model.variance(zh, own, ccr))
+    def one_radar(means, covs, on, pd, z, ok, r, own):
+        """Every track's update from one radar's scan ``z [L, dim]``, ``ok [L]``."""
+        nll = jax.vmap(lambda x, P, o: radar_step(x, P, o, z, ok, r, own)[0])(means, covs, on)
+        mine = jnp.argmin(nll, axis=0)[None, :] == jnp.arange(means.shape[0])[:, None]
 
-            nll = innovation_nll(x, P, zs[i], h, R, model.residual, gate)
-            gates.append(jnp.where(valid[i] & on, nll, jnp.inf))
+        def step(x, P, on_k, pd_k, mine_k):
+            _, h, R = radar_step(x, P, on_k, z, ok, r, own)
+            use = ok & mine_k if exclusive else ok
             (x, P), _ = pda.pda_update(
-                x, P, zs[i], valid[i], h, R, pd[i], density, gate, pg, residual=model.residual
+                x, P, z, use, h, R, pd_k, density, gate, pg, residual=model.residual
             )
-        if reflect:
-            x, P = ground_prior.apply_ground_prior(x, P)
-        return x, P, jnp.stack(gates)
+            return x, P
+
+        return (*jax.vmap(step)(means, covs, on, pd, mine), nll)
 
     def associate(means, covs, on, zs, valid, radar_pos):
-        return jax.vmap(one, (0, 0, 0, None, None, None))(means, covs, on, zs, valid, radar_pos)
+        d2 = jnp.sum((means[:, None, :3] - radar_pos[None]) ** 2, -1)  # [K, N]
+        pd = detection.pair_probability(det_model, det_params, d2)
+        pd = jnp.clip(jnp.where(on[:, None], pd, 0.0), 0.0, 1.0 - 1e-6)  # b > 0 if perfect
+        out = []
+        for i in range(radar_pos.shape[0]):  # radar after radar (static N)
+            own = at_radar(noise, i)
+            means, covs, nll = one_radar(
+                means, covs, on, pd[:, i], zs[i], valid[i], radar_pos[i], own
+            )
+            out.append(nll)
+        if reflect:
+            means, covs = jax.vmap(ground_prior.apply_ground_prior)(means, covs)
+        return means, covs, jnp.stack(out, axis=1)
 
     return associate
 
