@@ -89,19 +89,23 @@ def run_chunk(sc, method, seed, trials, steps, cutoff):
 
 def summarise(out: Path, dt: float, cases) -> dict:
     summary = {}
-    lines = ["| management | method | trials | mean GOSPA [m] | loc. RMS [m] | missed | false | "
-             "confirmed - present |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    head = "| management | method | trials | mean GOSPA [m] | loc. RMS [m] | missed | false |"
+    lines = [head + " confirmed - present |", "|---|---|---|---|---|---|---|---|"]
     for management, method in cases:
         files = sorted((out / management / method).glob("trials_*.npz"))
         if not files:
             continue
-        d = {k: np.concatenate([np.load(f)[k] for f in files]) for k in np.load(files[0]).files
-             if np.load(files[0])[k].ndim >= 2}  # fmt: skip
+        first = np.load(files[0])
+        keys = [k for k in first.files if first[k].ndim >= 2]
+        d = {k: np.concatenate([np.load(f)[k] for f in files]) for k in keys}
         matched = d["present"] - d["missed"]
         loc_rms = np.sqrt(d["loc"].sum() / max(matched.sum(), 1))
         per_s = int(round(1 / dt))
         k = d["gospa"].shape[1] // per_s * per_s
-        by_s = lambda a: a[:, :k].reshape(a.shape[0], -1, per_s).mean((0, 2))  # noqa: E731
+
+        def by_s(a, k=k, per_s=per_s):
+            return a[:, :k].reshape(a.shape[0], -1, per_s).mean((0, 2))
+
         summary[f"{management}/{method}"] = {
             "trials": int(d["gospa"].shape[0]),
             "gospa_mean": float(d["gospa"].mean()),
@@ -139,8 +143,13 @@ def main(argv=None):
     ap.add_argument("--management", default="managed,known")
     ap.add_argument("--max-tracks", type=int, default=16)
     ap.add_argument("--cutoff", type=float, default=50.0, help="GOSPA cut-off c [m]")
-    ap.add_argument("--tracker", action="append", default=[], metavar="KEY=VALUE",
-                    help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0")  # fmt: skip
+    ap.add_argument(
+        "--tracker",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0",
+    )
     a = ap.parse_args(argv)
     cases = [(g, m) for g in a.management.split(",") for m in a.methods.split(",")]
     dt = None

@@ -52,9 +52,16 @@ def test_gauss_newton_covariance_matches_monte_carlo():
 
         def fit(z):
             x, p, chi2 = multilateration.gauss_newton(
-                model, jnp.asarray(t + 3.0), jnp.asarray(RADARS), z, jnp.asarray(var),
-                jnp.ones(4, bool), 60.0, 1e12, iters=6,
-            )  # fmt: skip
+                model,
+                jnp.asarray(t + 3.0),
+                jnp.asarray(RADARS),
+                z,
+                jnp.asarray(var),
+                jnp.ones(4, bool),
+                60.0,
+                1e12,
+                iters=6,
+            )
             return x, p, chi2
 
         zall = jnp.asarray(np.concatenate([z0[None], zs]))
@@ -181,9 +188,11 @@ def test_ownership_two_tracks_on_one_return():
         return means, covs, nll
 
     table = track_table.insert(
-        track_table.empty(k, n), jnp.zeros((2, 6)), jnp.eye(6)[None].repeat(2, 0),
+        track_table.empty(k, n),
+        jnp.zeros((2, 6)),
+        jnp.eye(6)[None].repeat(2, 0),
         jnp.ones(2, bool),
-    )  # fmt: skip
+    )
     zs, valid = jnp.zeros((n, ell, 1)), jnp.ones((n, ell), bool)
     table, hit, explained = track_update.update(table, zs, valid, jnp.zeros((1, 3)), associate, 1)
     assert np.asarray(hit).tolist() == [True, False]
