@@ -214,6 +214,7 @@ TRACKERS = Registry(
         "pda": "mjx_radar.env.filter_ops:pda_bank",
         "jpda": "mjx_radar.env.association_ops:jpda_bank",
         "gnn": "mjx_radar.env.association_ops:gnn_bank",
+        "managed": "mjx_radar.env.managed:managed_tracker",
     },
 )
 #: sensors (measurement models) by name (:mod:`mjx_radar.estimation.measurement`):

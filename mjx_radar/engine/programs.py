@@ -119,7 +119,9 @@ def _traced(
         carry = jax.tree.unflatten(carry_tree, leaves)
         carry, steps, controls = closed_loop.advance(task, params, carry, periods, planner)
         if not full:
-            sets = records.estimate_sets(steps.target, steps.mean, steps.present)
+            sets = records.estimate_sets(
+                steps.target, steps.track_pos, steps.track_exist, steps.present
+            )
             steps = {k: getattr(steps, k) for k in results.LOOP_COLUMNS} | sets
             controls = None
         elif not masks:  # not outputs: XLA drops their computation (the same program)

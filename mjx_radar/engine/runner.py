@@ -232,7 +232,7 @@ def _set_columns(scenario: Scenario, res: dict, full: bool) -> dict:
     from mjx_radar.rundir.results import set_columns
 
     if full:
-        sets = estimate_sets(res["target"], res["mean"], res["present"])
+        sets = estimate_sets(res["target"], res["track_pos"], res["track_exist"], res["present"])
     else:
         sets = {k: res.pop(k) for k in SET_KEYS}
     cfg = scenario.metrics

@@ -74,12 +74,15 @@ class RadarEnv:
         self.dt = sc.timing.dt_control
         self.n_radars, self.n_targets = sc.n_radars, sc.n_targets
         self.action_size = 2 * sc.n_radars
-        m, n = sc.n_targets, sc.n_radars
+        self._form = ckf_sqrt.form_ops(sc.filter.form)
+        self._tracker = filter_ops.make(task, params)
+        self._table = self._tracker.tracks  # None: the joint estimate, indexed like the truth
+        #: tracks the planner sees: M (the joint estimate) or the table's K slots
+        self.n_tracks = sc.n_targets if self._table is None else sc.tracker.max_tracks
+        m, n = self.n_tracks, sc.n_radars
         self.observation_size = 6 * n + 6 * m + 21 * m + m + n * m
         lower, upper = control_box(sc)
         self.action_bounds = (lower.reshape(n, 2), upper.reshape(n, 2))
-        self._form = ckf_sqrt.form_ops(sc.filter.form)
-        self._tracker = filter_ops.make(task, params)
 
     @staticmethod
     def trial_key(seed, trial) -> jax.Array:
@@ -110,8 +113,11 @@ class RadarEnv:
 
     def planning_params(self, obs: Observation):
         """The runtime parameters a planner scores with at ``obs``'s instant (the
-        presence weights, the moving obstacles' time)."""
-        return presence.plan_params(self.params, obs.time)
+        presence weights, the moving obstacles' time; a track table's own weights)."""
+        params = presence.plan_params(self.params, obs.time)
+        if self._table is not None:  # the planner plans for the table's tracks
+            params = params._replace(target_weight=obs.target_weight)
+        return params
 
     def objective(self, obs: Observation):
         """``cost(u [H, 2N]) -> (cost [], Plan)``: the method's objective (information
@@ -124,7 +130,7 @@ class RadarEnv:
     def observation_vector(self, obs: Observation) -> jax.Array:
         """``[observation_size]`` flat features: radar states, track means, the upper
         triangles of the targets' 6x6 covariance blocks, presence, detections."""
-        m = self.n_targets
+        m = obs.mean.shape[0] // 6
         blocks = jnp.stack([obs.cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
         iu = jnp.triu_indices(6)
         return jnp.concatenate(
@@ -150,7 +156,7 @@ class RadarEnv:
             health=track_health.init_health(sc.n_targets),
             modes=self._tracker.init(init.mean, init.cov),
         )
-        none_seen = jnp.zeros((sc.n_radars, sc.n_targets), bool)
+        none_seen = jnp.zeros((sc.n_radars, self.n_tracks), bool)
         period = jnp.int32(0)
         zero = jnp.zeros((), init.mean.dtype)
         metrics = {k: zero for k in METRICS}
@@ -190,10 +196,12 @@ class RadarEnv:
     def _observe(self, loop: LoopState, j, seen) -> Observation:
         """What the planner of control period ``j`` knows (the loop after ``j`` periods)."""
         sc = self.scenario
+        t = j * self.every * sc.timing.dt_filter
+        if self._table is not None:
+            return self._observe_table(loop, j, t)
         pm, pc = loop.mean, loop.cov
         if not sc.mpc.aligned:  # the paper code's one-filter-step lead of the targets
             pm, pc = self._tracker.predict(loop.mean, loop.cov, loop.modes)[:2]
-        t = j * self.every * sc.timing.dt_filter
         weight = presence.plan_params(self.params, t).target_weight
         if weight is None:
             weight = jnp.ones(sc.n_targets, pm.dtype)
@@ -207,9 +215,30 @@ class RadarEnv:
             period=j,
         )
 
+    def _observe_table(self, loop: LoopState, j, t) -> Observation:
+        """What the planner knows with a track table: its K slots (never the truth)."""
+        modes = loop.modes
+        if not self.scenario.mpc.aligned:
+            modes = self._tracker.predict(loop.mean, loop.cov, modes)[2]
+        v = self._table(modes)
+        k = v.mean.shape[0]
+        return Observation(
+            radar_state=physics.radar_state(self.task.truth, loop.data),
+            mean=v.mean.reshape(-1),
+            cov=jax.scipy.linalg.block_diag(*[v.cov[i] for i in range(k)]),
+            target_weight=v.weight,
+            detections=v.seen,
+            time=jnp.asarray(t, v.mean.dtype),
+            period=j,
+        )
+
     def _reward(self, loop: LoopState, j):
-        """``-Σ_m log det P_m,pos`` over the targets present after ``j`` periods."""
+        """``-Σ_m log det P_m,pos`` over the targets present after ``j`` periods (a
+        track table: over its tracks, with the planner's weights)."""
         sc = self.scenario
+        if self._table is not None:
+            v = self._table(loop.modes)
+            return -jnp.sum(v.weight * jax.vmap(linalg.logdet_psd)(v.cov[:, :3, :3]))
         cov = self._form.cov(loop.cov)
         m = sc.n_targets
         pos = jnp.stack([cov[6 * i : 6 * i + 3, 6 * i : 6 * i + 3] for i in range(m)])

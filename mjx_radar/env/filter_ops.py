@@ -39,6 +39,11 @@ class FilterOps(NamedTuple):
       with clutter the unlabelled returns ``zs``, ``valid``), ``los`` [N, M] or None.
     * ``begin(modes, mean, cov, k) -> modes``: restarted for targets appearing at step k.
     * ``init(mean, cov) -> modes``: the tracker's own state at t = 0 (``()`` if none).
+    * ``tracks``: None (the joint estimate is indexed like the truth), or for a tracker
+      that does not know the drones (``"managed"``, :mod:`~mjx_radar.env.managed`)
+      ``tracks(modes) -> (mean [K, 6], cov [K, 6, 6], weight [K], exist [K])``: its K
+      track slots, the planner's weight of each and whether it is a confirmed track.
+      The planner, the reward and the records then use these instead of the joint one.
 
     ``cov`` is P, or its factor S with ``filter.form = "sqrt"``.
     """
@@ -47,6 +52,7 @@ class FilterOps(NamedTuple):
     update: Callable
     begin: Callable
     init: Callable = lambda mean, cov: ()  # noqa: E731
+    tracks: Callable | None = None
 
 
 def tracker_name(scenario) -> str:
@@ -54,6 +60,8 @@ def tracker_name(scenario) -> str:
     ``[tracker] association``, ``"pda"`` by default,
     ``filter.motion = "imm"``: ``"imm"``, per-target: ``"bank"``, else ``"ckf"``)."""
     name = getattr(scenario.filter, "tracker", "auto")
+    if getattr(getattr(scenario, "tracker", None), "management", "known") == "managed":
+        return "managed"
     if name != "auto":
         return name
     if scenario.detection.clutter:  # [tracker] association: pda, jpda or gnn

@@ -19,7 +19,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.env import filter_ops, presence, scan, track_health
+from mjx_radar.env import filter_ops, managed, presence, scan, track_health
 from mjx_radar.env.records import StepRecord
 from mjx_radar.env.streams import streams_of
 from mjx_radar.estimation import ckf_sqrt, fisher, linalg, measurement
@@ -79,6 +79,12 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         modes = filter_ops.keep(ok_pred, ok, post[2], modes_p, modes0)
         mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
         mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
+        if tracker.tracks is None:  # the joint estimate, indexed like the truth
+            track_pos, track_exist = mean.reshape(m, 6)[:, :3], here
+        else:  # a track table: metrics on its confirmed tracks assigned to the drones
+            view = tracker.tracks(modes)
+            track_pos, track_exist = view.mean[:, :3], view.exist
+            mean, cov = managed.truth_view(truth, here, view, params.p0)
         cov_p = filt.cov(cov)  # P for the detector, metrics and records (S Sᵀ for "sqrt")
         truth_h = presence.health_truth(truth, mean, here)  # absent targets: no error
         health, flags_h = track_health.step_health(health, truth_h, mean, cov_p, dt)
@@ -110,6 +116,8 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
             diverged,
             jnp.sum(here).astype(jnp.int32),
             here,
+            track_pos,
+            track_exist,
             jnp.ones((n, m), bool) if vis is None else jnp.broadcast_to(vis, (n, m)),
             seen,
         )

@@ -36,7 +36,9 @@ class StepRecord(NamedTuple):
     lost: jax.Array  # [] bool track lost (diverged, mirror lock or error beyond k sigma)
     diverged: jax.Array  # [] bool the filter became non-finite or not positive definite
     targets_present: jax.Array  # [] int32 targets present ([[target_motion]] appear/leave)
-    present: jax.Array  # [M] bool the targets present at this step
+    present: jax.Array  # [M] bool the targets present at this step (the truth set of GOSPA)
+    track_pos: jax.Array  # [K, 3] estimated positions (K = M, the joint estimate, unless managed)
+    track_exist: jax.Array  # [K] bool estimates that exist (managed: confirmed tracks)
     visible: jax.Array  # [N, M] bool line of sight to a present target (sum: visible_pairs)
     detected: jax.Array  # [N, M] bool visible and detected (sum: detections)
 
@@ -50,21 +52,24 @@ MASK_FIELDS = ("visible", "detected")
 SET_KEYS = ("truth_pos", "present", "track_pos", "track_exists")
 
 
-def estimate_sets(target, mean, present) -> dict:
+def estimate_sets(target, track_pos, track_exist, present) -> dict:
     """The truths and the estimates as sets (:mod:`mjx_radar.estimation.gospa`).
 
-    Works on jax and numpy arrays with any leading axes (``[..., M, 6]``, ``[..., 6M]``,
-    ``[..., M]``). The tracker keeps one track per target (the bank, known association):
-    track m exists while target m is present.
+    Works on jax and numpy arrays with any leading axes. The estimates are the step's
+    ``track_pos`` / ``track_exist`` (:class:`StepRecord`): for a tracker that knows the
+    drones, track m is the estimate of drone m and exists while drone m is present; for
+    the managed track table, the confirmed tracks.
 
     Returns:
-        ``{"truth_pos": [..., M, 3], "present": [..., M], "track_pos": [..., M, 3],
-        "track_exists": [..., M]}`` (:data:`SET_KEYS`).
+        ``{"truth_pos": [..., M, 3], "present": [..., M], "track_pos": [..., K, 3],
+        "track_exists": [..., K]}`` (:data:`SET_KEYS`).
     """
-    m = target.shape[-2]
-    track = mean.reshape(*mean.shape[:-1], m, 6)[..., :3]
-    truth = target[..., :3]
-    return {"truth_pos": truth, "present": present, "track_pos": track, "track_exists": present}
+    return {
+        "truth_pos": target[..., :3],
+        "present": present,
+        "track_pos": track_pos,
+        "track_exists": track_exist,
+    }
 
 
 class TrialResult(NamedTuple):

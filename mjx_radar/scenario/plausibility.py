@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 
 from mjx_radar.io.checks import ScenarioError
+from mjx_radar.scenario import schema_tracker
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK
 
@@ -59,6 +60,7 @@ def check_scenario(s: Scenario) -> None:
     _check_detection(s)
     _check_imm(s)
     _check_tracker(s)
+    schema_tracker.check(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
             f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "

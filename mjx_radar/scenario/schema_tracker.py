@@ -1,19 +1,23 @@
-"""The ``[tracker]`` table of a scenario: multi-target tracking options (docs/tracking.md).
+"""The ``[tracker]`` table of a scenario: multi-target tracking options (docs/tracking.md,
+docs/track_management.md).
 
 Part of :mod:`mjx_radar.scenario.schema` (re-exported there as ``config.TrackerConfig``).
 ``association`` picks how the per-target bank shares a cluttered scan between the drones
-(issue 35): the per-target PDA (today's default), JPDA or GNN; the other fields are the
-JPDA's and GNN's options. Every field is static (part of the compiled shape). Cross-field
-rules (joint association needs clutter; the enumeration's size; JPDA* needs the exact
-marginals) are in :mod:`mjx_radar.scenario.plausibility`. New tracking options (track
-management) belong here too: one field each, with its rule in the metadata.
+(issue 35): the per-target PDA (today's default), JPDA or GNN, with the JPDA's and GNN's
+options. ``management = "known"`` (the default) is every earlier tracker: the filter
+knows how many drones exist and when each appears; ``"managed"`` runs the track table of
+docs/track_management.md: tracks are born from returns no track explains, confirmed
+M-of-N, deleted after missed scans or when their position covariance grows past a bound,
+and the planner plans for the confirmed ones. Every field is static (part of the
+compiled shape). Cross-field rules: association's in :mod:`mjx_radar.scenario.plausibility`,
+management's in :func:`check`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import choice, flag, rule
+from mjx_radar.io.checks import ScenarioError, choice, flag, rule
 
 MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
 MAX_STAR_WORK = 500_000  # events x M! target permutations of JPDA*
@@ -60,3 +64,128 @@ class TrackerConfig:
     lbp_iterations: int = field(
         default=20, metadata=rule(int, 1, 1000, doc="jpda lbp: message-passing sweeps")
     )
+    management: str = field(
+        default="known",
+        metadata=choice(
+            "known",
+            "managed",
+            doc=(
+                "known: the filter knows the drones and when they appear; managed: a track "
+                "table with birth, M-of-N confirmation and deletion (docs/track_management.md)"
+            ),
+        ),
+    )
+    max_tracks: int = field(
+        default=16, metadata=rule(int, 1, 256, doc="managed: capacity K of the track table")
+    )
+    confirm_m: int = field(
+        default=3, metadata=rule(int, 1, 30, doc="managed: hits needed in the last confirm_n scans")
+    )
+    confirm_n: int = field(
+        default=5, metadata=rule(int, 1, 30, doc="managed: window of the M-of-N confirmation")
+    )
+    delete_misses: int = field(
+        default=20,
+        metadata=rule(int, 1, 100000, doc="managed: consecutive missed scans that delete a track"),
+    )
+    delete_cov: float = field(
+        default=2500.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e12,
+            lo_open=True,
+            unit="m^2",
+            doc="managed: a track whose tr P_pos exceeds this is deleted",
+        ),
+    )
+    hit_radars: int = field(
+        default=0,
+        metadata=rule(
+            int,
+            0,
+            64,
+            doc=(
+                "managed: radars with a return in a track's gate for a hit "
+                "(0: 3 for range, 1 for range-azimuth; at most n_radars)"
+            ),
+        ),
+    )
+    birth_radars: int = field(
+        default=0,
+        metadata=rule(
+            int,
+            0,
+            64,
+            doc=(
+                "managed: radars whose returns must fit a new track "
+                "(0: 4 for range, 1 for range-azimuth; at most n_radars)"
+            ),
+        ),
+    )
+    max_births: int = field(
+        default=2, metadata=rule(int, 1, 32, doc="managed: new tracks per scan at most")
+    )
+    birth_height: float = field(
+        default=60.0,
+        metadata=rule(float, -1e4, 1e4, unit="m", doc="managed: height prior of a new track"),
+    )
+    birth_height_std: float = field(
+        default=100.0,
+        metadata=rule(
+            float, 0.0, 1e5, lo_open=True, unit="m", doc="managed: std of that height prior"
+        ),
+    )
+    birth_speed_std: float = field(
+        default=30.0,
+        metadata=rule(
+            float, 0.0, 1e4, lo_open=True, unit="m/s", doc="managed: velocity std of a new track"
+        ),
+    )
+    tentative_weight: float = field(
+        default=0.0,
+        metadata=rule(
+            float, 0.0, 1.0, doc="managed: planner weight of tentative tracks (confirmed: 1)"
+        ),
+    )
+
+    def radars_needed(self, n_radars: int, dim: int) -> tuple[int, int]:
+        """``(hit_radars, birth_radars)`` with the automatic values resolved."""
+        hit = self.hit_radars or (min(3, n_radars) if dim == 1 else 1)
+        birth = self.birth_radars or (min(4, n_radars) if dim == 1 else 1)
+        return hit, birth
+
+
+#: the earlier name of the table's class (track management)
+TrackManagementConfig = TrackerConfig
+
+
+def check(s) -> None:
+    """Cross-field rules of ``[tracker]`` (a no-op unless ``management = "managed"``)."""
+    t = s.tracker
+    if t.management != "managed" and s.filter.tracker != "managed":
+        return
+    if t.confirm_m > t.confirm_n:
+        raise ScenarioError(
+            f"tracker.confirm_m = {t.confirm_m}: must be <= tracker.confirm_n = {t.confirm_n}"
+        )
+    for name in ("hit_radars", "birth_radars"):
+        v = getattr(t, name)
+        if v > s.n_radars:
+            raise ScenarioError(f"tracker.{name} = {v}: must be <= n_radars = {s.n_radars}")
+    dim = 2 if s.measurement.model == "range-azimuth" else 1
+    if dim == 1 and s.n_radars < 3:
+        raise ScenarioError(
+            f'tracker.management = "managed": range-only births need n_radars >= 3 '
+            f"(multilateration), got {s.n_radars}"
+        )
+    f = s.filter
+    if f.structure != "per-target" or f.form != "covariance" or f.motion != "cv":
+        raise ScenarioError(
+            'tracker.management = "managed": needs filter.structure = "per-target", '
+            f'form = "covariance", motion = "cv" (got "{f.structure}", "{f.form}", "{f.motion}")'
+        )
+    if f.tracker not in ("auto", "managed"):
+        raise ScenarioError(
+            f'tracker.management = "managed": filter.tracker must be "auto", got "{f.tracker}"'
+        )

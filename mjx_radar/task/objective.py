@@ -57,11 +57,12 @@ def plan_context(task, radar_state, mean, cov) -> PlanContext:
     Args:
         task: the :class:`~mjx_radar.task.task.RadarTask`.
         radar_state: [N, 6] radar states.
-        mean: [6M] stacked target mean at the same instant as ``radar_state``.
+        mean: [6M] stacked target mean at the same instant as ``radar_state`` (M the
+            tracks planned for: the drones, or a track table's slots).
         cov: [6M, 6M] its covariance.
     """
     sc = task.scenario
-    m, h = sc.n_targets, sc.mpc.horizon
+    m, h = mean.shape[0] // 6, sc.mpc.horizon
     blocks = jnp.stack([cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
     if sc.filter.structure == "per-target":
         # Independent targets: 12 cubature points per target, point i of every target

@@ -1,0 +1,145 @@
+"""The ``"managed"`` tracker: a track table for an unknown, changing number of drones (issue 35).
+
+Selected by ``[tracker] management = "managed"`` (docs/track_management.md). Its own
+state (``modes``) is a :class:`~mjx_radar.estimation.track_table.TrackTable` of
+``max_tracks`` slots; it never reads the joint estimate ``[6M]`` the loop carries (which
+is indexed like the truth), nor the presence of the drones, nor the order of the
+returns (each radar's buffer is sorted by range). Per scan:
+
+1. predict every live slot (CV, the filter's process noise);
+2. associate the scans to the live slots (the per-track PDA associator by default,
+   :mod:`~mjx_radar.estimation.track_update`; any associator of that signature drops in
+   through ``managed_tracker(..., associator=...)``);
+3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`);
+4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.track_birth`).
+
+``FilterOps.tracks`` shows the table (:class:`~mjx_radar.estimation.track_table.TrackView`):
+the planner plans for it, the records hold it. For the loop's metrics (RMSE, NEES, the
+lost-track detector) :func:`truth_view` assigns confirmed tracks to the present drones.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.env.filter_ops import FilterOps
+from mjx_radar.estimation import clutter, track_birth, track_table, track_update
+
+__all__ = ["managed_tracker", "truth_view", "CUTOFF_M", "DENSITY_FLOOR"]
+
+#: assignment cut-off of :func:`truth_view` [m] (= the lost-track detector's error floor)
+CUTOFF_M = 50.0
+#: clutter density per unit measurement volume the PDA assumes without clutter
+DENSITY_FLOOR = 1e-6
+
+
+def managed_tracker(task, params, associator=None) -> FilterOps:
+    """The managed tracker of ``task.scenario.tracker`` (module docstring).
+
+    Args:
+        task, params: the scenario's task and runtime parameters.
+        associator: ``factory(task, params) -> associate`` (the signature of
+            :mod:`~mjx_radar.estimation.track_update`); default per-track PDA.
+    """
+    sc, model = task.scenario, task.measurement
+    cfg = sc.tracker
+    n, k = sc.n_radars, cfg.max_tracks
+    hit_r, birth_r = cfg.radars_needed(n, model.dim)
+    rules = track_table.LifeRules(cfg.confirm_m, cfg.confirm_n, cfg.delete_misses, cfg.delete_cov)
+    births = track_birth.BirthSettings(
+        cfg.max_births, birth_r, cfg.birth_height, cfg.birth_height_std, cfg.birth_speed_std
+    )
+    a6 = task.a6_filter
+    q6 = params.sigma_w2 * task.w6_filter_unit
+    dp, ccr = params.detection, params.method.ccr
+    p_empty = params.p0
+    if associator is None:
+        density = clutter.density(dp, model.dim) if sc.detection.clutter else DENSITY_FLOOR
+        associate = track_update.pda_associator(
+            model,
+            params.noise,
+            ccr,
+            sc.detection.model,
+            dp,
+            density,
+            dp.gate,
+            dp.gate_probability,
+            sc.filter.ground_prior,
+        )
+    else:
+        associate = associator(task, params)
+
+    def init(mean, cov):  # no track: the tracker is not told where the drones start
+        return track_table.empty(k, n, mean.dtype, p_empty)
+
+    def predict(mean, cov, table):
+        on = track_table.live(table)
+        a = a6.astype(table.mean.dtype)
+        m = table.mean @ a.T
+        p = jnp.einsum("ij,kjl,ml->kim", a, table.cov, a) + q6.astype(table.cov.dtype)
+        table = table._replace(
+            mean=jnp.where(on[:, None], m, table.mean),
+            cov=jnp.where(on[:, None, None], p, table.cov),
+        )
+        return mean, cov, table
+
+    def update(mean, cov, table, z, radar_pos, scan, los=None):
+        if scan.zs is None:  # no clutter: the detected returns are the scan
+            valid = jnp.ones(z.shape[:2], bool) if scan.seen is None else scan.seen
+            zs = z
+        else:
+            zs, valid = scan.zs, scan.valid
+        zs, valid = track_update.sorted_scans(zs, valid)
+        table, hit, explained = track_update.update(table, zs, valid, radar_pos, associate, hit_r)
+        table = track_table.maintain(table, hit, rules, p_empty)
+        r_var = track_birth.scan_variances(model, zs, params.noise, ccr)
+        avoid = (table.mean[:, :3], table.cov[:, :3, :3], track_table.live(table))
+        new = track_birth.births(
+            model, zs, valid & ~explained, r_var, radar_pos, dp.gate, births, avoid
+        )
+        return mean, cov, track_table.insert(table, *new)
+
+    def tracks(table):
+        return track_table.view(table, cfg.tentative_weight)
+
+    return FilterOps(predict, update, lambda modes, mean, cov, k: modes, init, tracks)
+
+
+def truth_view(truth, present, view: track_table.TrackView, p0, cutoff: float = CUTOFF_M):
+    """The confirmed tracks assigned to the present drones, as a joint estimate (metrics only).
+
+    Greedy assignment (the globally nearest confirmed track–drone pair first, each used
+    once) within ``cutoff``. A present drone without a track gets the estimate
+    ``truth + (cutoff, 0, 0, 0, 0, 0)`` (error = the cut-off, as in GOSPA) with
+    covariance ``cutoff² I``; an absent drone its truth with ``p0 I``.
+
+    Args:
+        truth: ``[M, 6]``; present: ``[M]`` bool; view: the table's view; p0: [m²].
+
+    Returns:
+        ``(mean [6M], P [6M, 6M])`` block-diagonal.
+    """
+    m = truth.shape[0]
+    d = jnp.linalg.norm(truth[:, None, :3] - view.mean[None, :, :3], axis=-1)  # [M, K]
+    d = jnp.where(present[:, None] & view.exist[None, :], d, jnp.inf)
+    match = jnp.full(m, -1, jnp.int32)
+    for _ in range(m):  # static: at most M assignments
+        flat = jnp.argmin(d)
+        i, j = jnp.unravel_index(flat, d.shape)
+        ok = d[i, j] < cutoff
+        match = match.at[i].set(jnp.where(ok, j, match[i]))
+        d = jnp.where(
+            ok & ((jnp.arange(m)[:, None] == i) | (jnp.arange(d.shape[1]) == j)), jnp.inf, d
+        )
+    got = match >= 0
+    j = jnp.maximum(match, 0)
+    miss = truth + jnp.zeros(6, truth.dtype).at[0].set(cutoff)
+    eye = jnp.eye(6, dtype=truth.dtype)
+    mean = jnp.where(got[:, None], view.mean[j], jnp.where(present[:, None], miss, truth))
+    blocks = jnp.where(
+        got[:, None, None],
+        view.cov[j],
+        jnp.where(present[:, None, None], cutoff**2 * eye, p0 * eye),
+    )
+    return mean.reshape(-1), jax.scipy.linalg.block_diag(*[blocks[i] for i in range(m)])

@@ -1,0 +1,120 @@
+"""The managed tracker in the loop (issue 35): its options, the metrics' view, the env.
+
+The track table's pure pieces are tested in tests/test_track_table.py.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_radar.env import environment, managed
+from mjx_radar.errors import ScenarioError
+from mjx_radar.estimation import track_table
+from mjx_radar.scenario.reader import load_scenario
+
+MANAGED = {"management": "managed", "max_tracks": 6}
+PER_TARGET = {"structure": "per-target", "ground_prior": True}
+
+
+def test_tracker_table_defaults_and_rules():
+    sc = load_scenario("paper_3r4t")
+    assert sc.tracker.management == "known" and sc.tracker.max_tracks == 16
+    ok = sc.replace(tracker=MANAGED, filter=PER_TARGET)
+    assert ok.tracker.radars_needed(3, 1) == (3, 3)
+    with pytest.raises(ScenarioError, match=r"^tracker.management = \"managed\": needs filter"):
+        sc.replace(tracker=MANAGED)  # the joint filter
+    with pytest.raises(
+        ScenarioError, match=r"^tracker.confirm_m = 6: must be <= tracker.confirm_n"
+    ):
+        sc.replace(tracker={**MANAGED, "confirm_m": 6}, filter=PER_TARGET)
+    with pytest.raises(ScenarioError, match=r"tracker.birth_radars = 4: must be <= n_radars = 3"):
+        sc.replace(tracker={**MANAGED, "birth_radars": 4}, filter=PER_TARGET)
+    with pytest.raises(ScenarioError, match=r"n_radars >= 3"):
+        load_scenario("smoke").replace(tracker=MANAGED, filter=PER_TARGET)
+    with pytest.raises(ScenarioError, match="tracker.max_tracks"):
+        sc.replace(tracker={"max_tracks": 0})
+
+
+def test_truth_view_assigns_confirmed_tracks_greedily():
+    truth = jnp.array([[0.0, 0, 50, 1, 0, 0], [100, 0, 50, 0, 1, 0], [300, 0, 50, 0, 0, 0]])
+    present = jnp.array([True, True, True])
+    means = jnp.array([[98.0, 0, 50, 0, 0, 0], [3, 0, 50, 0, 0, 0], [0, 0, 50, 0, 0, 0]])
+    view = track_table.TrackView(
+        means,
+        jnp.broadcast_to(jnp.eye(6), (3, 6, 6)),
+        jnp.ones(3),
+        jnp.array([True, True, False]),  # the exact track at drone 0 is not confirmed
+        jnp.zeros((1, 3), bool),
+    )
+    mean, cov = jax.jit(managed.truth_view)(truth, present, view, 50.0)
+    got = np.asarray(mean).reshape(3, 6)
+    np.testing.assert_allclose(got[0], means[1])  # nearest confirmed
+    np.testing.assert_allclose(got[1], means[0])
+    np.testing.assert_allclose(got[2], np.asarray(truth[2]) + [managed.CUTOFF_M, 0, 0, 0, 0, 0])
+    assert float(cov[12, 12]) == managed.CUTOFF_M**2
+
+
+@pytest.mark.slow  # compiles the closed loop with births (~3 min on a shared CPU)
+def test_managed_env_tracks_unknown_drones():
+    """Fixed radars, 2 drones, stationary: both found, planner sees K slots, never M."""
+    sc = load_scenario("raid_4r8t")
+    sc = sc.replace(
+        target_init=sc.target_init[:2],
+        target_motion=(),
+        radars=[
+            [-300.0, -200.0, 0.0],
+            [250.0, -300.0, 1.0],
+            [300.0, 250.0, 2.0],
+            [-250.0, 300.0, 3.0],
+        ],
+        timing={"steps": 40},
+        tracker=MANAGED,
+        filter=PER_TARGET,
+    )
+    env = environment.make(sc, "stationary")
+    assert env.n_tracks == 6 and env.observation_size == 6 * 4 + 6 * 6 + 21 * 6 + 6 + 4 * 6
+    state = jax.jit(env.reset)(env.trial_key(0, 0))
+    assert state.obs.mean.shape == (36,) and float(jnp.sum(state.obs.target_weight)) == 0.0
+    assert env.observation_vector(state.obs).shape == (env.observation_size,)
+    step = jax.jit(env.transition)
+    for _ in range(env.episode_length):
+        state, rec = step(state, jnp.zeros((4, 2)))
+    assert rec.track_pos.shape == (env.every, 6, 3) and rec.present.shape == (env.every, 2)
+    exist = np.asarray(rec.track_exist[-1])
+    assert exist.sum() == 2  # the two drones, no ghost
+    truth = np.asarray(rec.target[-1, :, :3])
+    pos = np.asarray(rec.track_pos[-1])[exist]
+    d = np.linalg.norm(pos[:, None] - truth[None], axis=-1)
+    assert sorted(d.argmin(1).tolist()) == [0, 1] and d.min(1).max() < 30.0
+    np.testing.assert_array_equal(np.asarray(state.obs.target_weight) > 0, exist)
+    assert np.isfinite(float(state.reward)) and float(rec.rmse_pos[-1]) < 30.0
+
+
+def test_script_gospa_matches_brute_force():
+    """scripts/run_raid_managed.py's GOSPA (α = 2) against every assignment, by hand."""
+    import importlib.util
+    import itertools
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "scripts" / "run_raid_managed.py"
+    spec = importlib.util.spec_from_file_location("run_raid_managed", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    rng = np.random.default_rng(3)
+    c, p = 20.0, 2.0
+    for _ in range(30):
+        x = rng.uniform(0, 60, (4, 3))
+        y = rng.uniform(0, 60, (5, 3))
+        px, ey = rng.uniform(size=4) < 0.8, rng.uniform(size=5) < 0.7
+        xs, ys = x[px], y[ey]
+        best = np.inf
+        small, big = (xs, ys) if len(xs) <= len(ys) else (ys, xs)
+        for perm in itertools.permutations(range(len(big)), len(small)):
+            cost, k = 0.0, 0
+            for i, j in enumerate(perm):  # pairs beyond c: a miss and a false track
+                d = np.linalg.norm(small[i] - big[j])
+                cost, k = (cost + d**p, k + 1) if d < c else (cost, k)
+            best = min(best, cost + c**p / 2 * (len(xs) + len(ys) - 2 * k))
+        g = mod.gospa(x, px, y, ey, c, p)
+        np.testing.assert_allclose(g[0], best ** (1 / p), rtol=1e-9)
