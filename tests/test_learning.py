@@ -91,6 +91,7 @@ def test_gymnasium_vector_env_autoresets_next_step(short):
     assert venv.observation_space.contains(obs)
 
 
+@pytest.mark.slow  # 100-400 s on 2 cores, nearly all compiling: kept out of the CI tier
 def test_train_resume_and_evaluate_as_planner(short, tmp_path):
     """PPO for 2 x 80 env steps on smoke (a chunk, then a resumed one), then the policy
     drives ``simulate`` through the planner name; its controls are the policy's."""
