@@ -21,10 +21,8 @@ from __future__ import annotations
 import functools
 
 import jax
-import jax.numpy as jnp
 
 from mjx_radar.estimation import association, lbp, pda
-from mjx_radar.estimation.noise import at_radar
 
 __all__ = ["rule", "joint_update", "update_bank"]
 
@@ -81,16 +79,7 @@ def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, densit
         ``(means[M, 6], covs[M, 6, 6])`` posterior moments.
     """
     for i in range(radar_pos.shape[0]):  # radar after radar (static N)
-        r = radar_pos[i]
-
-        def h(x6, r=r):
-            return model.predict(r[None], x6[None, :3]).reshape(model.dim)
-
-        own = at_radar(noise, i)
-
-        def R(zh, own=own):
-            return jnp.diag(model.variance(zh, own, ccr))
-
+        h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
         (means, covs), _ = joint_update(
             means, covs, zs[i], valid[i], h, R, pd[i], density, gate, pg, assoc, model.residual
         )

@@ -133,6 +133,22 @@ def pda_update(mean, cov, z, valid, h, R, pd, density, gate, pg, residual=None):
     return mixture(mean, cov, K, S, nu, beta0, beta), (beta0, beta)
 
 
+def radar_model(model, noise, ccr, radar_pos, i):
+    """``(h, R)`` of radar ``i``: ``h(x6) -> [dim]`` its noiseless measurement of a target
+    state and ``R(ẑ) -> [dim, dim]`` its noise covariance there (the sequential updates'
+    per-radar model, shared by PDA and JPDA)."""
+    r = radar_pos[i]
+    own = at_radar(noise, i)
+
+    def h(x6):
+        return model.predict(r[None], x6[None, :3]).reshape(model.dim)
+
+    def R(zh):
+        return jnp.diag(model.variance(zh, own, ccr))
+
+    return h, R
+
+
 def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, density, gate, pg):
     """Sequential PDA of every target from every radar's scan (the per-target bank).
 
@@ -152,16 +168,7 @@ def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, densit
 
     def one(x, P, pd_m):
         for i in range(n):  # radar after radar (static N)
-            r = radar_pos[i]
-
-            def h(x6, r=r):
-                return model.predict(r[None], x6[None, :3]).reshape(model.dim)
-
-            own = at_radar(noise, i)
-
-            def R(zh, own=own):
-                return jnp.diag(model.variance(zh, own, ccr))
-
+            h, R = radar_model(model, noise, ccr, radar_pos, i)
             (x, P), _ = pda_update(
                 x, P, zs[i], valid[i], h, R, pd_m[i], density, gate, pg, residual=model.residual
             )
