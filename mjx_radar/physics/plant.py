@@ -10,7 +10,7 @@ State conventions (arrays, float32 unless x64 is on):
 
 One :func:`step` writes the controls (radar ``[a, alpha]``, drone white
 acceleration ``w``) and the servo set-points (mean velocity over the step,
-``v + a dt / 2``) into ``ctrl`` and calls ``mjx.step``. With the deadbeat servo
+``v + a dt / 2``) into ``ctrl`` and calls MJX's step. With the deadbeat servo
 gains of :mod:`mjx_radar.physics.scene` this is exactly the Euler map of SPEC §2/§3
 (``qvel`` after a step holds the mean velocity over that step, not the state's
 velocity). Obstacles add contacts that stop a radar (truth plant only; planner rollouts
@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from mjx_radar.physics import contacts, fused_step, mjx_module
+from mjx_radar.physics import contacts, fused_step, mjx_module, staged_step
 from mjx_radar.physics.contacts import obstacle_contacts  # noqa: F401 (plant API)
 from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
@@ -59,7 +59,7 @@ class Plant:
             its bias forces (Coriolis, centrifugal; gravity is off) vanish.
         fused: that step as one fused expression built from the compiled model
             (:mod:`~mjx_radar.physics.fused_step`, checked against ``mj_step`` when
-            built), or None (MJX's stages, :func:`_contact_free_step`).
+            built), or None (MJX's stages, :func:`staged_step.contact_free_step`).
     """
 
     mj_model: mujoco.MjModel
@@ -136,24 +136,8 @@ FUSED_STEP: bool = True
 """Build the fused step for fast scenes (:mod:`~mjx_radar.physics.fused_step`); False
 keeps MJX's stages (benchmarks and tests compare the two)."""
 
-
-def _contact_free_step(model: mjx.Model, data):
-    """``mjx.step`` for a contact-free scene with a constant mass matrix and no bias force.
-
-    Runs the kinematics, transmission, actuator-velocity and actuation stages and the
-    Euler update; skips collision, constraints, sensors and the velocity stage's
-    com_vel / passive / RNE passes (their forces are zero, checked by
-    `model_checks.zero_bias` when the plant is built), and reuses the mass-matrix factor
-    computed once by :func:`init_data` (tests compare it with ``mjx.step``).
-    """
-    data = mjx.kinematics(model, data)
-    data = mjx.com_pos(model, data)
-    data = mjx.transmission(model, data)
-    impl = data._impl  # actuator velocities: fwd_velocity's first line, without the rest
-    data = data.tree_replace({"_impl.actuator_velocity": impl.actuator_moment @ data.qvel})
-    data = mjx.fwd_actuation(model, data)
-    data = mjx.fwd_acceleration(model, data)
-    return mjx.euler(model, data.replace(qacc=data.qacc_smooth))
+MESH_CONTACTS: bool = True
+"""Scenes with contacts step through :func:`staged_step.step`; False: ``mjx.step``."""
 
 
 @functools.cache
@@ -292,8 +276,8 @@ def step(
         )
         return data.replace(qpos=qpos, qvel=qvel, act=act, time=data.time + dt)
     if plant.fast:
-        return _contact_free_step(plant.model, data)
-    data = mjx.step(plant.model, data)
+        return staged_step.contact_free_step(plant.model, data)
+    data = (staged_step.step if MESH_CONTACTS else mjx.step)(plant.model, data)
     if idx.obstacle_geoms.size:
         data = contacts.contact_speed(plant, data, rc[:, 2])
     return data
