@@ -6,7 +6,7 @@ environment the case names, and records the process wall time and the compile /
 simulation split the command reports (``study.json`` or the run line). Cases::
 
     town        study town_4r4t --methods ddr-sfim,stationary --trials 64 --chunk 64
-    paper       study paper_3r4t paper_4r4t paper_3r5t (the paper's three shapes)
+    paper       study paper_3r4t paper_4r4t paper_6r3t (the paper's three shapes)
                 --methods (the five) --trials 500 --chunk 250 --steps 600
     run         run paper_3r4t --steps 600 (cold, then warm)
 
@@ -36,7 +36,7 @@ import sys
 import time
 from pathlib import Path
 
-PAPER = ["scenarios/paper_3r4t.toml", "scenarios/paper_4r4t.toml", "scenarios/paper_3r5t.toml"]
+PAPER = ["scenarios/paper_3r4t.toml", "scenarios/paper_4r4t.toml", "scenarios/paper_6r3t.toml"]
 FIVE = "ccr-sfim,ccr-pfim,ddr-sfim,ddr-pfim,stationary"
 CASES = {
     "town": [

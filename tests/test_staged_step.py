@@ -144,3 +144,29 @@ def test_one_contact_call_per_convex_shape(scene, monkeypatch):
     calls.clear()
     jax.make_jaxpr(lambda d: staged_step.mjx.collision(scene.model, d))(d)
     assert len(calls) == 6  # MJX: one per mesh (5) and one for the boxes
+
+
+def test_contact_parameters_equal_mjx(scene):
+    """Random per-geom parameters (zero solmix, "direct" negative solref included): the
+    host-side parameters equal MJX's staged ones exactly, dtype included."""
+    import copy
+
+    mj = copy.copy(scene.mj_model)
+    rng = np.random.default_rng(0)
+    n = mj.ngeom
+    mj.geom_margin[:] = 0.0  # MJX refuses margins on sphere-mesh pairs
+    mj.geom_solmix[:] = rng.choice([0.0, 0.3, 1.0, 2.5], n)
+    mj.geom_friction[:] = rng.uniform(0.1, 2.0, (n, 3))
+    mj.geom_solref[:] = rng.uniform(0.01, 0.05, (n, 2)) * rng.choice([-1, 1], (n, 1))
+    mj.geom_solimp[:, :3] = np.sort(rng.uniform(0.5, 0.99, (n, 3)), axis=1)
+    model = staged_step.mjx.put_model(mj)
+    d = staged_step.mjx.make_data(model)
+    ours = staged_step._contact_groups(model, d)
+    theirs = staged_step.collision_driver._contact_groups(model, d)
+    assert list(ours) == list(theirs)
+    fields = ("includemargin", "friction", "solref", "solreffriction", "solimp")
+    for key in theirs:
+        for f in (*fields, "geom", "geom1", "geom2"):
+            a, b = getattr(ours[key], f), getattr(theirs[key], f)
+            assert a.dtype == b.dtype, f
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=f)

@@ -101,14 +101,80 @@ def _sphere_mesh(m, d, keys, contacts) -> list:
     return out
 
 
+_GROUPS: dict = {}  # id(model) -> (model, {key: the key's contact parameters, numpy})
+
+
+def _geom_params(m, g1, g2) -> dict:
+    """MJX's contact parameters of geom pairs ``g1, g2`` [P] (``_contact_groups``' rules:
+    margins add, friction is the larger, solref and solimp mix by solmix, solref "direct"
+    takes the smaller), in numpy, in the model's float type."""
+    eps = mujoco.mjMINVAL
+    f = {k: np.asarray(getattr(m, k)) for k in ("geom_margin", "geom_solmix", "geom_friction")}
+    f |= {k: np.asarray(getattr(m, k)) for k in ("geom_solref", "geom_solimp")}
+    s1, s2 = f["geom_solmix"][g1], f["geom_solmix"][g2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mix = s1 / (s1 + s2)
+    mix = np.where((s1 < eps) & (s2 < eps), 0.5, mix)
+    mix = np.where((s1 < eps) & (s2 >= eps), 0.0, mix)
+    mix = np.where((s1 >= eps) & (s2 < eps), 1.0, mix).astype(s1.dtype)[:, None]
+    r1, r2 = f["geom_solref"][g1], f["geom_solref"][g2]
+    standard = (r1[:, [0, 0]] > 0) & (r2[:, [0, 0]] > 0)
+    friction = np.maximum(f["geom_friction"][g1], f["geom_friction"][g2])
+    return {
+        "includemargin": f["geom_margin"][g1] + f["geom_margin"][g2],
+        "friction": friction[:, [0, 0, 1, 2, 2]],
+        "solref": np.where(standard, mix * r1 + (1 - mix) * r2, np.minimum(r1, r2)),
+        "solreffriction": np.zeros((len(g1), mujoco.mjNREF), mix.dtype),
+        "solimp": mix * f["geom_solimp"][g1] + (1 - mix) * f["geom_solimp"][g2],
+    }
+
+
+def _contact_groups(m, d) -> dict:
+    """MJX's ``_contact_groups(m, d)`` with the parameters computed once, on the host.
+
+    The groups' parameters are constants of the model. MJX computes them in every
+    trace, as staged operations (4.5 k of them for the town's 53 keys); here they are
+    computed once per model in numpy (:func:`_geom_params`, tests compare them with
+    MJX's) and enter the program as constants. Models with explicit contact pairs or
+    geom priorities keep MJX's computation.
+    """
+    entry = _GROUPS.get(id(m))
+    if entry is None or entry[0] is not m:
+        groups = collision_driver._geom_groups(m)
+        ids = {k: np.array(v) for k, v in groups.items()}
+        plain = all((v[:, 2] == -1).all() for v in ids.values())
+        prio = np.asarray(m.geom_priority)
+        if not plain or any((prio[v[:, 0]] != prio[v[:, 1]]).any() for v in ids.values()):
+            return collision_driver._contact_groups(m, d)
+        params = {
+            k: {**_geom_params(m, v[:, 0], v[:, 1]), "geom": v[:, :2]} for k, v in ids.items()
+        }
+        while len(_GROUPS) >= 16:  # plants are few; tests build many
+            _GROUPS.pop(next(iter(_GROUPS)))
+        entry = _GROUPS[id(m)] = (m, params)
+    con = d._impl.contact
+    return {
+        key: mjx.Contact(
+            dist=None,
+            pos=None,
+            frame=None,
+            dim=con.dim,
+            efc_address=con.efc_address,
+            geom1=jnp.asarray(p["geom"][:, 0]),
+            geom2=jnp.asarray(p["geom"][:, 1]),
+            **{k: jnp.asarray(v) for k, v in p.items()},
+        )
+        for key, p in entry[1].items()
+    }
+
+
 def collision(m, d):
     """``mjx.collision`` with the sphere–mesh keys of one convex shape merged (module doc)."""
     if d._impl.ncon == 0:
         return d
     if collision_driver._numeric(m, "max_contact_points") > -1:
         return mjx.collision(m, d)
-    with jax.ensure_compile_time_eval():  # the contact parameters: constants of the model
-        groups = collision_driver._contact_groups(m, d)
+    groups = _contact_groups(m, d)
     merged = _merged_keys(m, groups)
     done = set()
     for keys in merged.values():
