@@ -11,6 +11,7 @@ for every variant) of the given methods. The variants are the scenario with
     jpda       association = "jpda", exact marginals (G = tracker.candidates)
     jpda-star  jpda with jpda_star = true (Blom & Bloem's JPDA*)
     jpda-lbp   jpda with marginals = "lbp" (loopy belief propagation)
+    jpda-ms    jpda with marginals = "multisensor" (radar tuples, all radars jointly)
     gnn        association = "gnn"
 
 Prints one line per variant and method as each study finishes, and rewrites
@@ -20,7 +21,7 @@ time-mean RMSE to the known-association run's). A study already complete in
 ``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
 
     python scripts/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
-        [--variants known,pda,jpda,jpda-star,jpda-lbp,gnn] [--methods ddr-sfim,stationary]
+        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn] [--methods ddr-sfim,stationary]
         [--trials 200] [--steps 600] [--chunk 200]
 """
 
@@ -39,6 +40,7 @@ VARIANTS = {
     "jpda": {"tracker": {"association": "jpda"}},
     "jpda-star": {"tracker": {"association": "jpda", "jpda_star": True}},
     "jpda-lbp": {"tracker": {"association": "jpda", "marginals": "lbp"}},
+    "jpda-ms": {"tracker": {"association": "jpda", "marginals": "multisensor"}},
     "gnn": {"tracker": {"association": "gnn"}},
 }
 
