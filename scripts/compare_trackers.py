@@ -11,16 +11,20 @@ for every variant) of the given methods. The variants are the scenario with
     jpda       association = "jpda", exact marginals (G = tracker.candidates)
     jpda-star  jpda with jpda_star = true (Blom & Bloem's JPDA*)
     jpda-lbp   jpda with marginals = "lbp" (loopy belief propagation)
+    jpda-ms    jpda with marginals = "multisensor" (radar tuples, all radars jointly)
     gnn        association = "gnn"
 
 Prints one line per variant and method as each study finishes, and rewrites
-``DIR/trackers.csv`` (trials, lost trials, the median over trials of the final-step and of
-the time-mean position RMSE, the summary's median RMSE, and the ratio of the median
-time-mean RMSE to the known-association run's). A study already complete in
+``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
+final-step and of the time-mean position RMSE, the summary's median RMSE, and the ratio of
+the median time-mean RMSE to the known-association run's). *Unmatched* is the label-free
+counterpart of lost: trials in which at some step a drone has no track within the GOSPA
+cutoff (50 m) under the best assignment of tracks to drones (``gospa_missed > 0``), so a
+trial whose tracks are good but swap labels is lost and not unmatched. A study already complete in
 ``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
 
     python scripts/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
-        [--variants known,pda,jpda,jpda-star,jpda-lbp,gnn] [--methods ddr-sfim,stationary]
+        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn] [--methods ddr-sfim,stationary]
         [--trials 200] [--steps 600] [--chunk 200]
 """
 
@@ -39,6 +43,7 @@ VARIANTS = {
     "jpda": {"tracker": {"association": "jpda"}},
     "jpda-star": {"tracker": {"association": "jpda", "jpda_star": True}},
     "jpda-lbp": {"tracker": {"association": "jpda", "marginals": "lbp"}},
+    "jpda-ms": {"tracker": {"association": "jpda", "marginals": "multisensor"}},
     "gnn": {"tracker": {"association": "gnn"}},
 }
 
@@ -53,7 +58,9 @@ def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
     last = metrics["step"].max()
     out = []
     for method, g in metrics.groupby("method"):
-        trial = g.groupby("trial").agg(mean=("rmse_pos", "mean"), lost=("lost", "max"))
+        trial = g.groupby("trial").agg(
+            mean=("rmse_pos", "mean"), lost=("lost", "max"), far=("gospa_missed", "max")
+        )
         final = g[g["step"] == last].set_index("trial")["rmse_pos"]
         s = summary[summary["method"] == method].iloc[0]
         out.append(
@@ -61,6 +68,7 @@ def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
                 "method": method,
                 "trials": len(trial),
                 "lost_trials": int(trial["lost"].sum()),
+                "unmatched_trials": int((trial["far"] > 0).sum()),
                 "median_final_rmse": float(np.median(final)),
                 "median_trial_rmse": float(np.median(trial["mean"])),
                 "summary_median_rmse": float(s["median_rmse_pos"]),

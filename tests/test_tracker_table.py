@@ -53,6 +53,12 @@ def test_tracker_table_in_toml_and_through_the_cli(clutter, tmp_path):
         ({"association": "jpda", "candidates": 16}, "tracker.candidates = 16"),
         ({"association": "jpda", "marginals": "lbp", "jpda_star": True}, "tracker.jpda_star"),
         ({"association": "gnn", "jpda_star": True}, "tracker.jpda_star"),
+        ({"tuples": 1}, "tracker.tuples"),
+        ({"association": "jpda", "marginals": "multisensor", "tuples": 64}, "tracker.tuples = 64"),
+        (
+            {"association": "jpda", "marginals": "multisensor", "candidates": 16},
+            "tracker.candidates = 16: (candidates + 1)^N",
+        ),
         ({"bogus": 1}, "tracker.bogus"),
     ],
 )
@@ -61,6 +67,14 @@ def test_bad_tracker_fields_give_one_line(clutter, table, start):
         clutter.replace(tracker=table)
     msg = str(err.value)
     assert "\n" not in msg and msg.startswith(start), msg
+
+
+def test_multisensor_is_a_program_of_its_own(clutter):
+    s = clutter.replace(tracker={"association": "jpda"})
+    ms = s.replace(tracker={"marginals": "multisensor"})
+    assert tracker_name(ms) == "jpda" and ms.tracker.tuples == 8
+    assert shape_key(ms) != shape_key(s)
+    assert shape_key(ms.replace(tracker={"tuples": 6})) != shape_key(ms)
 
 
 def test_joint_association_needs_clutter():

@@ -4,8 +4,9 @@ Both are the per-target bank (covariance form) of :func:`mjx_radar.env.filter_op
 whose cluttered scans are shared between the targets jointly, radar after radar
 (:func:`mjx_radar.estimation.jpda.update_bank`), with the options of the scenario's
 ``[tracker]`` table: JPDA with exact marginals over each target's ``candidates`` best
-gated measurements (optionally JPDA*) or loopy-BP marginals (``lbp_iterations``), and GNN,
-the best joint assignment. Without clutter (labelled returns) both are the bank.
+gated measurements (optionally JPDA*), loopy-BP marginals (``lbp_iterations``) or the
+multi-sensor JPDA (all radars at once, ``tuples``), and GNN, the best joint assignment.
+Without clutter (labelled returns) both are the bank.
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from mjx_radar.task.task import RadarTask
 
 
 def jpda_bank(task: RadarTask, params) -> FilterOps:
-    """``"jpda"``: JPDA of cluttered scans (``tracker.marginals``: exact or lbp)."""
+    """``"jpda"``: JPDA of cluttered scans (``tracker.marginals``: exact, lbp or multisensor)."""
     t = task.scenario.tracker
-    assoc = jpda.rule(t.marginals, t.candidates, t.lbp_iterations, t.jpda_star)
+    assoc = jpda.rule(t.marginals, t.candidates, t.lbp_iterations, t.jpda_star, t.tuples)
     return clutter_bank(task, params, assoc)
 
 

@@ -12,7 +12,9 @@ M targets' cubature moments against radar n's scan (:func:`pda.innovations`: ``K
 The rules (:func:`rule`): ``"exact"`` JPDA marginals by enumeration
 (:func:`association.exact_marginals`, optionally JPDA*), ``"lbp"`` loopy belief
 propagation (:func:`lbp.lbp_marginals`), ``"gnn"`` the best joint event (hard weights:
-the Kalman update with the assigned measurement, or none). With one target every rule
+the Kalman update with the assigned measurement, or none), and ``"multisensor"``, which
+is not sequential: every radar's scan at once, over radar tuples
+(:mod:`mjx_radar.estimation.multisensor`). With one target every rule
 but GNN is the PDA of that target. Pure JAX, static shapes, ``vmap``-able over trials.
 """
 
@@ -22,20 +24,26 @@ import functools
 
 import jax
 
-from mjx_radar.estimation import association, lbp, pda
+from mjx_radar.estimation import association, lbp, multisensor, pda
 
 __all__ = ["rule", "joint_update", "update_bank"]
 
 
-def rule(kind: str, candidates: int = 4, iterations: int = 20, star: bool = False):
-    """The association rule ``logr[M, L] -> (β_0[M], β[M, L])`` by name.
+def rule(kind: str, candidates: int = 4, iterations: int = 20, star: bool = False, tuples=8):
+    """The association rule ``logr[M, L] -> (β_0[M], β[M, L])`` by name, or for
+    ``"multisensor"`` a :class:`~mjx_radar.estimation.multisensor.Rule` (every radar at once).
 
     Args:
-        kind: ``"exact"`` (JPDA, enumeration), ``"lbp"`` (JPDA, loopy BP) or ``"gnn"``.
-        candidates: G, measurements per target in the enumeration (exact, gnn; capped at L).
+        kind: ``"exact"`` (JPDA, enumeration), ``"lbp"`` (JPDA, loopy BP), ``"gnn"`` or
+            ``"multisensor"`` (JPDA over radar tuples, :mod:`~mjx_radar.estimation.multisensor`).
+        candidates: G, measurements per target in the enumeration (exact, gnn; capped at
+            L), per radar and target in the tuples (multisensor).
         iterations: loopy-BP sweeps.
         star: JPDA* (exact only).
+        tuples: multisensor: tuples per target in the joint events, K.
     """
+    if kind == "multisensor":
+        return multisensor.Rule(candidates, tuples)
     if kind == "exact":
         return lambda logr: association.exact_marginals(
             logr, min(candidates, logr.shape[1]), star=star
@@ -73,11 +81,15 @@ def joint_update(means, covs, z, valid, h, R, pd, density, gate, pg, assoc, resi
 def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, density, gate, pg, assoc):
     """Sequential joint association of every radar's scan (the per-target bank).
 
-    Args: as :func:`mjx_radar.estimation.pda.update_bank`, and ``assoc`` the rule.
+    Args: as :func:`mjx_radar.estimation.pda.update_bank`, and ``assoc`` the rule (a
+        :class:`~mjx_radar.estimation.multisensor.Rule`: all radars at once).
 
     Returns:
         ``(means[M, 6], covs[M, 6, 6])`` posterior moments.
     """
+    if isinstance(assoc, multisensor.Rule):
+        args = (means, covs, zs, valid, radar_pos, model, noise, ccr, pd, density, gate, pg)
+        return multisensor.update_bank(*args, min(assoc.g, zs.shape[1]), assoc.k)
     for i in range(radar_pos.shape[0]):  # radar after radar (static N)
         h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
         (means, covs), _ = joint_update(

@@ -32,7 +32,9 @@ The rules (docs/scenarios.md, "Plausibility"):
 * tracker (docs/tracking.md): ``tracker.association = "jpda"`` or ``"gnn"`` needs clutter
   (without it the returns are labelled); the enumeration's ``(G + 1)^M`` events (exact
   JPDA, GNN) at most ``MAX_EVENTS``, times ``M!`` for JPDA* at most ``MAX_STAR_WORK``;
-  JPDA* needs ``tracker.marginals = "exact"``.
+  JPDA* needs ``tracker.marginals = "exact"``; the multi-sensor JPDA's radar tuples
+  ``(candidates + 1)^N`` at most ``MAX_TUPLES`` and its events ``tuples^M`` at most
+  ``MAX_EVENTS``.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ import math
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.scenario import schema_tracker
 from mjx_radar.scenario.schema import Scenario
-from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK
+from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
 
 SPEED_OF_LIGHT = 299792458.0  # c [m/s] (same as estimation.sensing)
 MAX_SPEED = 1e3  # initial target speed [m/s]
@@ -248,6 +250,8 @@ def _check_tracker(s: Scenario) -> None:
             f'tracker.association = "{t.association}": needs clutter (detection.clutter_density '
             f'> 0); without it the returns are labelled: use tracker.association = "pda"'
         )
+    if t.association == "jpda" and t.marginals == "multisensor":
+        _check_multisensor(t, s.n_radars, m)
     exact = t.association == "gnn" or t.marginals == "exact"
     events = (t.candidates + 1) ** m
     if exact and events > MAX_EVENTS:
@@ -265,4 +269,18 @@ def _check_tracker(s: Scenario) -> None:
         raise ScenarioError(
             f"tracker.jpda_star = true: (candidates + 1)^M x M! = {events * math.factorial(m)} "
             f"for M = {m} targets exceeds {MAX_STAR_WORK}; lower tracker.candidates"
+        )
+
+
+def _check_multisensor(t, n: int, m: int) -> None:
+    tuples, events = (t.candidates + 1) ** n, t.tuples**m
+    if tuples > MAX_TUPLES:
+        raise ScenarioError(
+            f"tracker.candidates = {t.candidates}: (candidates + 1)^N = {tuples} radar tuples "
+            f"for N = {n} radars exceed {MAX_TUPLES}; lower it"
+        )
+    if events > MAX_EVENTS:
+        raise ScenarioError(
+            f"tracker.tuples = {t.tuples}: tuples^M = {events} joint events for M = {m} "
+            f"targets exceed {MAX_EVENTS}; lower it"
         )

@@ -21,6 +21,7 @@ from mjx_radar.io.checks import ScenarioError, choice, flag, rule
 
 MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
 MAX_STAR_WORK = 500_000  # events x M! target permutations of JPDA*
+MAX_TUPLES = 4096  # (G + 1)^N radar tuples per target of the multi-sensor JPDA
 
 
 @dataclass(frozen=True)
@@ -32,7 +33,10 @@ class TrackerConfig:
     and scan) or "gnn" (global nearest neighbour: the best joint assignment, hard).
     ``marginals``: JPDA's marginals, "exact" (enumeration of the joint events over each
     target's ``candidates`` best gated measurements) or "lbp" (loopy belief propagation,
-    ``lbp_iterations`` sweeps, over every measurement). ``jpda_star``: JPDA* (Blom &
+    ``lbp_iterations`` sweeps, over every measurement) or "multisensor" (every radar's
+    scan at once: a target's hypothesis is a tuple of one return or a miss per radar over
+    its ``candidates`` best per radar, scored with the stacked innovation; the ``tuples``
+    best per target enter the joint events). ``jpda_star``: JPDA* (Blom &
     Bloem), which keeps only the most probable of joint events that are permutations of
     each other, against track coalescence. Used only with clutter
     (``[detection] clutter_density > 0``); without clutter the returns are labelled.
@@ -50,7 +54,13 @@ class TrackerConfig:
     marginals: str = field(
         default="exact",
         metadata=choice(
-            "exact", "lbp", doc="jpda: exact (enumerated events) or lbp (loopy belief propagation)"
+            "exact",
+            "lbp",
+            "multisensor",
+            doc=(
+                "jpda: exact (enumerated events), lbp (loopy belief propagation) or "
+                "multisensor (one return per radar per target, all radars jointly)"
+            ),
         ),
     )
     jpda_star: bool = field(
@@ -63,6 +73,12 @@ class TrackerConfig:
     )
     lbp_iterations: int = field(
         default=20, metadata=rule(int, 1, 1000, doc="jpda lbp: message-passing sweeps")
+    )
+    tuples: int = field(
+        default=8,
+        metadata=rule(
+            int, 2, 64, doc="jpda multisensor: radar tuples kept per target, K (K^M joint events)"
+        ),
     )
     management: str = field(
         default="known",

@@ -1,0 +1,153 @@
+"""Why the close drones of ``clutter_3r4t`` are lost with unlabelled returns (issue 35).
+
+Three numbers, on the CPU in a few minutes (docs/tracking.md, "Diagnosis"):
+
+1. ``when``: a closed-loop run with the scenario's association (``--association``): per
+   trial the first filter step at which the joint NEES (6M degrees of freedom) exceeds
+   its χ² 99.9 % quantile (the filter inconsistent), the step at which the trial is
+   flagged lost, and the mean NEES over the first 20 steps (consistent: ~6M).
+2. ``oracle``: along the same trials' true and radar trajectories, every *fixed*
+   association (track m takes drone ``τ_n``'s return at radar n at every scan: 4^3
+   triples per track, each a CKF of its own from the track's initial estimate, true
+   Swerling detections, no clutter) scored by its measurement log-likelihood, and the
+   joint hypotheses (a permutation of the drones per radar) ranked. This is the best any
+   tracker could do with these measurements and the initial estimates: which hypothesis
+   wins at step k, its largest track error, and the posterior probability of the true one.
+3. ``labels``: the labelling the initial estimates imply. The filter starts from
+   ``x̂_m = x_m + e_m``, ``e_m ~ N(0, p0 I)``; with unlabelled returns the data identify
+   the drones' trajectories but not which track is which drone, so the best labelling
+   is the permutation π minimising ``Σ_m |x̂_m − x_π(m)|²``. Monte Carlo over e: how
+   often it is not the identity (the fraction of trials any tracker mislabels).
+
+    python scripts/diagnose_association.py [--scenario clutter_3r4t] [--trials 4]
+        [--steps 200] [--association jpda] [--method ddr-sfim]
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import sys
+
+import numpy as np
+
+
+def labels(scenario, samples: int = 200_000, seed: int = 0) -> dict:
+    """Monte Carlo of the prior's labelling: P(best permutation is not the identity)."""
+    from mjx_radar.physics.target_motion import initial_states
+
+    x = np.asarray(initial_states(scenario), float).reshape(scenario.n_targets, 6)
+    m = x.shape[0]
+    e = np.random.default_rng(seed).standard_normal((samples, m, x.shape[1]))
+    xh = x[None] + np.sqrt(scenario.p0) * e
+    perms = list(itertools.permutations(range(m)))
+    cost = np.stack([((xh - x[list(p)][None]) ** 2).sum((1, 2)) for p in perms], 1)
+    best = cost.argmin(1)
+    out = {"p_mislabelled": float((best != 0).mean())}
+    for k in np.argsort(-np.bincount(best, minlength=len(perms)))[:4]:
+        if k:
+            out[str(perms[k])] = float((best == k).mean())
+    return out
+
+
+def oracle(task, params, truth, radars, x0, seed: int, steps=(20, 80, -1)):
+    """Fixed-association hypotheses of one trial: per step k, the winner's largest track
+    error [m] and the posterior probability of the true association."""
+    import jax
+    import jax.numpy as jnp
+
+    from mjx_radar.estimation import detection, pda
+
+    model, noise = task.measurement, params.noise
+    A, Q = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
+    n, m = radars.shape[1], truth.shape[1]
+    trip = np.asarray(list(itertools.product(range(m), repeat=n)))  # [m^n, n]
+    key = jax.random.PRNGKey(seed)
+
+    def step(carry, inp):
+        x, P, ll = carry  # [M, T, 6], [M, T, 6, 6], [M, T]
+        tr, ra, k = inp
+        z = model.sample(jax.random.fold_in(key, k), ra, tr[:, :3], noise)  # [N, M, dim]
+        d2 = jnp.sum((tr[None, :, :3] - ra[:, None]) ** 2, -1)
+        pd_ = detection.pair_probability(task.scenario.detection.model, params.detection, d2)
+        seen = jax.random.uniform(jax.random.fold_in(key, -1 - k), pd_.shape) < pd_
+        x, P = x @ A.T, A @ P @ A.T + Q
+
+        def upd(x, P, tup):
+            lsum = 0.0
+            for i in range(n):
+                h, R = pda.radar_model(model, noise, params.method.ccr, ra, i)
+                K, S, nu, d2_, logdet = pda.innovations(x, P, z[i, tup[i]][None], h, R)
+                s = seen[i, tup[i]]
+                x = x + jnp.where(s, K @ nu[0], 0.0)
+                P = P - jnp.where(s, K @ S @ K.T, 0.0)
+                lsum = lsum + jnp.where(s, -0.5 * (d2_[0] + logdet), 0.0)
+            return x, P, lsum
+
+        x, P, lk = jax.vmap(jax.vmap(upd, (0, 0, 0)), (0, 0, None))(x, P, jnp.asarray(trip))
+        return (x, P, ll + lk), (ll + lk, x[..., :3])
+
+    t = trip.shape[0]
+    x = jnp.broadcast_to(jnp.asarray(x0)[:, None], (m, t, 6))
+    P = jnp.broadcast_to(params.p0 * jnp.eye(6), (m, t, 6, 6))
+    inp = (jnp.asarray(truth), jnp.asarray(radars), jnp.arange(truth.shape[0]))
+    _, (ll, pos) = jax.lax.scan(step, (x, P, jnp.zeros((m, t))), inp)
+    ll, pos = np.asarray(ll), np.asarray(pos)
+    perms = np.asarray(list(itertools.permutations(range(m))))
+    grid = np.stack(np.meshgrid(*[np.arange(len(perms))] * n, indexing="ij"), -1).reshape(-1, n)
+    col = sum(perms[grid[:, i]] * m ** (n - 1 - i) for i in range(n))  # [H, M] triple index
+    truth_h = int(np.flatnonzero((grid == 0).all(1))[0])
+    out = []
+    for k in steps:
+        tot = ll[k][np.arange(m)[None], col].sum(1)
+        p = np.exp(tot - tot.max())
+        p /= p.sum()
+        h = int(np.argmax(tot))
+        err = np.linalg.norm(pos[k][np.arange(m), col[h]] - truth[k, :, :3], axis=-1).max()
+        out.append((float(err), float(p[truth_h])))
+    return out
+
+
+def main(argv=None) -> int:
+    from scipy.stats import chi2
+
+    import mjx_radar
+    from mjx_radar.task.task import build
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scenario", default="clutter_3r4t")
+    p.add_argument("--trials", type=int, default=4)
+    p.add_argument("--steps", type=int, default=200)
+    p.add_argument("--association", default="jpda")
+    p.add_argument("--method", default="ddr-sfim")
+    args = p.parse_args(argv)
+    sc = mjx_radar.load_scenario(args.scenario)
+    print("labels:", labels(sc), flush=True)
+    run = mjx_radar.simulate(
+        sc, args.method, trials=args.trials, steps=args.steps,
+        association=args.association, progress=False,
+    )  # fmt: skip
+    ds, met = run.trajectories, run.metrics
+    truth = ds.truth.values
+    radars = ds.radar_states.values[..., :3]
+    task, params = build(sc, args.method)
+    rng = np.random.default_rng(0)
+    for t in range(args.trials):
+        g = met[met["trial"] == t].sort_values("step")
+        lost = np.flatnonzero(g["lost"].to_numpy() > 0)
+        first = np.flatnonzero(g["nees"].to_numpy() > chi2.ppf(0.999, 6 * sc.n_targets))
+        x0 = truth[t, 0] + np.sqrt(sc.p0) * rng.standard_normal(truth[t, 0].shape)
+        orc = oracle(task, params, truth[t], radars[t], x0, seed=t)
+        print(
+            f"trial {t}: {args.association} NEES > 99.9 % at step "
+            f"{int(first[0]) + 1 if first.size else None}, lost at "
+            f"{int(lost[0]) + 1 if lost.size else None}, mean NEES(1-20) "
+            f"{g['nees'].iloc[:20].mean():.0f}; oracle (winner's max error m, p(true)) at "
+            f"steps 20/80/{args.steps}: " + " ".join(f"({e:.1f}, {q:.2f})" for e, q in orc),
+            flush=True,
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
