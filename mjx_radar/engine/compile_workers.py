@@ -29,6 +29,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import jax
@@ -88,6 +89,7 @@ def warm(jobs, workers: int) -> int:
     """
     if workers < 1 or not jobs or compile_cache.program_dir() is None:
         return 0
+    t0 = time.perf_counter()
     env = _environment()
     ok = 0
     with tempfile.TemporaryDirectory(prefix="mjx_radar_compile_") as tmp:
@@ -106,6 +108,11 @@ def warm(jobs, workers: int) -> int:
             )
         for proc in running:
             ok += proc.wait() == 0
+    print(
+        f"compile: {ok} of {len(jobs)} program(s) traced and compiled in {workers} worker "
+        f"process(es) in {time.perf_counter() - t0:.1f} s",
+        file=sys.stderr,
+    )
     return ok
 
 

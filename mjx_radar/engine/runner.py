@@ -37,7 +37,14 @@ from mjx_radar.scenario.schema import Scenario
 from mjx_radar.task.method import METHODS, parse_method
 from mjx_radar.task.params import shape_key, task_params
 
-__all__ = ["COMPILE_LOG", "compile_programs", "device_mesh", "precompile", "run_trials"]
+__all__ = [
+    "COMPILE_LOG",
+    "compile_programs",
+    "device_mesh",
+    "precompile",
+    "program_log",
+    "run_trials",
+]
 
 
 def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> float:
@@ -74,6 +81,13 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
         ]
     )
     return time.perf_counter() - t0
+
+
+def program_log() -> list[dict]:
+    """This process's compiled programs: shape, kind, source, trace and XLA seconds."""
+    return [
+        {k: round(v, 2) if isinstance(v, float) else v for k, v in e.items()} for e in COMPILE_LOG
+    ]
 
 
 def segment_periods(scenario: Scenario, steps: int, target_segments: int = 20) -> int:

@@ -260,6 +260,7 @@ def remove_temporaries(chunks: list[Chunk]) -> None:
 
 def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices: str, n_dev: int):
     """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``."""
+    from mjx_radar.engine.runner import program_log
     from mjx_radar.rundir import results
     from mjx_radar.study.metrics import lost_counts
 
@@ -285,6 +286,7 @@ def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices:
         "wall_s": time.perf_counter() - times.start,
         "compile_s": times.compile_s,
         "sim_s": times.sim_s,
+        "programs": program_log(),
         "devices": devices,
         "n_devices": n_dev,
         "command": shlex.join(sys.argv),
