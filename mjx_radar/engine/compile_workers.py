@@ -67,7 +67,8 @@ def _environment() -> dict:
     env = dict(os.environ)
     env["MJX_RADAR_CACHE_DIR"] = str(compile_cache.program_dir().parent)
     env["XLA_PYTHON_CLIENT_PREALLOCATE"] = "false"  # workers share the study's GPU
-    env["JAX_PLATFORMS"] = jax.default_backend()
+    if jax.default_backend() == "cpu":  # else inherited ("gpu" would also demand ROCm)
+        env["JAX_PLATFORMS"] = "cpu"
     env["JAX_ENABLE_X64"] = "1" if jax.config.jax_enable_x64 else "0"
     matmul = jax.config.jax_default_matmul_precision
     if matmul:
@@ -100,14 +101,26 @@ def warm(jobs, workers: int) -> int:
             args = [str(path), kind, planner, str(batch), str(periods), str(int(full))]
             commands.append([sys.executable, "-m", "mjx_radar.engine.compile_workers", *args])
         running: list = []
-        for cmd in commands:
+        failed: list[str] = []
+
+        def finish(proc, log: Path, job) -> int:
+            if proc.wait() == 0:
+                return 1
+            lines = log.read_text(errors="replace").strip().splitlines() or ["no output"]
+            failed.append(f"{job[0].name} {job[1]}: {lines[-1][:200]}")
+            return 0
+
+        for i, cmd in enumerate(commands):
             while len(running) >= workers:
-                ok += running.pop(0).wait() == 0
-            running.append(
-                subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            )
-        for proc in running:
-            ok += proc.wait() == 0
+                ok += finish(*running.pop(0))
+            log = Path(tmp) / f"job{i}.err"
+            with log.open("w") as err:
+                proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err)
+            running.append((proc, log, jobs[i]))
+        for entry in running:
+            ok += finish(*entry)
+    for line in failed:  # the study's process compiles these itself
+        print(f"compile: a worker failed ({line}); compiling it here", file=sys.stderr)
     print(
         f"compile: {ok} of {len(jobs)} program(s) traced and compiled in {workers} worker "
         f"process(es) in {time.perf_counter() - t0:.1f} s",
