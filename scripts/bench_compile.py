@@ -12,15 +12,16 @@ simulation split the command reports (``study.json`` or the run line). Cases::
 
 and variants of the code path, set through the environment of the process:
 
-    base        MJX's step for contacts (``physics.plant.MESH_CONTACTS = False``) and no
-                compile workers (MJX_RADAR_COMPILE_WORKERS=0): the code before issue 37
-    staged      the staged truth step (physics/staged_step.py), no workers
-    workers     the staged step and compile workers (engine/compile_workers.py)
+    base        MJX's step for contacts (``physics.plant.MESH_CONTACTS = False``): the
+                code before issue 37
+    staged      the staged truth step (physics/staged_step.py), the default
+    fastxla     staged, with XLA_FLAGS=FAST_XLA (autotuning off, no expensive LLVM
+                passes: compiles faster, changes float32 round-off; docs/scaling.md)
 
 Appends one row per (case, variant, temperature) to ``OUT/compile.csv`` and skips rows
 already there, so an interrupted run resumes::
 
-    python scripts/bench_compile.py --out DIR --cases town,paper,run --variants base,workers
+    python scripts/bench_compile.py --out DIR --cases town,paper,run --variants base,staged,fastxla
 """
 
 from __future__ import annotations
@@ -67,10 +68,11 @@ CASES = {
     ],  # fmt: skip
     "run": ["run", "scenarios/paper_3r4t.toml", "--steps", "600"],
 }
+FAST_XLA = "--xla_gpu_autotune_level=0 --xla_llvm_disable_expensive_passes=true"
 VARIANTS = {
-    "base": {"MJX_RADAR_COMPILE_WORKERS": "0"},
-    "staged": {"MJX_RADAR_COMPILE_WORKERS": "0"},
-    "workers": {},
+    "base": {},
+    "staged": {},
+    "fastxla": {"XLA_FLAGS": FAST_XLA},
 }
 #: the base variant's process: MJX's own step for scenes with contacts
 BASE = (
@@ -100,7 +102,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--cases", default="town,paper,run")
-    ap.add_argument("--variants", default="base,workers")
+    ap.add_argument("--variants", default="base,staged")
     ap.add_argument("--warm", action="store_true", help="also rerun each case warm")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)

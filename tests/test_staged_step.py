@@ -37,7 +37,7 @@ def _prism(tmp_path, name, polygon, height):
 
 @pytest.fixture(scope="module")
 def obstacles(tmp_path_factory):
-    """4 quad prisms (one convex shape), 1 triangle prism, 3 boxes (9 pairs: a key MJX culls to 2N = 6)."""
+    """4 quad prisms (one convex shape), 1 triangle prism, 3 boxes (9 pairs: MJX culls to 6)."""
     tmp = tmp_path_factory.mktemp("meshes")
     quads = [
         [(0, 0), (12, 1), (11, 9), (-1, 7)],

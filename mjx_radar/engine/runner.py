@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh
 
-from mjx_radar.engine import compile_cache, compile_workers
+from mjx_radar.engine import compile_cache
 from mjx_radar.engine.programs import (
     COMPILE_LOG,
     compile_programs,
@@ -51,8 +51,7 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     """Compiles the programs of several scenarios concurrently; returns the wall time [s].
 
     XLA compilation releases the GIL, so a thread pool compiles the programs of a
-    study's scenario shapes and program kinds in parallel on the host's cores; on GPUs
-    worker processes trace them in parallel first (:mod:`~mjx_radar.engine.compile_workers`).
+    study's scenario shapes and program kinds in parallel on the host's cores.
     ``jobs`` holds ``(scenario, method)`` pairs (a method or its name), or scenarios
     alone (every method's kind); jobs of the same shape and kind share one program.
     """
@@ -65,13 +64,6 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     todo = list(shapes.values())
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     t0 = time.perf_counter()
-    per_device = batch // len(devices)
-    cold = [
-        (s, k, p, per_device, segment_periods(s, steps), full)
-        for s, k, p in todo
-        if not compile_workers.exported(s, k, p, per_device, segment_periods(s, steps), full)
-    ]  # traced in worker processes first (engine.compile_workers; GPUs by default)
-    compile_workers.warm(cold, compile_workers.default_workers(len(cold)))
     parallel(
         [  # one thread per shape and kind (big stacks: XLA's compiler recurses deeply)
             lambda s=s, k=k, p=p: device_programs(
