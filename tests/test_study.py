@@ -44,6 +44,12 @@ def test_study_files_and_finite(study_dir):
     meta = json.loads((study_dir / "study.json").read_text())
     assert meta["methods"] == ["stationary", "ddr-sfim"] and meta["trials"] == 4
     assert meta["non_finite"] == 0 and meta["devices"].startswith("[")
+    # this study's programs only (not those other tests compiled in this process)
+    assert {(p["n_radars"], p["batch"], p["kind"]) for p in meta["programs"]} <= {
+        (2, 2, "none"),
+        (2, 2, "sfim"),
+    }
+    assert all(p["trace_lower_s"] >= 0 and p["xla_compile_s"] >= 0 for p in meta["programs"])
     frame = _frame(study_dir)
     assert len(frame) == 2 * 4 * 8
     cols = ["rmse_pos", "rmse_state", "nees", "crlb_pos"]

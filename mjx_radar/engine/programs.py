@@ -162,8 +162,7 @@ def _variant(planner: str = "mppi") -> tuple:
     )
 
 
-def program_key(shape, periods, full, batch, mesh, kind, planner="mppi", masks=False) -> str:
-    """The export cache's key of a program: everything its traced code depends on."""
+def _key(shape, periods, full, batch, mesh, kind, planner="mppi", masks=False) -> str:
     dev = mesh.devices.flat[0]
     parts = [
         repr(shape),
@@ -236,7 +235,7 @@ def compile_programs(
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=trial_sh)
     p_specs = [spec(x, rep) for x in p_leaves]
     store = compile_cache.program_dir()
-    key = program_key(shape, periods, full, batch, mesh, kind, planner, masks)
+    key = _key(shape, periods, full, batch, mesh, kind, planner, masks)
     path = store / f"loop-{key}.jaxexport" if store else None
     exported = export_cache.load(path) if path else None
     source = "export cache" if exported else "traced"

@@ -75,10 +75,12 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     return time.perf_counter() - t0
 
 
-def program_log() -> list[dict]:
-    """This process's compiled programs: shape, kind, source, trace and XLA seconds."""
+def program_log(since: int = 0) -> list[dict]:
+    """The programs this process compiled from entry ``since`` of :data:`COMPILE_LOG` on:
+    shape, kind, source, trace and XLA seconds."""
     return [
-        {k: round(v, 2) if isinstance(v, float) else v for k, v in e.items()} for e in COMPILE_LOG
+        {k: round(v, 2) if isinstance(v, float) else v for k, v in e.items()}
+        for e in COMPILE_LOG[since:]
     ]
 
 

@@ -75,6 +75,7 @@ class StudyTimes:
     sim_s: float = 0.0
     chunks_run: int = 0
     start: float = field(default_factory=time.perf_counter)
+    first_program: int = 0  # the study's first entry of engine.runner.COMPILE_LOG
 
 
 def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precision="float32"):
@@ -286,7 +287,7 @@ def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices:
         "wall_s": time.perf_counter() - times.start,
         "compile_s": times.compile_s,
         "sim_s": times.sim_s,
-        "programs": program_log(),
+        "programs": program_log(times.first_program),
         "devices": devices,
         "n_devices": n_dev,
         "command": shlex.join(sys.argv),

@@ -101,9 +101,10 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
         ScenarioError, InputError: bad scenarios or options, an unusable or locked
             ``out``, settings differing from the resumed study's, a study too large.
     """
+    from mjx_radar.engine.runner import COMPILE_LOG
     from mjx_radar.study import driver
 
-    times = driver.StudyTimes()
+    times = driver.StudyTimes(first_program=len(COMPILE_LOG))
     scenarios, config = driver.load_scenarios(
         opts.scenarios,
         opts.methods,
