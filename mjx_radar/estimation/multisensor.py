@@ -35,16 +35,13 @@ outside those lists are dropped (the rest renormalised). Pure JAX, ``vmap``-able
 
 from __future__ import annotations
 
-import functools
-import itertools
 import math
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
-from mjx_radar.estimation import ckf, linalg
+from mjx_radar.estimation import association, ckf, linalg
 from mjx_radar.estimation.noise import at_radar
 
 
@@ -57,7 +54,6 @@ class Rule(NamedTuple):
 
 __all__ = [  # noqa: RUF022
     "Rule",
-    "tuple_table",
     "stacked_moments",
     "tuple_scores",
     "event_log_weights",
@@ -65,12 +61,6 @@ __all__ = [  # noqa: RUF022
     "joint_marginals",
     "update_bank",
 ]
-
-
-@functools.cache
-def tuple_table(n: int, g: int) -> np.ndarray:
-    """``[(G + 1)^N, N]`` int32 slots (0: missed) of every tuple; row 0 all missed."""
-    return np.asarray(list(itertools.product(range(g + 1), repeat=n)), np.int32).reshape(-1, n)
 
 
 def stacked_moments(mean, cov, radar_pos, model, noise, ccr):
@@ -125,7 +115,7 @@ def tuple_scores(nu, S, Pxz, valid, pd, density, gate, pg, g: int):
     inside = valid & seen[:, None] & (d2 < gate)
     marg = jnp.where(inside, -0.5 * d2, -jnp.inf)
     top, idx = jax.lax.top_k(marg, g)  # [N, g]
-    table = jnp.asarray(tuple_table(n_r, g))  # [T, N]
+    table = jnp.asarray(association.event_table(n_r, g))  # [T, N] slots, 0: missed
     sel = jnp.maximum(table - 1, 0)
     ok = jnp.where(table > 0, top[jnp.arange(n_r)[None], sel] > -jnp.inf, True)  # [T, N]
     det = table > 0
@@ -147,11 +137,6 @@ def tuple_scores(nu, S, Pxz, valid, pd, density, gate, pg, g: int):
     return logr, slot, dx, dP
 
 
-@functools.cache
-def _events(m: int, k: int) -> np.ndarray:
-    return np.asarray(list(itertools.product(range(k), repeat=m)), np.int32).reshape(-1, m)
-
-
 def event_log_weights(logw, meas):
     """``(log w[E], events[E, M])`` of the ``K^M`` joint events of M targets' options:
     the sum of the chosen options' log weights, −inf where two targets share a return.
@@ -161,7 +146,7 @@ def event_log_weights(logw, meas):
         meas: ``[M, K, N]`` return index of each option per radar (−1: missed).
     """
     m, k = logw.shape
-    ev = jnp.asarray(_events(m, k))  # [E, M]
+    ev = jnp.asarray(association.event_table(m, k - 1))  # [E, M]: K options per target
     em = meas[jnp.arange(m)[None], ev]  # [E, M, N]
     same = (em[:, :, None, :] == em[:, None, :, :]) & (em[:, :, None, :] >= 0)
     clash = jnp.any(same & ~jnp.eye(m, dtype=bool)[None, :, :, None], axis=(1, 2, 3))
