@@ -80,8 +80,10 @@ def _sphere_mesh(m, d, keys, contacts) -> list:
     mesh_of_pair = np.concatenate(
         [np.full(c.geom.shape[0], j) for j, c in enumerate(contacts)]
     )  # [P] index into keys
-    stacked = {
-        f: jnp.stack([getattr(m._impl.mesh_convex[k.data_ids[1]], f) for k in keys])[mesh_of_pair]
+    stacked = {  # host-side: the pairs' mesh data enter the program as constants
+        f: np.stack([np.asarray(getattr(m._impl.mesh_convex[k.data_ids[1]], f)) for k in keys])[
+            mesh_of_pair
+        ]
         for f in _FIELDS
     }
     g1, g2 = geom.T
@@ -104,13 +106,15 @@ def _sphere_mesh(m, d, keys, contacts) -> list:
 _GROUPS: dict = {}  # id(model) -> (model, {key: the key's contact parameters, numpy})
 
 
-def _geom_params(m, g1, g2) -> dict:
+_GEOM_FIELDS = ("geom_margin", "geom_solmix", "geom_friction", "geom_solref", "geom_solimp")
+
+
+def _geom_params(f: dict, g1, g2) -> dict:
     """MJX's contact parameters of geom pairs ``g1, g2`` [P] (``_contact_groups``' rules:
     margins add, friction is the larger, solref and solimp mix by solmix, solref "direct"
-    takes the smaller), in numpy, in the model's float type."""
+    takes the smaller), in numpy, in the model's float type; ``f``: the model's
+    :data:`_GEOM_FIELDS` as numpy arrays."""
     eps = mujoco.mjMINVAL
-    f = {k: np.asarray(getattr(m, k)) for k in ("geom_margin", "geom_solmix", "geom_friction")}
-    f |= {k: np.asarray(getattr(m, k)) for k in ("geom_solref", "geom_solimp")}
     s1, s2 = f["geom_solmix"][g1], f["geom_solmix"][g2]
     with np.errstate(divide="ignore", invalid="ignore"):
         mix = s1 / (s1 + s2)
@@ -146,8 +150,9 @@ def _contact_groups(m, d) -> dict:
         prio = np.asarray(m.geom_priority)
         if not plain or any((prio[v[:, 0]] != prio[v[:, 1]]).any() for v in ids.values()):
             return collision_driver._contact_groups(m, d)
+        fields = {k: np.asarray(getattr(m, k)) for k in _GEOM_FIELDS}  # one copy each
         params = {
-            k: {**_geom_params(m, v[:, 0], v[:, 1]), "geom": v[:, :2]} for k, v in ids.items()
+            k: {**_geom_params(fields, v[:, 0], v[:, 1]), "geom": v[:, :2]} for k, v in ids.items()
         }
         while len(_GROUPS) >= 16:  # plants are few; tests build many
             _GROUPS.pop(next(iter(_GROUPS)))
