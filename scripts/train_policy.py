@@ -44,8 +44,17 @@ def _parser() -> argparse.ArgumentParser:
         ("entropy_cost", "--entropy-cost"),
         ("discounting", "--discounting"),
         ("reward_scaling", "--reward-scaling"),
+        ("init_noise_std", "--init-noise-std"),
+        ("keepout_grade", "--keepout-grade"),
     ):
         p.add_argument(flag, dest=name, type=float, default=getattr(d, name))
+    p.add_argument(
+        "--penalty-scale",
+        type=float,
+        default=None,
+        help=f"the penalty's weight in the reward (default {d.penalty_scale}); on a resume, "
+        "a curriculum step from this chunk on",
+    )
     p.add_argument("--policy-hidden", default="128,128", help="policy MLP layer sizes")
     p.add_argument("--value-hidden", default="256,256", help="value MLP layer sizes")
     return p
@@ -80,7 +89,8 @@ def main(argv=None) -> int:
             args.steps,
             args.out,
             method=args.method,
-            config=PPOConfig(**kw),
+            config=PPOConfig(**{k: v for k, v in kw.items() if k != "penalty_scale"}),
+            penalty_scale=args.penalty_scale,
             max_seconds=budget,
         )
     except (ScenarioError, ValueError) as err:

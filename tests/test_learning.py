@@ -29,8 +29,13 @@ def short(tiny):
 @pytest.mark.slow  # compile-bound: ~30-70 s on the 2-core machine
 def test_brax_step_is_the_env_step(short):
     """One adapter step = one RadarEnv.step of the mapped action, with reward =
-    -Σ log det P_pos - penalty; metric keys stay those of reset."""
-    benv, env = brax_env.make(short), make(short)
+    -Σ log det P_pos - c · penalty - g · keepout_depth (c = 0.25, g = 0.5); the metrics
+    keep the unscaled parts and the keys of reset."""
+    # every radar inside R2T of every drone, 4 pairs x α_r2t = 400 below the 1000 clip
+    near = dataclasses.replace(
+        short, mpc=dataclasses.replace(short.mpc, r2t=5000.0, alpha_r2t=100.0)
+    )
+    benv, env = brax_env.make(near, penalty_scale=0.25, keepout_grade=0.5), make(near)
     key = env.trial_key(3, 1)
     a = jnp.linspace(-1.0, 1.0, env.action_size)
     s0 = jax.jit(benv.reset)(key)
@@ -40,7 +45,12 @@ def test_brax_step_is_the_env_step(short):
         np.asarray(s1.pipeline_state.obs.radar_state), np.asarray(ref.obs.radar_state), rtol=1e-6
     )
     pen = features.penalty(env, s0.pipeline_state.obs, ref.obs, features.action_to_control(env, a))
-    np.testing.assert_allclose(float(s1.reward), float(ref.reward) - float(pen), rtol=1e-5)
+    assert 0 < float(pen) < 1000  # c and g matter, and no clip
+    graded = 0.5 * float(features.keepout_depth(env, ref.obs))
+    assert graded > 0
+    expect = float(ref.reward) - 0.25 * float(pen) - graded
+    np.testing.assert_allclose(float(s1.reward), expect, rtol=1e-5)
+    np.testing.assert_allclose(float(s1.metrics["penalty"]), float(pen), rtol=1e-6)
     np.testing.assert_allclose(float(s1.metrics["information"]), float(ref.reward), rtol=1e-6)
     assert set(s1.metrics) == set(s0.metrics) and float(s1.done) == 0.0
     assert s1.obs.shape == (benv.observation_size,)
@@ -113,8 +123,12 @@ def test_train_resume_and_evaluate_as_planner(short, tmp_path):
     kw = {"config": cfg, "log": lambda line: None, "cache_dir": tmp_path / "xla"}
     first = train_policy(short, 80, out, **kw)
     assert first["steps_done"] == 80 and (out / first["checkpoint"]).is_dir()
-    state = train_policy(short, 160, out, **kw)  # resumed: the programs from the cache
+    assert first["penalty_schedule"] == [[0, 1.0]]
+    # resumed with a curriculum step (the penalty's weight from 80 steps on)
+    state = train_policy(short, 160, out, penalty_scale=0.25, **kw)
     assert state["steps_done"] == 160 and state["chunks"] == 2
+    assert state["penalty_schedule"] == [[0, 1.0], [80, 0.25]]
+    assert state["config"]["penalty_scale"] == 0.25
     rows = (out / "curve.csv").read_text().splitlines()
     assert rows[0].startswith("steps,") and [r.split(",")[0] for r in rows[1:]] == ["80", "160"]
     assert json.loads((out / "policy.json").read_text())["checkpoint"].endswith("160")
@@ -147,6 +161,9 @@ def test_train_script_bad_input_is_one_line_exit_2(tmp_path, capsys):
         (["smoke", "--steps", "9", "--out", out, "--num-envs", "3"], "num_envs = 3: must divide"),
         (["nope", "--steps", "9", "--out", out], "nope"),
         (["smoke", "--steps", "9", "--out", out, "--policy-hidden", "a"], "--policy-hidden"),
+        (["smoke", "--steps", "9", "--out", out, "--penalty-scale", "-1"], "penalty_scale = -1.0"),
+        (["smoke", "--steps", "9", "--out", out, "--init-noise-std", "0"], "init_noise_std = 0.0"),
+        (["smoke", "--steps", "9", "--out", out, "--keepout-grade", "-2"], "keepout_grade = -2.0"),
     ]
     for argv, message in cases:
         assert script.main(argv) == 2

@@ -97,6 +97,23 @@ def test_penalty_counts_close_radars(tiny):
     np.testing.assert_allclose(float(F.penalty(env, close, close, u)), float(env.params.alpha_r2r))
 
 
+def test_keepout_depth_by_hand(env):
+    """The graded keep-out: α_r2t Σ w_m (1 - d/R2T)_+ over radar-target pairs (3-D)."""
+    rng = np.random.default_rng(1)
+    r2t, alpha = float(env.params.r2t), float(env.params.alpha_r2t)
+    o = _obs(env, rng, radar_xy=np.array([[0.0, 0.0], [5000.0, 0.0]]))
+    mean = np.tile([0.0, 3000.0, 50.0, 0, 0, 0], env.n_targets)  # all far ...
+    mean[:3] = [0.3 * r2t, 0.0, 0.4 * r2t]  # ... but target 0: d = 0.5 R2T from radar 0
+    o = o._replace(mean=jnp.asarray(mean, jnp.float32))
+    np.testing.assert_allclose(float(F.keepout_depth(env, o)), alpha * 0.5, rtol=1e-6)
+    w = np.ones(env.n_targets)
+    w[0] = 0.25  # its presence weight scales it
+    o = o._replace(target_weight=jnp.asarray(w))
+    np.testing.assert_allclose(float(F.keepout_depth(env, o)), alpha * 0.125, rtol=1e-6)
+    o = o._replace(mean=jnp.asarray(np.tile([0.0, 3000.0, 50.0, 0, 0, 0], env.n_targets)))
+    assert float(F.keepout_depth(env, o)) == 0.0  # all outside: nothing
+
+
 def test_registry_arguments_and_digests(tmp_path):
     """``name:ARGUMENT`` reaches an entry that takes one; its digest enters the key."""
     reg = Registry("planner", {"plain": "builtins:dict"})
@@ -149,3 +166,33 @@ def test_run_and_study_refuse_a_missing_policy_before_compiling(tmp_path):
         load_scenarios(["smoke"], [f"ddr-sfim+policy:{tmp_path}"], 2, None, 0, 2, None)
     with pytest.raises(ScenarioError, match="'mppi' takes no ':ARGUMENT'"):
         request("smoke", planner="mppi:x")
+
+
+def test_keepout_stats_by_hand():
+    """scripts/keepout_stats.py's statistics on a hand-made two-trial case."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "scripts" / "keepout_stats.py"
+    spec = importlib.util.spec_from_file_location("keepout_stats_script", path)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    # T = 2 trials, K = 2 steps, N = 2 radars, M = 1 drone at (0, 0, 100)
+    truth = np.zeros((2, 2, 1, 3))
+    truth[..., 2] = 100.0
+    radar = np.zeros((2, 2, 2, 3))
+    radar[:, :, 1, 0] = 300.0  # radar 1 always far (300 m horizontal)
+    radar[0, 0, 0, 0] = 50.0  # trial 0 step 0: 3-D 111.8 m < 125, horizontal 50 m
+    radar[0, 1, 0, 0] = 80.0  # 3-D 128.1 m: outside
+    radar[1, :, 0, 0] = 200.0  # trial 1: 223.6 m, and the radars 100 m apart
+    radar[1, 1, 1, 0] = 205.0  # trial 1 step 1: radars 5 m apart < r2r = 10
+    out = script.keepout_of(radar, truth, [1.0, 3.0], r2t=125.0, r2r=10.0)
+    assert out["trials"] == 2 and out["median_rmse"] == 2.0 and out["mean_rmse"] == 2.0
+    assert out["r2t_pair_fraction"] == 1 / 8  # one of 2 x 2 x 2 x 1 triples
+    assert out["r2t_step_fraction"] == 1 / 4
+    # closest approach per trial: 111.8 m / 50 m and sqrt(200² + 100²) / 200 m
+    np.testing.assert_allclose(
+        out["median_min_r2t_m"], (np.hypot(50, 100) + np.hypot(200, 100)) / 2
+    )
+    np.testing.assert_allclose(out["median_min_horizontal_m"], 125.0)
+    assert out["r2r_step_fraction"] == 1 / 4

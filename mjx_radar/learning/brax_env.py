@@ -7,7 +7,7 @@ reward are those of :mod:`mjx_radar.learning.features`::
 
     obs    = features(env, state.obs)                       [feature_size]
     u      = action_to_control(env, a)                      a in [-1, 1]^{2N}
-    reward = -Σ_m log det P_m,pos  -  penalty(...)           (information - keep-outs)
+    reward = -Σ_m log det P_m,pos  -  c · penalty(...)  -  g · keepout_depth(...)
 
 The base environment never ends (``done = 0``); the episode length, truncation and
 auto-reset are wrappers (:func:`wrap_for_training`, the ``wrap_env_fn`` of
@@ -26,7 +26,13 @@ from brax.envs.wrappers.training import EpisodeWrapper, VmapWrapper
 
 from mjx_radar.env.environment import METRICS
 from mjx_radar.env.environment import make as make_env
-from mjx_radar.learning.features import action_to_control, feature_size, features, penalty
+from mjx_radar.learning.features import (
+    action_to_control,
+    feature_size,
+    features,
+    keepout_depth,
+    penalty,
+)
 
 _CLIP = 1e3  # |reward| and |feature| bound (a diverged track gives inf log dets)
 
@@ -36,14 +42,21 @@ class BraxRadarEnv(Env):
 
     Args:
         env: the radar environment (``mjx_radar.env.make(scenario, method)``).
+        penalty_scale: ``c``, the penalty's weight in the reward (1: the MPC objective's
+            own weights; smaller values are reward shaping for training, the keep-outs
+            then cost less than they do to MPPI).
+        keepout_grade: ``g``, the weight of the graded radar-drone keep-out
+            (:func:`~mjx_radar.learning.features.keepout_depth`; 0: none).
 
     ``metrics`` (per period, float32): ``information`` (``-Σ log det P_pos``),
-    ``penalty`` (the keep-out terms) and the environment's metrics (``rmse_pos``,
+    ``penalty`` (the keep-out terms, unscaled) and the environment's metrics (``rmse_pos``,
     ``lost``, ...), summed over an episode by brax's ``EpisodeWrapper``.
     """
 
-    def __init__(self, env):
+    def __init__(self, env, penalty_scale: float = 1.0, keepout_grade: float = 0.0):
         self.radar_env = env
+        self.penalty_scale = float(penalty_scale)
+        self.keepout_grade = float(keepout_grade)
         self.episode_length = env.episode_length
 
     @property
@@ -79,9 +92,15 @@ class BraxRadarEnv(Env):
         return state.replace(
             pipeline_state=s,
             obs=self._obs(s),
-            reward=info - pen,
+            reward=info - self.penalty_scale * pen - self._graded(s),
             metrics={**state.metrics, **self._metrics(s, info, pen)},  # wrappers add keys
         )
+
+    def _graded(self, s) -> jax.Array:
+        if not self.keepout_grade:  # off: the program has no such term
+            return jnp.zeros((), jnp.float32)
+        depth = jnp.clip(keepout_depth(self.radar_env, s.obs), 0.0, _CLIP)
+        return self.keepout_grade * depth
 
     def _obs(self, s) -> jax.Array:
         f = features(self.radar_env, s.obs)
@@ -140,6 +159,9 @@ def wrap_for_training(env: BraxRadarEnv, episode_length=None, action_repeat=1, *
     return FullResetWrapper(EpisodeWrapper(VmapWrapper(env), length, action_repeat), env)
 
 
-def make(scenario, method="ddr-sfim", seed=None, steps=None) -> BraxRadarEnv:
-    """The brax environment of a scenario (``mjx_radar.env.make``'s arguments)."""
-    return BraxRadarEnv(make_env(scenario, method, seed, steps))
+def make(
+    scenario, method="ddr-sfim", seed=None, steps=None, penalty_scale=1.0, keepout_grade=0.0
+) -> BraxRadarEnv:
+    """The brax environment of a scenario (``mjx_radar.env.make``'s arguments and the
+    reward's weights, :class:`BraxRadarEnv`)."""
+    return BraxRadarEnv(make_env(scenario, method, seed, steps), penalty_scale, keepout_grade)

@@ -122,3 +122,20 @@ def penalty(env, obs_before, obs_after, control) -> jax.Array:
         info0=jnp.zeros((m, 6, 6), obs_after.mean.dtype),
     )
     return sum(t.fn(h, task, params)[0] for t in terms).astype(jnp.float32)
+
+
+def keepout_depth(env, obs) -> jax.Array:
+    """``[]`` the graded radar-drone keep-out (training's reward shaping, ``keepout_grade``).
+
+    ``α_r2t Σ_{n,m} w_m (1 - d_nm / R2T)_+``, with ``d_nm`` the 3-D distance from radar
+    n to the estimate of target m and ``w_m`` its presence weight: 0 at the keep-out's
+    edge, growing with the depth inside it (``α_r2t`` per pair at zero distance). Unlike
+    the MPC's step term (``α_r2t`` for any pair inside), it tells a policy how deep it is.
+    """
+    m, p = env.n_targets, env.params
+    pos = obs.mean.astype(jnp.float32).reshape(m, 6)[:, :3]
+    gap = obs.radar_state[:, None, :3].astype(jnp.float32) - pos[None]  # [N, M, 3]
+    d = jnp.sqrt(jnp.sum(gap**2, -1))
+    depth = jnp.maximum(0.0, 1.0 - d / p.r2t.astype(jnp.float32))
+    weight = obs.target_weight.astype(jnp.float32)
+    return p.alpha_r2t.astype(jnp.float32) * jnp.sum(depth * weight[None, :])

@@ -2,15 +2,12 @@
 
 :func:`train_policy` trains on :class:`~mjx_radar.learning.brax_env.BraxRadarEnv`
 (wrapped by :func:`~mjx_radar.learning.brax_env.wrap_for_training`) and writes a
-*policy directory* ``DIR``:
-
-* ``DIR/policy.json``: the scenario and method, N, M, the feature and action sizes, the
-  PPO and network configuration, the steps done, the latest checkpoint;
-* ``DIR/checkpoints/<steps:012d>/``: brax's checkpoint (orbax) of ``(normaliser,
-  policy, value)`` parameters and ``ppo_network_config.json`` (the network's factory
-  arguments), after every evaluation;
-* ``DIR/curve.csv``: the learning curve (one row per evaluation: env steps, wall time,
-  mean episode reward, information, penalty, mean position RMSE, lost tracks).
+*policy directory* ``DIR``: ``policy.json`` (scenario, method, N, M, feature and action
+sizes, the PPO and network configuration, steps done, the latest checkpoint),
+``checkpoints/<steps:012d>/`` (brax's orbax checkpoint of ``(normaliser, policy,
+value)`` and ``ppo_network_config.json``, after every evaluation) and ``curve.csv`` (one
+row per evaluation: env steps, wall time, episode reward, information, penalty, mean
+position RMSE, lost tracks).
 
 Training is resumable in chunks (one GPU command here is limited to 10 minutes): a call
 with ``max_seconds`` stops after the first evaluation that would not leave time for
@@ -51,6 +48,9 @@ class PPOConfig:
     clipping_epsilon: float = 0.2
     reward_scaling: float = 0.1
     max_grad_norm: float = 1.0
+    penalty_scale: float = 1.0  # reward = information - penalty_scale * penalty (training)
+    init_noise_std: float = 1.0  # the policy's initial action noise (brax's scalar std)
+    keepout_grade: float = 0.0  # reward -= keepout_grade * features.keepout_depth
     num_eval_envs: int = 128
     eval_every: int = 200_000  # env steps between evaluations (and checkpoints)
     policy_hidden: tuple[int, ...] = (128, 128)
@@ -76,6 +76,7 @@ def network_factory(config: PPOConfig):
         networks.make_ppo_networks,
         policy_hidden_layer_sizes=tuple(config.policy_hidden),
         value_hidden_layer_sizes=tuple(config.value_hidden),
+        init_noise_std=config.init_noise_std,
     )
 
 
@@ -99,6 +100,11 @@ def _check(config: PPOConfig, steps: int) -> None:
             f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
             f"{config.batch_size * config.num_minibatches}"
         )
+    for name in ("penalty_scale", "keepout_grade"):
+        if not (math.isfinite(getattr(config, name)) and getattr(config, name) >= 0):
+            raise ScenarioError(f"{name} = {getattr(config, name)}: must be finite and >= 0")
+    if not (math.isfinite(config.init_noise_std) and config.init_noise_std > 0):
+        raise ScenarioError(f"init_noise_std = {config.init_noise_std}: must be finite and > 0")
 
 
 def train_policy(
@@ -108,6 +114,7 @@ def train_policy(
     *,
     method: str = "ddr-sfim",
     config: PPOConfig | None = None,
+    penalty_scale: float | None = None,
     max_seconds: float | None = None,
     cache_dir=None,
     log=print,
@@ -120,6 +127,10 @@ def train_policy(
         out: the policy directory (module docstring); an existing one is resumed.
         method: the method whose noise model the tracker uses (``ddr-sfim``).
         config: PPO settings (a resumed directory keeps its own).
+        penalty_scale: the penalty's weight in the reward from this chunk on (default:
+            the configuration's). On a resume this is a curriculum step: e.g. learn to
+            track with cheap keep-outs (0.02), then go on at the MPC's weights (1).
+            ``policy.json``'s ``penalty_schedule`` lists ``[steps_done, scale]`` pairs.
         max_seconds: stop after the evaluation past which another would not fit.
         cache_dir: JAX's persistent compilation cache (default the package's, as the
             command line: a resumed chunk then reuses the first chunk's programs).
@@ -143,6 +154,8 @@ def train_policy(
             )
         config = config_of(state)
     config = config or PPOConfig()
+    if penalty_scale is not None:
+        config = dataclasses.replace(config, penalty_scale=float(penalty_scale))
     _check(config, steps)
     compat.ensure()
     ours = not compile_cache.enabled() and compile_cache.enable(cache_dir) is not None
@@ -160,7 +173,9 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
     from mjx_radar.learning import brax_env
 
     t0 = time.perf_counter()
-    env = brax_env.make(sc, method)
+    env = brax_env.make(
+        sc, method, penalty_scale=config.penalty_scale, keepout_grade=config.keepout_grade
+    )
     factory = network_factory(config)
     if state is None:
         state = {
@@ -178,6 +193,11 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
             "chunks": 0,
             "checkpoint": None,
         }
+    first_scale = state["config"].get("penalty_scale", 1.0)  # older policy.json: 1
+    schedule = state.setdefault("penalty_schedule", [[0, first_scale]])
+    if schedule[-1][1] != config.penalty_scale:  # a curriculum step on a resume
+        schedule.append([state["steps_done"], config.penalty_scale])
+        state["config"]["penalty_scale"] = config.penalty_scale
     out.mkdir(parents=True, exist_ok=True)
     remaining = steps - state["steps_done"]
     if remaining <= 0:
