@@ -110,6 +110,9 @@ def test_check_placeable_names_the_fields_when_impossible():
     for field in ("placement_half_width = 20.0", "mpc.r2r = 40.0", "mpc.r2t = 125.0"):
         assert field in msg, msg
     placement.check_placeable(_scenario(), 7, 16)  # feasible: silent
+    # the same shape and trial count as the impossible case: the program traced for it is
+    # reused with the new numbers (a check baked into the program would raise here)
+    placement.check_placeable(_scenario(), s.seed, 4)
 
 
 def test_initial_estimate_error_has_covariance_p0():

@@ -17,6 +17,7 @@ The initial estimate is ``x_0 + e``, ``e ~ N(0, P0)``, ``P0 = p0 I`` (a consiste
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -112,14 +113,11 @@ def check_placeable(scenario: Scenario, seed: int, trials) -> None:
     from mjx_radar.task.method import METHODS
     from mjx_radar.task.params import shape_key, task_params
 
-    shape = shape_key(scenario)
     params = task_params(scenario, METHODS["stationary"], seed)
-
-    def ok(t):
-        return place_radars(shape, params, trial_streams(params.seed, t).placement)[1]
-
     ids = np.arange(trials) if np.ndim(trials) == 0 else np.unique(np.asarray(trials))
-    oks = np.asarray(jax.jit(jax.vmap(ok))(jnp.asarray(ids)))
+    size = max(8, 1 << int(len(ids) - 1).bit_length())  # padded: few distinct programs
+    padded = np.concatenate([ids, np.full(size - len(ids), ids[0])])
+    oks = np.asarray(_placeable(shape_key(scenario))(params, jnp.asarray(padded)))[: len(ids)]
     if not oks.all():
         bad = int(ids[np.argmin(oks)])
         if scenario.radar_init:  # fixed starts: the box plays no part
@@ -134,3 +132,15 @@ def check_placeable(scenario: Scenario, seed: int, trials) -> None:
             f"mpc.r2t = {scenario.mpc.r2t} m from every target (trial {bad}); widen the box "
             "or lower the keep-out distances"
         )
+
+
+@functools.lru_cache(maxsize=32)
+def _placeable(shape: Scenario):
+    """``jit(vmap)`` of the trials' placement success for one compiled shape, built once
+    per process: the numbers (``params``) are arguments, so every scenario of the shape
+    and every seed reuse one traced program (it was traced anew on every run)."""
+
+    def ok(params, t):
+        return place_radars(shape, params, trial_streams(params.seed, t).placement)[1]
+
+    return jax.jit(jax.vmap(ok, in_axes=(None, 0)))
