@@ -55,6 +55,11 @@ def _parser() -> argparse.ArgumentParser:
         help=f"the penalty's weight in the reward (default {d.penalty_scale}); on a resume, "
         "a curriculum step from this chunk on",
     )
+    p.add_argument(
+        "--shield",
+        action="store_true",
+        help="pass the policy's control through the keep-out shield (training and evaluation)",
+    )
     p.add_argument("--policy-hidden", default="128,128", help="policy MLP layer sizes")
     p.add_argument("--value-hidden", default="256,256", help="value MLP layer sizes")
     return p

@@ -196,3 +196,48 @@ def test_keepout_stats_by_hand():
     )
     np.testing.assert_allclose(out["median_min_horizontal_m"], 125.0)
     assert out["r2r_step_fraction"] == 1 / 4
+
+
+def test_shield_by_hand(env):
+    """The keep-out shield (learning/shield.py) on hand-made geometry: radar 0 heads +x."""
+    from mjx_radar.learning.shield import MARGIN, shield
+
+    rng = np.random.default_rng(2)
+    r2t = float(env.params.r2t)
+    amax = float(env.action_bounds[1][0, 0])
+    dt = float(env.scenario.timing.dt_control)
+    far = [0.0, 5000.0, 0.0, 0.0, 0.0, 0.0]
+
+    def case(v, drone, weight=1.0, a=0.5):
+        o = _obs(env, rng, radar_xy=np.array([[0.0, 0.0], [3000.0, 3000.0]]))
+        rs = np.asarray(o.radar_state).copy()
+        rs[0, 3:] = [0.0, v, 0.0]  # θ = 0, speed v, ω = 0
+        rs[1, 3:] = 0.0
+        mean = np.array(list(drone) + far * (env.n_targets - 1), np.float32)
+        w = np.ones(env.n_targets)
+        w[0] = weight
+        o = o._replace(
+            radar_state=jnp.asarray(rs), mean=jnp.asarray(mean), target_weight=jnp.asarray(w)
+        )
+        u = jnp.asarray([[a * amax, 0.3], [0.2 * amax, -0.1]], jnp.float32)
+        return np.asarray(shield(env, o, u))
+
+    # ahead and closing: the drone sits 2 m inside R2T of where the radar would stop
+    v = 20.0
+    v1 = min(v + 0.5 * amax * dt, float(env.scenario.limits.speed))
+    stop = 0.5 * (v + v1) * dt + v1 * v1 / (2 * amax)
+    ahead = r2t + stop - 2.0
+    out = case(v, [ahead, 0.0, 0.0, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(out[0], [-amax, 0.3])  # brakes, keeps its turn
+    np.testing.assert_allclose(out[1], [0.2 * amax, -0.1])  # the other radar untouched
+    # the same drone absent, or 2 m beyond R2T + margin of the stop: the policy's control
+    policy = [0.5 * amax, 0.3]
+    np.testing.assert_allclose(case(v, [ahead, 0, 0, 0, 0, 0], weight=0.0)[0], policy)
+    beyond = r2t + MARGIN + stop + 2.0
+    np.testing.assert_allclose(case(v, [beyond, 0, 0, 0, 0, 0])[0], policy, rtol=1e-6)
+    # a drone behind flying at the radar at rest: it speeds away forward
+    out = case(0.0, [-(r2t + 1.0), 0.0, 0.0, 20.0, 0.0, 0.0], a=0.0)
+    np.testing.assert_allclose(out[0], [amax, 0.3])
+    # inside but leaving (radar backs away from a drone ahead): not closing, untouched
+    out = case(-10.0, [r2t - 20.0, 0.0, 0.0, 0.0, 0.0, 0.0], a=-0.5)
+    np.testing.assert_allclose(out[0], [-0.5 * amax, 0.3])

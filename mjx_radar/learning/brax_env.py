@@ -33,6 +33,7 @@ from mjx_radar.learning.features import (
     keepout_depth,
     penalty,
 )
+from mjx_radar.learning.shield import shield as keepout_shield
 
 _CLIP = 1e3  # |reward| and |feature| bound (a diverged track gives inf log dets)
 
@@ -47,14 +48,19 @@ class BraxRadarEnv(Env):
             then cost less than they do to MPPI).
         keepout_grade: ``g``, the weight of the graded radar-drone keep-out
             (:func:`~mjx_radar.learning.features.keepout_depth`; 0: none).
+        shield: pass the control through the keep-out shield
+            (:func:`mjx_radar.learning.shield.shield`) before it is applied.
 
     ``metrics`` (per period, float32): ``information`` (``-Σ log det P_pos``),
     ``penalty`` (the keep-out terms, unscaled) and the environment's metrics (``rmse_pos``,
     ``lost``, ...), summed over an episode by brax's ``EpisodeWrapper``.
     """
 
-    def __init__(self, env, penalty_scale: float = 1.0, keepout_grade: float = 0.0):
+    def __init__(
+        self, env, penalty_scale: float = 1.0, keepout_grade: float = 0.0, shield: bool = False
+    ):
         self.radar_env = env
+        self.shield = bool(shield)
         self.penalty_scale = float(penalty_scale)
         self.keepout_grade = float(keepout_grade)
         self.episode_length = env.episode_length
@@ -86,6 +92,8 @@ class BraxRadarEnv(Env):
     def step(self, state: State, action: jax.Array) -> State:
         env = self.radar_env
         u = action_to_control(env, action)
+        if self.shield:
+            u = keepout_shield(env, state.pipeline_state.obs, u)
         s = env.step(state.pipeline_state, u)
         info = jnp.clip(jnp.nan_to_num(s.reward.astype(jnp.float32), nan=-_CLIP), -_CLIP, _CLIP)
         pen = jnp.clip(penalty(env, state.pipeline_state.obs, s.obs, u), 0.0, _CLIP)
@@ -160,8 +168,15 @@ def wrap_for_training(env: BraxRadarEnv, episode_length=None, action_repeat=1, *
 
 
 def make(
-    scenario, method="ddr-sfim", seed=None, steps=None, penalty_scale=1.0, keepout_grade=0.0
+    scenario,
+    method="ddr-sfim",
+    seed=None,
+    steps=None,
+    penalty_scale=1.0,
+    keepout_grade=0.0,
+    shield=False,
 ) -> BraxRadarEnv:
-    """The brax environment of a scenario (``mjx_radar.env.make``'s arguments and the
-    reward's weights, :class:`BraxRadarEnv`)."""
-    return BraxRadarEnv(make_env(scenario, method, seed, steps), penalty_scale, keepout_grade)
+    """The brax environment of a scenario (``mjx_radar.env.make``'s arguments, the
+    reward's weights and the shield: :class:`BraxRadarEnv`)."""
+    env = make_env(scenario, method, seed, steps)
+    return BraxRadarEnv(env, penalty_scale, keepout_grade, shield)

@@ -7,6 +7,7 @@ deterministically (the mode of its action distribution)::
 
     a = tanh(μ_θ(normalise(features(obs))))          a ∈ [-1, 1]^{2N}
     u = action_to_control(env, a)                     [N, 2] within the radars' limits
+    u = shield(env, obs, u)                           if trained with the shield
 
 One control call is one small MLP evaluation: no rollouts, no objective. The
 parameters are read on the host when the planner is made and enter the compiled
@@ -24,6 +25,7 @@ from pathlib import Path
 
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.learning.features import action_to_control, feature_size, features
+from mjx_radar.learning.shield import shield
 from mjx_radar.planners.base import Planner
 
 
@@ -60,11 +62,15 @@ class PolicyPlanner(Planner):
         if state["observation_size"] != feature_size(n, m):
             raise ScenarioError(f"planner policy:{argument}: features of another version")
         self.source, self.state = str(path), state
+        self.shielded = bool(state["config"].get("shield", False))  # as trained
         self._policy = load_policy(path / state["checkpoint"], state)
 
     def plan(self, carry, obs, key):
         a, _ = self._policy(features(self.env, obs), key)
-        return action_to_control(self.env, a).astype(obs.mean.dtype), carry
+        u = action_to_control(self.env, a)
+        if self.shielded:
+            u = shield(self.env, obs, u)
+        return u.astype(obs.mean.dtype), carry
 
     @staticmethod
     def argument_digest(argument: str) -> str:
@@ -92,7 +98,7 @@ def load_policy(checkpoint, state: dict):
         raise ScenarioError(
             "planner policy: needs the rl extra (pip install -e '.[rl]': brax)"
         ) from None
-    from mjx_radar.learning.train import config_of, network_factory
+    from mjx_radar.learning.config import config_of, network_factory
 
     network = network_factory(config_of(state))(
         state["observation_size"],

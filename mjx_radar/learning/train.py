@@ -27,84 +27,20 @@ from pathlib import Path
 
 from mjx_radar.io.atomic import atomic_write_text
 from mjx_radar.io.checks import ScenarioError
+from mjx_radar.learning.config import PPOConfig, check_config, config_of, network_factory
 
 FORMAT = 1
 CURVE = ("steps", "wall_s", "reward", "information", "penalty", "rmse_pos", "lost")
-
-
-@dataclasses.dataclass(frozen=True)
-class PPOConfig:
-    """brax PPO's settings (``ppo.train`` keywords) and the network's sizes."""
-
-    num_envs: int = 256
-    unroll_length: int = 10
-    batch_size: int = 256
-    num_minibatches: int = 8
-    num_updates_per_batch: int = 4
-    learning_rate: float = 3e-4
-    entropy_cost: float = 1e-3
-    discounting: float = 0.97
-    gae_lambda: float = 0.95
-    clipping_epsilon: float = 0.2
-    reward_scaling: float = 0.1
-    max_grad_norm: float = 1.0
-    penalty_scale: float = 1.0  # reward = information - penalty_scale * penalty (training)
-    init_noise_std: float = 1.0  # the policy's initial action noise (brax's scalar std)
-    keepout_grade: float = 0.0  # reward -= keepout_grade * features.keepout_depth
-    num_eval_envs: int = 128
-    eval_every: int = 200_000  # env steps between evaluations (and checkpoints)
-    policy_hidden: tuple[int, ...] = (128, 128)
-    value_hidden: tuple[int, ...] = (256, 256)
-    seed: int = 0
-
-    def steps_per_update(self) -> int:
-        """Env steps of one PPO update: ``batch_size · unroll_length · num_minibatches``."""
-        return self.batch_size * self.unroll_length * self.num_minibatches
 
 
 class _OutOfTime(Exception):
     """Raised from brax's progress callback to end a chunk after a checkpoint."""
 
 
-def network_factory(config: PPOConfig):
-    """brax's ``make_ppo_networks`` with the configured layer sizes."""
-    import functools
-
-    from brax.training.agents.ppo import networks
-
-    return functools.partial(
-        networks.make_ppo_networks,
-        policy_hidden_layer_sizes=tuple(config.policy_hidden),
-        value_hidden_layer_sizes=tuple(config.value_hidden),
-        init_noise_std=config.init_noise_std,
-    )
-
-
-def config_of(state: dict) -> PPOConfig:
-    """The :class:`PPOConfig` saved in a ``policy.json``."""
-    saved = state["config"]
-    return PPOConfig(**{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}})
-
-
 def read_state(out) -> dict | None:
     """``DIR/policy.json`` as a dict (None when absent)."""
     path = Path(out) / "policy.json"
     return json.loads(path.read_text()) if path.is_file() else None
-
-
-def _check(config: PPOConfig, steps: int) -> None:
-    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
-        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
-    if (config.batch_size * config.num_minibatches) % config.num_envs:
-        raise ScenarioError(
-            f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
-            f"{config.batch_size * config.num_minibatches}"
-        )
-    for name in ("penalty_scale", "keepout_grade"):
-        if not (math.isfinite(getattr(config, name)) and getattr(config, name) >= 0):
-            raise ScenarioError(f"{name} = {getattr(config, name)}: must be finite and >= 0")
-    if not (math.isfinite(config.init_noise_std) and config.init_noise_std > 0):
-        raise ScenarioError(f"init_noise_std = {config.init_noise_std}: must be finite and > 0")
 
 
 def train_policy(
@@ -156,7 +92,7 @@ def train_policy(
     config = config or PPOConfig()
     if penalty_scale is not None:
         config = dataclasses.replace(config, penalty_scale=float(penalty_scale))
-    _check(config, steps)
+    check_config(config, steps)
     compat.ensure()
     ours = not compile_cache.enabled() and compile_cache.enable(cache_dir) is not None
     try:
@@ -174,7 +110,11 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
 
     t0 = time.perf_counter()
     env = brax_env.make(
-        sc, method, penalty_scale=config.penalty_scale, keepout_grade=config.keepout_grade
+        sc,
+        method,
+        penalty_scale=config.penalty_scale,
+        keepout_grade=config.keepout_grade,
+        shield=config.shield,
     )
     factory = network_factory(config)
     if state is None:

@@ -1,0 +1,82 @@
+"""brax PPO's settings for :func:`mjx_radar.learning.train.train_policy`, the policy
+and value networks they describe, and their checks (docs/learning.md, "Training").
+
+:class:`PPOConfig` is saved in a policy directory's ``policy.json`` (``config``) and
+read back by :func:`config_of` (older directories get the defaults of settings added
+since); :func:`network_factory` builds the same networks for training and for the
+planner ``policy:DIR``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from mjx_radar.io.checks import ScenarioError
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOConfig:
+    """brax PPO's settings (``ppo.train`` keywords) and the network's sizes."""
+
+    num_envs: int = 256
+    unroll_length: int = 10
+    batch_size: int = 256
+    num_minibatches: int = 8
+    num_updates_per_batch: int = 4
+    learning_rate: float = 3e-4
+    entropy_cost: float = 1e-3
+    discounting: float = 0.97
+    gae_lambda: float = 0.95
+    clipping_epsilon: float = 0.2
+    reward_scaling: float = 0.1
+    max_grad_norm: float = 1.0
+    penalty_scale: float = 1.0  # reward = information - penalty_scale * penalty (training)
+    init_noise_std: float = 1.0  # the policy's initial action noise (brax's scalar std)
+    keepout_grade: float = 0.0  # reward -= keepout_grade * features.keepout_depth
+    shield: bool = False  # the keep-out shield on the control (learning.shield), kept for eval
+    num_eval_envs: int = 128
+    eval_every: int = 200_000  # env steps between evaluations (and checkpoints)
+    policy_hidden: tuple[int, ...] = (128, 128)
+    value_hidden: tuple[int, ...] = (256, 256)
+    seed: int = 0
+
+    def steps_per_update(self) -> int:
+        """Env steps of one PPO update: ``batch_size · unroll_length · num_minibatches``."""
+        return self.batch_size * self.unroll_length * self.num_minibatches
+
+
+def network_factory(config: PPOConfig):
+    """brax's ``make_ppo_networks`` with the configured layer sizes."""
+    import functools
+
+    from brax.training.agents.ppo import networks
+
+    return functools.partial(
+        networks.make_ppo_networks,
+        policy_hidden_layer_sizes=tuple(config.policy_hidden),
+        value_hidden_layer_sizes=tuple(config.value_hidden),
+        init_noise_std=config.init_noise_std,
+    )
+
+
+def config_of(state: dict) -> PPOConfig:
+    """The :class:`PPOConfig` saved in a ``policy.json``."""
+    saved = state["config"]
+    return PPOConfig(**{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}})
+
+
+def check_config(config: PPOConfig, steps: int) -> None:
+    """Raises :class:`ScenarioError` naming the first setting out of range."""
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
+    if (config.batch_size * config.num_minibatches) % config.num_envs:
+        raise ScenarioError(
+            f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
+            f"{config.batch_size * config.num_minibatches}"
+        )
+    for name in ("penalty_scale", "keepout_grade"):
+        if not (math.isfinite(getattr(config, name)) and getattr(config, name) >= 0):
+            raise ScenarioError(f"{name} = {getattr(config, name)}: must be finite and >= 0")
+    if not (math.isfinite(config.init_noise_std) and config.init_noise_std > 0):
+        raise ScenarioError(f"init_noise_std = {config.init_noise_std}: must be finite and > 0")
