@@ -56,6 +56,12 @@ def _parser() -> argparse.ArgumentParser:
         "a curriculum step from this chunk on",
     )
     p.add_argument(
+        "--no-eval",
+        dest="evaluate",
+        action="store_false",
+        help="no evaluation episodes (faster; the curve's reward and RMSE columns are NaN)",
+    )
+    p.add_argument(
         "--shield",
         action="store_true",
         help="pass the policy's control through the keep-out shield (training and evaluation)",

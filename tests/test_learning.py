@@ -101,6 +101,44 @@ def test_gymnasium_vector_env_autoresets_next_step(short):
     assert venv.observation_space.contains(obs)
 
 
+def test_ppo_trains_and_checkpoints(short, tmp_path):
+    """CI's PPO pipeline check (no quality claim): brax PPO for 2 x 80 env steps on a
+    5-period smoke without evaluation episodes (the evaluator is the costliest compile),
+    a checkpoint after each iteration, the policy's parameters moved by the updates, the
+    curve and policy.json as documented. ~70 s on the loaded 2-core machine."""
+    from brax.training.agents.ppo import checkpoint as ppo_ckpt
+
+    from mjx_radar.learning.train import PPOConfig, train_policy
+
+    cfg = PPOConfig(
+        num_envs=4,
+        unroll_length=5,
+        batch_size=4,
+        num_minibatches=2,
+        num_updates_per_batch=1,
+        eval_every=80,
+        evaluate=False,
+        policy_hidden=(8,),
+        value_hidden=(8,),
+        shield=True,
+    )
+    out = tmp_path / "pol"
+    state = train_policy(short, 160, out, config=cfg, log=lambda line: None, cache_dir=None)
+    assert state["steps_done"] == 160 and state["chunks"] == 1
+    assert state["penalty_schedule"] == [[0, 1.0]] and state["config"]["shield"] is True
+    ckpts = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert ckpts == ["000000000080", "000000000160"] and state["checkpoint"].endswith("160")
+    rows = [r.split(",") for r in (out / "curve.csv").read_text().splitlines()]
+    assert rows[0][:2] == ["steps", "wall_s"] and [r[0] for r in rows[1:]] == ["80", "160"]
+    assert all(r[2] == "nan" for r in rows[1:])  # no evaluation: no episode reward
+    first, last = (ppo_ckpt.load(out / "checkpoints" / c) for c in ckpts)
+    moved = jax.tree.map(
+        lambda a, b: float(np.max(np.abs(np.asarray(a) - np.asarray(b)))), first[1], last[1]
+    )
+    leaves = jax.tree.leaves(moved)
+    assert all(np.isfinite(x) for x in leaves) and max(leaves) > 0  # the policy was updated
+
+
 @pytest.mark.slow  # 100-400 s on 2 cores, nearly all compiling: kept out of the CI tier
 def test_train_resume_and_evaluate_as_planner(short, tmp_path):
     """PPO for 2 x 80 env steps on smoke (a chunk, then a resumed one), then the policy

@@ -36,6 +36,7 @@ class PPOConfig:
     keepout_grade: float = 0.0  # reward -= keepout_grade * features.keepout_depth
     shield: bool = False  # the keep-out shield on the control (learning.shield), kept for eval
     num_eval_envs: int = 128
+    evaluate: bool = True  # False: no evaluation episodes (the curve's eval columns NaN)
     eval_every: int = 200_000  # env steps between evaluations (and checkpoints)
     policy_hidden: tuple[int, ...] = (128, 128)
     value_hidden: tuple[int, ...] = (256, 256)

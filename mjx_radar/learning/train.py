@@ -201,6 +201,7 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
             num_evals=n_iters + 1,
             num_eval_envs=config.num_eval_envs,
             deterministic_eval=True,
+            run_evals=config.evaluate,
             network_factory=factory,
             seed=config.seed + 7919 * (state["chunks"] - 1),
             progress_fn=progress,
