@@ -19,6 +19,19 @@ gymnasium = pytest.importorskip("gymnasium")
 from mjx_radar.env import make  # noqa: E402
 from mjx_radar.learning import brax_env, features  # noqa: E402
 
+#: PPO settings of the pipeline tests: a few env steps per update, tiny networks
+TINY_PPO = {
+    "num_envs": 4,
+    "unroll_length": 5,
+    "batch_size": 4,
+    "num_minibatches": 2,
+    "num_updates_per_batch": 1,
+    "num_eval_envs": 2,
+    "eval_every": 80,
+    "policy_hidden": (8,),
+    "value_hidden": (8,),
+}
+
 
 @pytest.fixture(scope="module")
 def short(tiny):
@@ -110,18 +123,7 @@ def test_ppo_trains_and_checkpoints(short, tmp_path):
 
     from mjx_radar.learning.train import PPOConfig, train_policy
 
-    cfg = PPOConfig(
-        num_envs=4,
-        unroll_length=5,
-        batch_size=4,
-        num_minibatches=2,
-        num_updates_per_batch=1,
-        eval_every=80,
-        evaluate=False,
-        policy_hidden=(8,),
-        value_hidden=(8,),
-        shield=True,
-    )
+    cfg = PPOConfig(**TINY_PPO, evaluate=False, shield=True)
     out = tmp_path / "pol"
     state = train_policy(short, 160, out, config=cfg, log=lambda line: None, cache_dir=None)
     assert state["steps_done"] == 160 and state["chunks"] == 1
@@ -146,17 +148,7 @@ def test_train_resume_and_evaluate_as_planner(short, tmp_path):
     import mjx_radar
     from mjx_radar.learning.train import PPOConfig, train_policy
 
-    cfg = PPOConfig(
-        num_envs=4,
-        unroll_length=5,
-        batch_size=4,
-        num_minibatches=2,
-        num_updates_per_batch=1,
-        num_eval_envs=2,
-        eval_every=80,
-        policy_hidden=(8,),
-        value_hidden=(8,),
-    )
+    cfg = PPOConfig(**TINY_PPO)
     out = tmp_path / "pol"
     kw = {"config": cfg, "log": lambda line: None, "cache_dir": tmp_path / "xla"}
     first = train_policy(short, 80, out, **kw)
