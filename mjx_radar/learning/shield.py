@@ -44,7 +44,8 @@ def shield(env, obs, control, margin: float = MARGIN) -> jax.Array:
     """
     sc = env.scenario
     dt = jnp.float32(sc.timing.dt_control)
-    amax = jnp.asarray(env.action_bounds[1][:, 0], jnp.float32)  # [N] each radar's ā
+    # [N] each radar's ā (a fixed site has none: it never moves, the guard keeps 0/0 out)
+    amax = jnp.maximum(jnp.asarray(env.action_bounds[1][:, 0], jnp.float32), 1e-6)
     vmax = jnp.float32(sc.limits.speed)
     u = jnp.asarray(control, jnp.float32)
     rs = obs.radar_state.astype(jnp.float32)
