@@ -4,14 +4,50 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import shutil
 import signal
 import subprocess
+import tempfile
 import time
 from pathlib import Path
 
 import pytest
 
 from mjx_radar.scenario.reader import load_scenario
+
+_OWN_CACHE = "_MJX_RADAR_TEST_CACHE_OWNER"
+
+
+def pytest_configure(config):
+    """One compilation cache for the whole test session (suite time, issue 37).
+
+    The first process (the xdist controller, or the only process with ``-n 0``) makes an
+    empty folder and names it in ``$MJX_RADAR_CACHE_DIR``; the workers and every
+    subprocess a test starts inherit it, and each test process turns XLA's persistent
+    cache on there. A program that two test files (or an example script and a test)
+    compile alike is compiled once per session instead of once per process. The cache
+    only stores executables keyed by their HLO: the numbers are those of a fresh
+    compilation. Tests that need a cold or private cache set their own folder or
+    ``--no-cache``; the user's ``~/.cache`` is not touched.
+    """
+    if not hasattr(config, "workerinput") and _OWN_CACHE not in os.environ:
+        os.environ["MJX_RADAR_CACHE_DIR"] = tempfile.mkdtemp(prefix="mjx_radar_test_cache_")
+        os.environ[_OWN_CACHE] = str(os.getpid())
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        from mjx_radar.engine import compile_cache
+
+        compile_cache.enable(os.environ["MJX_RADAR_CACHE_DIR"])
+
+
+def pytest_unconfigure(config):
+    if os.environ.get(_OWN_CACHE) == str(os.getpid()):
+        shutil.rmtree(os.environ["MJX_RADAR_CACHE_DIR"], ignore_errors=True)
+
+
+@pytest.fixture
+def session_cache() -> Path:
+    """The session's compilation cache folder (see :func:`pytest_configure`)."""
+    return Path(os.environ["MJX_RADAR_CACHE_DIR"])
 
 
 @pytest.fixture

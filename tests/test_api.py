@@ -192,22 +192,17 @@ def test_bundled_scenarios_ship_in_the_package():
     assert "terrain/*.png" in data["package-data"]["mjx_radar.scenarios"]
 
 
-def test_simulate_equals_cli(tmp_path):
+def test_simulate_equals_cli(tmp_path, session_cache):
     """The same scenario, method, seed and trials: identical metrics from both entry points.
     (Analytic planner rollouts: the same comparison, a program that compiles ~3x faster.)"""
-    out, cache = tmp_path / "cli", tmp_path / "cache"
+    out = tmp_path / "cli"
     cmd = [sys.executable, "-m", "mjx_radar", "run", "smoke", "--trials", "2", "--steps", "16",
            "--seed", "3", "--method", "ccr-sfim", "--out", str(out), "--rollouts", "analytic",
-           "--cache-dir", str(cache)]  # fmt: skip
+           "--cache-dir", str(session_cache)]  # fmt: skip
     subprocess.run(cmd, check=True, capture_output=True, cwd=tmp_path)
-    from mjx_radar.engine import compile_cache
-
-    compile_cache.enable(cache)  # the same XLA programs, from the CLI's cache
-    try:
-        run = mjx_radar.simulate("smoke", method="CCR-SFIM", trials=2, steps=16, seed=3,
-                                 rollouts="analytic", progress=False)  # fmt: skip
-    finally:
-        compile_cache.disable()
+    # this process reads the same persistent cache (tests/conftest.py): the CLI's programs
+    run = mjx_radar.simulate("smoke", method="CCR-SFIM", trials=2, steps=16, seed=3,
+                             rollouts="analytic", progress=False)  # fmt: skip
     cli = pd.read_parquet(out / "metrics.parquet")
     pd.testing.assert_frame_equal(run.metrics, cli, check_exact=True)
     saved = run.save(tmp_path / "api")

@@ -123,8 +123,10 @@ def test_run_with_a_plugin_planner(tmp_path):
     """``mjx-radar run --plugin FILE --planner NAME`` runs a planner registered by a script;
     an unregistered name is one line and exit 2, before anything is compiled."""
     out = tmp_path / "run"
+    # 2 trials: the program of examples/custom_planner.py --small (test_examples), compiled
+    # once per session (tests/conftest.py)
     base = [sys.executable, "-m", "mjx_radar", "run", "scenarios/smoke.toml", "--steps", "8",
-            "--rollouts", "analytic"]  # fmt: skip
+            "--trials", "2", "--rollouts", "analytic"]  # fmt: skip
     bad = subprocess.run([*base, "--planner", "best-of-k", "--out", str(out)],
                          capture_output=True, text=True, timeout=600)  # fmt: skip
     assert bad.returncode == 2 and "planner: 'best-of-k' is not one of mppi, hold" in bad.stderr

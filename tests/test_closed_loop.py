@@ -18,8 +18,10 @@ def smoke():
     return load_scenario("smoke")
 
 
-MJX_PLANNER = ("stationary", "ddr-sfim")  # the rest plan with analytic rollouts (compile ~3x
-# faster); MJX and analytic rollouts agree to 1e-3 m (test_physics), the truth is always MJX.
+MJX_PLANNER = ("ddr-sfim",)  # the rest plan with analytic rollouts (compile ~3x faster;
+# stationary plans nothing); MJX and analytic rollouts agree to 1e-3 m (test_physics), the
+# truth is always MJX. The analytic programs (smoke, 2 trials, one period per segment) are
+# those of the examples' --small runs and test_api: compiled once per session.
 
 
 @pytest.fixture(scope="module")

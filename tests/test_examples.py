@@ -1,6 +1,6 @@
 """Every script in examples/ runs in small mode and writes what it promises.
 
-The examples share one persistent compilation cache (a session temporary folder), so
+The examples share the session's persistent compilation cache (tests/conftest.py), so
 those of the same program shape compile once.
 """
 
@@ -18,9 +18,9 @@ REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted(p.stem for p in (REPO / "examples").glob("*.py") if not p.stem.startswith("_"))
 
 
-@pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    return tmp_path_factory.mktemp("xla_cache")
+@pytest.fixture
+def cache_dir(session_cache):
+    return session_cache
 
 
 def _run(name: str, out: Path, cache: Path) -> str:
