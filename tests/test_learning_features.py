@@ -241,3 +241,23 @@ def test_shield_by_hand(env):
     # inside but leaving (radar backs away from a drone ahead): not closing, untouched
     out = case(-10.0, [r2t - 20.0, 0.0, 0.0, 0.0, 0.0, 0.0], a=-0.5)
     np.testing.assert_allclose(out[0], [-0.5 * amax, 0.3])
+
+
+def test_ppo_config_bad_input_is_one_scenario_error():
+    """Python callers get the CLI's one-line ScenarioError, never a TypeError."""
+    from mjx_radar.io.checks import ScenarioError
+    from mjx_radar.learning.config import PPOConfig, check_config
+
+    check_config(PPOConfig(), 10)  # the defaults pass
+    cases = [
+        ({"penalty_scale": "a"}, "penalty_scale = 'a': must be a finite number >= 0"),
+        ({"penalty_scale": float("nan")}, "penalty_scale = nan"),
+        ({"keepout_grade": -1.0}, "keepout_grade = -1.0: must be a finite number >= 0"),
+        ({"init_noise_std": 0.0}, "init_noise_std = 0.0: must be a finite number > 0"),
+        ({"shield": "yes"}, "shield = 'yes': must be True or False"),
+        ({"evaluate": 1}, "evaluate = 1: must be True or False"),
+    ]
+    for kw, message in cases:
+        with pytest.raises(ScenarioError) as e:
+            check_config(PPOConfig(**kw), 10)
+        assert message in str(e.value) and "\n" not in str(e.value)

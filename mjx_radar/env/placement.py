@@ -115,6 +115,8 @@ def check_placeable(scenario: Scenario, seed: int, trials) -> None:
 
     params = task_params(scenario, METHODS["stationary"], seed)
     ids = np.arange(trials) if np.ndim(trials) == 0 else np.unique(np.asarray(trials))
+    if not len(ids):  # no trial: nothing to place
+        return
     size = max(8, 1 << int(len(ids) - 1).bit_length())  # padded: few distinct programs
     padded = np.concatenate([ids, np.full(size - len(ids), ids[0])])
     oks = np.asarray(_placeable(shape_key(scenario))(params, jnp.asarray(padded)))[: len(ids)]

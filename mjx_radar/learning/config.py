@@ -76,8 +76,16 @@ def check_config(config: PPOConfig, steps: int) -> None:
             f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
             f"{config.batch_size * config.num_minibatches}"
         )
-    for name in ("penalty_scale", "keepout_grade"):
-        if not (math.isfinite(getattr(config, name)) and getattr(config, name) >= 0):
-            raise ScenarioError(f"{name} = {getattr(config, name)}: must be finite and >= 0")
-    if not (math.isfinite(config.init_noise_std) and config.init_noise_std > 0):
-        raise ScenarioError(f"init_noise_std = {config.init_noise_std}: must be finite and > 0")
+    for name, positive in (
+        ("penalty_scale", False),
+        ("keepout_grade", False),
+        ("init_noise_std", True),
+    ):
+        value = getattr(config, name)
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if not (number and math.isfinite(value) and (value > 0 if positive else value >= 0)):
+            bound = "> 0" if positive else ">= 0"
+            raise ScenarioError(f"{name} = {value!r}: must be a finite number {bound}")
+    for name in ("shield", "evaluate"):
+        if not isinstance(getattr(config, name), bool):
+            raise ScenarioError(f"{name} = {getattr(config, name)!r}: must be True or False")

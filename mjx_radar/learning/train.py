@@ -90,8 +90,8 @@ def train_policy(
             )
         config = config_of(state)
     config = config or PPOConfig()
-    if penalty_scale is not None:
-        config = dataclasses.replace(config, penalty_scale=float(penalty_scale))
+    if penalty_scale is not None:  # checked with the rest of the configuration
+        config = dataclasses.replace(config, penalty_scale=penalty_scale)
     check_config(config, steps)
     compat.ensure()
     ours = not compile_cache.enabled() and compile_cache.enable(cache_dir) is not None
