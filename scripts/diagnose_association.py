@@ -28,8 +28,11 @@ from __future__ import annotations
 import argparse
 import itertools
 import sys
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # association_bound
 
 
 def labels(scenario, samples: int = 200_000, seed: int = 0) -> dict:
@@ -52,60 +55,23 @@ def labels(scenario, samples: int = 200_000, seed: int = 0) -> dict:
 
 def oracle(task, params, truth, radars, x0, seed: int, steps=(20, 80, -1)):
     """Fixed-association hypotheses of one trial: per step k, the winner's largest track
-    error [m] and the posterior probability of the true association."""
-    import jax
-    import jax.numpy as jnp
+    error [m] and the posterior probability of the true association (the filters and the
+    hypotheses of ``scripts/association_bound.py``)."""
+    from association_bound import fixed_association_filters, joint_hypotheses
 
-    from mjx_radar.estimation import detection, pda
-
-    model, noise = task.measurement, params.noise
-    A, Q = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
-    n, m = radars.shape[1], truth.shape[1]
-    trip = np.asarray(list(itertools.product(range(m), repeat=n)))  # [m^n, n]
-    key = jax.random.PRNGKey(seed)
-
-    def step(carry, inp):
-        x, P, ll = carry  # [M, T, 6], [M, T, 6, 6], [M, T]
-        tr, ra, k = inp
-        z = model.sample(jax.random.fold_in(key, k), ra, tr[:, :3], noise)  # [N, M, dim]
-        d2 = jnp.sum((tr[None, :, :3] - ra[:, None]) ** 2, -1)
-        pd_ = detection.pair_probability(task.scenario.detection.model, params.detection, d2)
-        seen = jax.random.uniform(jax.random.fold_in(key, -1 - k), pd_.shape) < pd_
-        x, P = x @ A.T, A @ P @ A.T + Q
-
-        def upd(x, P, tup):
-            lsum = 0.0
-            for i in range(n):
-                h, R = pda.radar_model(model, noise, params.method.ccr, ra, i)
-                K, S, nu, d2_, logdet = pda.innovations(x, P, z[i, tup[i]][None], h, R)
-                s = seen[i, tup[i]]
-                x = x + jnp.where(s, K @ nu[0], 0.0)
-                P = P - jnp.where(s, K @ S @ K.T, 0.0)
-                lsum = lsum + jnp.where(s, -0.5 * (d2_[0] + logdet), 0.0)
-            return x, P, lsum
-
-        x, P, lk = jax.vmap(jax.vmap(upd, (0, 0, 0)), (0, 0, None))(x, P, jnp.asarray(trip))
-        return (x, P, ll + lk), (ll + lk, x[..., :3])
-
-    t = trip.shape[0]
-    x = jnp.broadcast_to(jnp.asarray(x0)[:, None], (m, t, 6))
-    P = jnp.broadcast_to(params.p0 * jnp.eye(6), (m, t, 6, 6))
-    inp = (jnp.asarray(truth), jnp.asarray(radars), jnp.arange(truth.shape[0]))
-    _, (ll, pos) = jax.lax.scan(step, (x, P, jnp.zeros((m, t))), inp)
-    ll, pos = np.asarray(ll), np.asarray(pos)
-    perms = np.asarray(list(itertools.permutations(range(m))))
-    grid = np.stack(np.meshgrid(*[np.arange(len(perms))] * n, indexing="ij"), -1).reshape(-1, n)
-    col = sum(perms[grid[:, i]] * m ** (n - 1 - i) for i in range(n))  # [H, M] triple index
-    truth_h = int(np.flatnonzero((grid == 0).all(1))[0])
-    out = []
+    out = fixed_association_filters(task, params, truth, radars, x0, seed)
+    ll, pos = np.asarray(out[0]), np.asarray(out[1])
+    m, n = truth.shape[1], radars.shape[1]
+    col = joint_hypotheses(m, n)  # [H, M]; row 0 the true association
+    res = []
     for k in steps:
         tot = ll[k][np.arange(m)[None], col].sum(1)
         p = np.exp(tot - tot.max())
         p /= p.sum()
         h = int(np.argmax(tot))
         err = np.linalg.norm(pos[k][np.arange(m), col[h]] - truth[k, :, :3], axis=-1).max()
-        out.append((float(err), float(p[truth_h])))
-    return out
+        res.append((float(err), float(p[0])))
+    return res
 
 
 def main(argv=None) -> int:
