@@ -54,9 +54,9 @@ def labels(scenario, samples: int = 200_000, seed: int = 0) -> dict:
 
 
 def oracle(task, params, truth, radars, x0, seed: int, steps=(20, 80, -1)):
-    """Fixed-association hypotheses of one trial: per step k, the winner's largest track
-    error [m] and the posterior probability of the true association (the filters and the
-    hypotheses of ``scripts/association_bound.py``)."""
+    """Fixed-association hypotheses of one trial: ``[(k, error, p)]`` per step k (clamped to
+    the run), the winner's largest track error [m] and the posterior probability of the
+    true association (the filters and hypotheses of ``scripts/association_bound.py``)."""
     from association_bound import fixed_association_filters, joint_hypotheses
 
     out = fixed_association_filters(task, params, truth, radars, x0, seed)
@@ -64,13 +64,14 @@ def oracle(task, params, truth, radars, x0, seed: int, steps=(20, 80, -1)):
     m, n = truth.shape[1], radars.shape[1]
     col = joint_hypotheses(m, n)  # [H, M]; row 0 the true association
     res = []
-    for k in steps:
+    n_k = ll.shape[0]
+    for k in dict.fromkeys(min(k, n_k - 1) if k >= 0 else k % n_k for k in steps):
         tot = ll[k][np.arange(m)[None], col].sum(1)
         p = np.exp(tot - tot.max())
         p /= p.sum()
         h = int(np.argmax(tot))
         err = np.linalg.norm(pos[k][np.arange(m), col[h]] - truth[k, :, :3], axis=-1).max()
-        res.append((float(err), float(p[0])))
+        res.append((k + 1, float(err), float(p[0])))
     return res
 
 
@@ -109,7 +110,7 @@ def main(argv=None) -> int:
             f"{int(first[0]) + 1 if first.size else None}, lost at "
             f"{int(lost[0]) + 1 if lost.size else None}, mean NEES(1-20) "
             f"{g['nees'].iloc[:20].mean():.0f}; oracle (winner's max error m, p(true)) at "
-            f"steps 20/80/{args.steps}: " + " ".join(f"({e:.1f}, {q:.2f})" for e, q in orc),
+            "steps " + " ".join(f"{k}: ({e:.1f}, {q:.2f})" for k, e, q in orc),
             flush=True,
         )
     return 0
