@@ -68,7 +68,9 @@ def test_closed_loop_step_program_pins_every_dot(smoke):
     text = jax.export.export(step)(*p_specs, *c_specs).mlir_module()
     found = dot_precisions(text)
     allowed = {precision.ESTIMATION.upper(), precision.PLANNER.upper()}
-    assert found["HIGHEST"] > 50, found  # filter, information, PCRLB, objective, MPPI
+    # filter, information, PCRLB, objective, MPPI (45 on the CPU, whose factorisations are
+    # loops that list each dot once: estimation/linalg.py; more where they are unrolled)
+    assert found["HIGHEST"] > 40, found
     assert set(found) <= allowed, f"unpinned dots in the closed loop: {found}"
 
 
