@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import shutil
 import signal
@@ -16,6 +17,15 @@ import pytest
 from mjx_radar.scenario.reader import load_scenario
 
 _OWN_CACHE = "_MJX_RADAR_TEST_CACHE_OWNER"
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--compile-profile",
+        metavar="PATH",
+        help="append one JSON line per test to PATH: its wall seconds and JAX's compile "
+        "counts and seconds in the test's process (scripts/bench_suite.py sums them)",
+    )
 
 
 def pytest_configure(config):
@@ -37,6 +47,42 @@ def pytest_configure(config):
         from mjx_radar.engine import compile_cache
 
         compile_cache.enable(os.environ["MJX_RADAR_CACHE_DIR"])
+
+
+_COMPILES: dict = {}  # --compile-profile: this process's compile events during one test
+_EVENTS = {  # jax.monitoring duration events -> (count key, seconds key)
+    "/jax/core/compile/backend_compile_duration": ("xla_n", "xla_s"),
+    "/jax/core/compile/jaxpr_trace_duration": ("trace_n", "trace_s"),
+    "/jax/core/compile/jaxpr_to_mlir_module_duration": ("lower_n", "lower_s"),
+}
+
+
+def _on_duration(event: str, duration: float, **_) -> None:
+    if event in _EVENTS:
+        n, s = _EVENTS[event]
+        _COMPILES[n] = _COMPILES.get(n, 0) + 1
+        _COMPILES[s] = _COMPILES.get(s, 0.0) + duration
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """With ``--compile-profile``: the test's wall time (setup, call, teardown) and the XLA
+    compilations, tracing and lowering it caused in this process (not in subprocesses)."""
+    path = item.config.getoption("compile_profile")
+    if not path:
+        yield
+        return
+    if not _COMPILES.get("_listening"):
+        import jax.monitoring
+
+        jax.monitoring.register_event_duration_secs_listener(_on_duration)
+    _COMPILES.clear()
+    _COMPILES["_listening"] = True
+    t0 = time.perf_counter()
+    yield
+    rec = {k: v for k, v in _COMPILES.items() if not k.startswith("_")}
+    with open(path, "a") as f:
+        f.write(json.dumps({"id": item.nodeid, "wall": time.perf_counter() - t0, **rec}) + "\n")
 
 
 def pytest_unconfigure(config):

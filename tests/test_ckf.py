@@ -72,9 +72,11 @@ def test_cubature_points_reproduce_moments_and_horizon():
     s = rng.standard_normal((n, n))
     P = s @ s.T + np.eye(n)
     with jax.enable_x64(True):
-        X = np.asarray(ckf.cubature_points(m, P))
         A = motion.cv_transition(0.1, 1)
-        hp = np.asarray(ckf.horizon_points(m, P, lambda x: A @ x, 5))
+        X, hp = jax.jit(  # one program (suite time: eager ops compile one by one)
+            lambda m, P: (ckf.cubature_points(m, P), ckf.horizon_points(m, P, lambda x: A @ x, 5))
+        )(m, P)
+        X, hp = np.asarray(X), np.asarray(hp)
     assert X.shape == (2 * n, n) and hp.shape == (5, 2 * n, n)
     # exact rule (jitter 2.2e-15 relative): 1e-12 covers rounding.
     np.testing.assert_allclose(X.mean(0), m, atol=1e-12)
@@ -93,9 +95,16 @@ def test_update_accepts_callable_R():
     c = 1e-9
     with jax.enable_x64(True):
         m, P, z = (jnp.asarray(v, jnp.float64) for v in (m, P, z))
-        m1, P1 = ckf.update(m, P, z, h, lambda zh: sensing.ddr_noise_cov(zh, c))
-        zh = jnp.mean(jax.vmap(h)(ckf.cubature_points(m, P)), axis=0)
-        m2, P2 = ckf.update(m, P, z, h, sensing.ddr_noise_cov(zh, c))
+
+        @jax.jit  # one program per side (suite time: eager ops compile one by one)
+        def with_fixed_R(m, P, z):
+            zh = jnp.mean(jax.vmap(h)(ckf.cubature_points(m, P)), axis=0)
+            return ckf.update(m, P, z, h, sensing.ddr_noise_cov(zh, c))
+
+        m1, P1 = jax.jit(
+            lambda m, P, z: ckf.update(m, P, z, h, lambda zh: sensing.ddr_noise_cov(zh, c))
+        )(m, P, z)
+        m2, P2 = with_fixed_R(m, P, z)
     # same maths, ẑ summed in a different order: float64 rounding only.
     assert _rel_err(m1, m2) < 1e-12 and _rel_err(P1, P2) < 1e-12
 

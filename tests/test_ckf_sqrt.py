@@ -57,9 +57,9 @@ def test_tria_is_a_triangular_factor():
     rng = np.random.default_rng(0)
     A = rng.normal(size=(5, 13))
     with jax.enable_x64(True):
-        S = np.asarray(ckf_sqrt.tria(jnp.asarray(A)))
-        F = np.asarray(ckf_sqrt.psd_factor(motion.cv_process_noise(DT, 10.0, 2)))
-        Q = np.asarray(motion.cv_process_noise(DT, 10.0, 2))
+        Q = motion.cv_process_noise(DT, 10.0, 2)
+        S, F = jax.jit(lambda A, Q: (ckf_sqrt.tria(A), ckf_sqrt.psd_factor(Q)))(jnp.asarray(A), Q)
+        S, F, Q = np.asarray(S), np.asarray(F), np.asarray(Q)
     np.testing.assert_array_equal(np.triu(S, 1), 0.0)
     assert np.all(np.diag(S) > 0)
     np.testing.assert_allclose(S @ S.T, A @ A.T, rtol=0, atol=1e-13 * np.abs(A @ A.T).max())
@@ -82,15 +82,23 @@ def test_range_sequence_equals_covariance_form(masked):
         A, Q = motion.cv_transition(DT, m), motion.cv_process_noise(DT, 10.0, m)
         P = 20.0 * jnp.eye(6 * m)
         x = xs = jnp.asarray(truth.reshape(-1) + rng.normal(size=6 * m) * 4.0)
-        S, SQ = ckf_sqrt.factor(P), ckf_sqrt.psd_factor(Q)
+        S, SQ = jax.jit(lambda P, Q: (ckf_sqrt.factor(P), ckf_sqrt.psd_factor(Q)))(P, Q)
         f = lambda v: A @ v  # noqa: E731
-        for _ in range(10):
+
+        @jax.jit  # one program per step (suite time: eager ops compile one by one)
+        def step(x, P, xs, S, noise):
             x, P = ckf.predict(x, P, f, Q)
             xs, S = ckf_sqrt.predict(xs, S, f, SQ)
-            assert _rel(_cov(S), P) < TOL and _rel(xs, x) < TOL
-            z = h(jnp.asarray(truth.reshape(-1))) + rng.normal(size=n * m)
+            predicted = x, P, xs, S
+            z = h(jnp.asarray(truth.reshape(-1))) + noise
             x, P = ckf.update(x, P, z, h, R, mask=mask)
             xs, S = ckf_sqrt.update(xs, S, z, h, R, mask=mask)
+            return predicted, (x, P, xs, S)
+
+        for _ in range(10):
+            (x, P, xs, S), updated = step(x, P, xs, S, rng.normal(size=n * m))
+            assert _rel(_cov(S), P) < TOL and _rel(xs, x) < TOL
+            x, P, xs, S = updated
             assert _rel(_cov(S), P) < TOL and _rel(xs, x) < TOL
     assert np.all(np.abs(np.triu(np.asarray(S), 1)) == 0.0) and np.all(np.diag(S) > 0)
 
@@ -124,18 +132,24 @@ def test_masked_update_with_residual_equals_removal_and_covariance_form():
     keep = np.array([0, 2])  # radars seen by target 0
     with jax.enable_x64(True):
         pair = jax.vmap(jax.vmap(_range_azimuth_pair, (None, 0)), (0, None))
-        z = np.asarray(pair(jnp.asarray(radars), jnp.asarray(means))) + noise  # [N, M, 2]
+        z = np.asarray(jax.jit(pair)(jnp.asarray(radars), jnp.asarray(means))) + noise  # [N, M, 2]
         args = (jnp.asarray(radars), _range_azimuth_pair)
         S = jnp.asarray(np.linalg.cholesky(covs))
-        cm, cc = filter_bank.update_bank(means, covs, z, *args, R, mask, _wrap_residual)
-        sm, ss = filter_bank.update_bank(means, S, z, *args, R, mask, _wrap_residual, "sqrt")
         rows = np.r_[2 * keep, 2 * keep + 1]
         rows.sort()
-        rm, rs = ckf_sqrt.update(
-            means[0], S[0], z[keep, 0].reshape(-1),
-            lambda x: jax.vmap(lambda r: _range_azimuth_pair(r, x))(args[0][keep]).reshape(-1),
-            R[np.ix_(rows, rows)], residual=_wrap_residual,
-        )  # fmt: skip
+
+        @jax.jit  # one program (suite time: eager ops compile one by one)
+        def updates(means, covs, S, z):
+            cm, cc = filter_bank.update_bank(means, covs, z, *args, R, mask, _wrap_residual)
+            sm, ss = filter_bank.update_bank(means, S, z, *args, R, mask, _wrap_residual, "sqrt")
+            rm, rs = ckf_sqrt.update(
+                means[0], S[0], z[keep, 0].reshape(-1),
+                lambda x: jax.vmap(lambda r: _range_azimuth_pair(r, x))(args[0][keep]).reshape(-1),
+                R[np.ix_(rows, rows)], residual=_wrap_residual,
+            )  # fmt: skip
+            return cm, cc, sm, ss, rm, rs
+
+        cm, cc, sm, ss, rm, rs = updates(means, covs, S, z)
     np.testing.assert_allclose(sm, cm, rtol=0, atol=2e-10 * np.abs(cm).max())
     np.testing.assert_allclose(_cov(ss), cc, rtol=0, atol=2e-10 * np.abs(cc).max())
     np.testing.assert_allclose(sm[0], rm, rtol=0, atol=TOL * np.abs(rm).max())
@@ -157,28 +171,39 @@ def test_linear_gaussian_equals_kalman_filter():
     H = np.kron(np.eye(m), np.c_[np.eye(3), np.zeros((3, 3))])
     with jax.enable_x64(True):
         A, Q = motion.cv_transition(DT, m), motion.cv_process_noise(DT, 10.0, m)
-        A6, F6 = A[:6, :6], ckf_sqrt.psd_factor(Q[:6, :6])
+        A6 = A[:6, :6]
         kf = KalmanFilter(dim_x=6 * m, dim_z=3 * m)
         kf.F, kf.Q, kf.H, kf.R = np.asarray(A), np.asarray(Q), H, Rj
         kf.x = rng.normal(size=6 * m) * 3.0
         g = rng.normal(size=(6 * m, 6 * m))
         kf.P = g @ g.T + np.eye(6 * m)
         kf.P[:6, 6:] = kf.P[6:, :6] = 0.0
-        xs, S = jnp.asarray(kf.x), ckf_sqrt.factor(kf.P)
-        bm, bs = filter_bank.joint_to_bank(xs, S)
-        SQ = ckf_sqrt.psd_factor(Q)
-        for _ in range(20):
-            kf.predict()
+        xs = jnp.asarray(kf.x)
+
+        @jax.jit  # one program (suite time: eager ops compile one by one)
+        def start(xs, P, Q):
+            S = ckf_sqrt.factor(P)
+            F6 = ckf_sqrt.psd_factor(Q[:6, :6])
+            return S, filter_bank.joint_to_bank(xs, S), ckf_sqrt.psd_factor(Q), F6
+
+        S, (bm, bs), SQ, F6 = start(xs, kf.P, Q)
+
+        @jax.jit  # one program per step (suite time: eager ops compile one by one)
+        def step(xs, S, bm, bs, z):
             xs, S = ckf_sqrt.predict(xs, S, lambda v: A @ v, SQ)
             bm, bs = filter_bank.predict_bank(bm, bs, A6, F6, form="sqrt")
-            z = H @ kf.x + rng.normal(size=3 * m)
-            kf.update(z)
             xs, S = ckf_sqrt.update(xs, S, z, lambda v: jnp.asarray(H) @ v, Rj)
             zb = z.reshape(1, m, 3)
             bm, bs = filter_bank.update_bank(
                 bm, bs, zb, jnp.zeros((1, 3)), lambda r, x6: x6[:3] - r, R3, form="sqrt"
             )
-            joint_bank = filter_bank.bank_to_joint(bm, bs)
+            return xs, S, bm, bs, filter_bank.bank_to_joint(bm, bs)
+
+        for _ in range(20):
+            kf.predict()
+            z = H @ kf.x + rng.normal(size=3 * m)
+            kf.update(z)
+            xs, S, bm, bs, joint_bank = step(xs, S, bm, bs, z)
             for mean, factor in ((xs, S), joint_bank):
                 assert _rel(mean, kf.x) < TOL and _rel(_cov(factor), kf.P) < TOL
 
@@ -191,8 +216,10 @@ def test_ground_prior_reflects_the_factor():
     mean = rng.normal(size=12) * 10.0
     mean[2], mean[8] = -5.0, 7.0  # target 0 below ground, target 1 above
     with jax.enable_x64(True):
-        rm, rp = ground_prior.apply_ground_prior(jnp.asarray(mean), jnp.asarray(P))
-        sm, ss = ground_prior.apply_ground_prior(jnp.asarray(mean), ckf_sqrt.factor(P))
+        prior = ground_prior.apply_ground_prior
+        (rm, rp), (sm, ss) = jax.jit(  # one program (suite time: eager ops compile one by one)
+            lambda mean, P: (prior(mean, P), prior(mean, ckf_sqrt.factor(P)))
+        )(jnp.asarray(mean), jnp.asarray(P))
     np.testing.assert_array_equal(sm, rm)
     np.testing.assert_allclose(_cov(ss), rp, rtol=0, atol=TOL * np.abs(P).max())
     assert np.all(np.triu(np.asarray(ss), 1) == 0.0) and np.all(np.diag(ss) > 0)
@@ -201,7 +228,7 @@ def test_ground_prior_reflects_the_factor():
 def _ill_conditioned_runs(steps=600, p0=1e4, r=1e-6, sigma_w2=1e-6):
     """One CV target, position measured directly, P0/R = 1e10, float32 (both forms)."""
     A, Q = motion.cv_transition(DT, 1), motion.cv_process_noise(DT, sigma_w2, 1)
-    SQ, Rm = ckf_sqrt.psd_factor(Q), r * jnp.eye(3)
+    SQ, Rm = jax.jit(ckf_sqrt.psd_factor)(Q), r * jnp.eye(3)
     rng = np.random.default_rng(5)
     truth = np.array([0.0, 0.0, 50.0, 10.0, 5.0, 0.0])
     truth = np.stack([np.linalg.matrix_power(np.asarray(A, np.float64), k + 1) @ truth
@@ -244,10 +271,11 @@ def test_float32_ill_conditioned_sqrt_stays_positive_definite():
     """
     P, Ps, ref = _ill_conditioned_runs()
     eig = lambda C: np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2))).min(-1)  # noqa: E731
+    pivots = jax.jit(min_pivot)  # unrolled LDLᵀ: one program instead of its eager ops
     assert eig(P).min() <= 0.0
-    assert np.asarray(min_pivot(jnp.asarray(P, jnp.float32))).min() <= 0.0
+    assert np.asarray(pivots(jnp.asarray(P, jnp.float32))).min() <= 0.0
     assert eig(Ps).min() > 0.0
-    assert np.asarray(min_pivot(jnp.asarray(Ps, jnp.float32))).min() > 0.0
+    assert np.asarray(pivots(jnp.asarray(Ps, jnp.float32))).min() > 0.0
     err = lambda C: np.abs(C - ref).max((1, 2)) / np.abs(ref).max((1, 2))  # noqa: E731
     assert err(Ps)[:3].max() < 1e-2 and err(P)[:3].max() > 1.0
 

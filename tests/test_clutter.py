@@ -2,6 +2,7 @@
 
 import math
 
+import jax
 import numpy as np
 import pytest
 from scipy.stats import norm
@@ -11,6 +12,7 @@ from mjx_radar.estimation import clutter, detection, pda
 
 STEPS = 40
 TRIALS = np.arange(4)
+_irf = jax.jit(pda.irf)  # one program per shape (not op by op)
 
 
 def test_irf_without_clutter_is_pd_times_the_gated_second_moment():
@@ -24,7 +26,7 @@ def test_irf_without_clutter_is_pd_times_the_gated_second_moment():
     np.testing.assert_allclose(t[:, 0], want, atol=0.05 * want.max())
     assert np.all(np.diff(t[-1]) <= 1e-3)  # more clutter, less information
     assert t[-1, -1] < 0.1 * t[-1, 0]
-    q = np.asarray(pda.irf(t, np.float32(0.55), np.float32(0.0)))
+    q = np.asarray(_irf(t, np.float32(0.55), np.float32(0.0)))
     np.testing.assert_allclose(q, 0.5 * (t[5, 0] + t[6, 0]), rtol=1e-5)  # interpolation
 
 
@@ -33,11 +35,8 @@ def test_clutter_counts_are_poisson_within_the_window(tiny):
                      detection={"clutter_density": 0.002, "clutter_range_min": 100.0,
                                 "clutter_range_max": 600.0})  # fmt: skip
     p = detection.detection_params(s)
-    import jax
-
-    z, valid, count = jax.vmap(lambda k: clutter.sample_clutter(k, p, 2, 8, 1))(
-        jax.random.split(jax.random.PRNGKey(0), 4000)
-    )
+    sample = jax.jit(jax.vmap(lambda k: clutter.sample_clutter(k, p, 2, 8, 1)))  # one program
+    z, valid, count = sample(jax.random.split(jax.random.PRNGKey(0), 4000))
     lam = 0.002 * 500.0
     c = np.asarray(count)
     assert abs(c.mean() - lam) < 4 * math.sqrt(lam / c.size)
@@ -72,13 +71,13 @@ def test_planner_factor_is_the_table_at_the_whitened_density(tiny, ccr):
                      detection={"model": "swerling1", "gain_db": 27.0,
                                 "clutter_density": 0.002, "clutter_range_max": 500.0})  # fmt: skip
     task, params = build(s, "ccr-sfim" if ccr else "ddr-sfim", 0)
-    f = pda.planner_factor(task, params)
     d = np.array([150.0, 400.0, 900.0])
     pd = np.array([0.9, 0.5, 0.1], np.float32)
-    got = np.asarray(f(pd, (d**2).astype(np.float32)))
+    factor = jax.jit(lambda params, pd, d2: pda.planner_factor(task, params)(pd, d2))
+    got = np.asarray(factor(params, pd, (d**2).astype(np.float32)))  # one program
     c = float(params.noise.c)
     var = float(params.noise.sigma_r2) * np.ones(3) if ccr else c * d**4
     lam_w = 0.002 * 500.0 / (2 * 500.0) * np.sqrt(var)  # λ_c / V · sqrt(det R)
-    want = np.asarray(pda.irf(pda.irf_table(1, 0.99), pd, lam_w.astype(np.float32)))
+    want = np.asarray(_irf(pda.irf_table(1, 0.99), pd, lam_w.astype(np.float32)))
     np.testing.assert_allclose(got, want, rtol=1e-4)
     assert np.all(got < pd)

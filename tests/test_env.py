@@ -28,17 +28,18 @@ def test_reset_vmaps_over_keys_and_step_scans(tiny):
     """``jit(vmap(reset))`` over 8 keys equals 8 single resets; a ``lax.scan`` of
     ``env.step`` runs 40 control periods, ``done`` from the episode's last one on."""
     env = make(tiny, "ddr-sfim")
-    keys = jax.vmap(lambda t: env.trial_key(7, t))(jnp.arange(8))
+    # jitted, and host indexing below: eagerly, every small op compiles on its own
+    keys = np.asarray(jax.jit(jax.vmap(lambda t: env.trial_key(7, t)))(jnp.arange(8)))
     states = jax.jit(jax.vmap(env.reset))(keys)
     assert states.obs.radar_state.shape == (8, tiny.n_radars, 6)
     assert states.obs.cov.shape == (8, 6 * tiny.n_targets, 6 * tiny.n_targets)
     one = jax.jit(env.reset)(keys[3])
-    np.testing.assert_array_equal(flat(jax.tree.map(lambda x: x[3], states)), flat(one))
-    assert len({float(x) for x in states.obs.radar_state[:, 0, 0]}) == 8  # 8 placements
+    np.testing.assert_array_equal(flat(jax.tree.map(lambda x: np.asarray(x)[3], states)), flat(one))
+    assert len({float(x) for x in np.asarray(states.obs.radar_state)[:, 0, 0]}) == 8  # 8 placements
 
     # the radars accelerate straight ahead: speed grows by accel*dt per period until v_max
     a_max = tiny.limits.accel
-    action = jnp.tile(jnp.array([a_max, 0.0]), (tiny.n_radars, 1))
+    action = np.tile(np.array([a_max, 0.0], np.float32), (tiny.n_radars, 1))
 
     def body(s, _):
         s = env.step(s, action)
@@ -58,25 +59,28 @@ def test_reset_vmaps_over_keys_and_step_scans(tiny):
 def test_observation_holds_no_truth_and_reward_is_minus_log_det(tiny):
     """The observation's fields; the reward against numpy's slogdet in float64 (the
     PSD-safe Cholesky log det agrees to round-off there)."""
+    from mjx_radar.estimation import ckf_sqrt
+    from mjx_radar.physics import plant
+
     with jax.enable_x64(True):
         env = make(tiny, "ddr-sfim")
         state = jax.jit(env.step)(jax.jit(env.reset)(env.trial_key(7, 0)), jnp.zeros((2, 2)))
+        # jitted (eagerly, each of their small ops compiles on its own)
+        truth = jax.jit(lambda d: plant.target_state(env.task.truth, d))(state.loop.data)
+        obs_vector = jax.jit(env.observation_vector)(state.obs)
     assert set(Observation._fields) == {
         "radar_state", "mean", "cov", "target_weight", "detections", "time", "period"
     }  # fmt: skip
     # the planner sees the tracker's estimate (mpc.aligned), never the truth
-    from mjx_radar.estimation import ckf_sqrt
-    from mjx_radar.physics import plant
-
     np.testing.assert_array_equal(state.obs.mean, state.loop.mean)
-    truth = np.asarray(plant.target_state(env.task.truth, state.loop.data)).reshape(-1)
+    truth = np.asarray(truth).reshape(-1)
     assert not np.allclose(state.obs.mean, truth, atol=1e-3)
     # reward: -sum_m log det P_m,pos of the posterior (numpy's slogdet)
 
     cov = np.asarray(ckf_sqrt.form_ops(tiny.filter.form).cov(state.loop.cov), np.float64)
     want = -sum(np.linalg.slogdet(cov[6 * i : 6 * i + 3, 6 * i : 6 * i + 3])[1] for i in range(2))
     np.testing.assert_allclose(float(state.reward), want, rtol=1e-10)
-    assert env.observation_vector(state.obs).shape == (env.observation_size,)
+    assert obs_vector.shape == (env.observation_size,)
     assert float(state.obs.time) == pytest.approx(tiny.timing.dt_control)
 
 

@@ -63,16 +63,21 @@ def _linear_setup(rng, mask=None):
     return radars, means, covs, z, r_target, r_joint, H, offs
 
 
+@jax.jit  # one program per test (suite time: eager ops compile one by one)
+def _linear_updates(radars, means, covs, z, r_t, r_j):
+    mean, cov = filter_bank.bank_to_joint(means, covs)
+    jm, jc = ckf.update(mean, cov, z.reshape(-1), _joint_linear_h(jnp.asarray(radars), M), r_j)
+    bm, bc = filter_bank.update_bank(
+        jnp.asarray(means), jnp.asarray(covs), z, jnp.asarray(radars), _linear_pair, r_t
+    )
+    return mean, cov, jm, jc, filter_bank.bank_to_joint(bm, bc)
+
+
 def test_linear_bank_equals_joint_ckf_and_kalman():
     rng = np.random.default_rng(1)
     radars, means, covs, z, r_t, r_j, H, offs = _linear_setup(rng)
     with jax.enable_x64(True):
-        mean, cov = filter_bank.bank_to_joint(means, covs)
-        jm, jc = ckf.update(mean, cov, z.reshape(-1), _joint_linear_h(jnp.asarray(radars), M), r_j)
-        bm, bc = filter_bank.update_bank(
-            jnp.asarray(means), jnp.asarray(covs), z, jnp.asarray(radars), _linear_pair, r_t
-        )
-        bm, bc = filter_bank.bank_to_joint(bm, bc)
+        mean, cov, jm, jc, (bm, bc) = _linear_updates(radars, means, covs, z, r_t, r_j)
         assert bm.dtype == jnp.float64
     km, kc = _kalman(np.asarray(mean), np.asarray(cov), z.reshape(-1) - offs, H, r_j)
     # float64 round-off of 6x6 / 12x12 solves with condition numbers ~1e2: 1e-11 is tight.
@@ -90,9 +95,14 @@ def test_predict_bank_equals_joint_and_closed_form():
         a6 = motion.cv_transition(0.025, 1)
         q6 = motion.cv_process_noise(0.025, 10.0, 1)
         a, q = motion.cv_transition(0.025, M), motion.cv_process_noise(0.025, 10.0, M)
-        mean, cov = filter_bank.bank_to_joint(means, covs)
-        jm, jc = ckf.predict(mean, cov, lambda x: a @ x, q)
-        bm, bc = filter_bank.predict_joint(mean, cov, a6, q6)
+
+        @jax.jit  # one program (suite time: eager ops compile one by one)
+        def predictions(means, covs):
+            mean, cov = filter_bank.bank_to_joint(means, covs)
+            jm, jc = ckf.predict(mean, cov, lambda x: a @ x, q)
+            return mean, cov, (jm, jc), filter_bank.predict_joint(mean, cov, a6, q6)
+
+        mean, cov, (jm, jc), (bm, bc) = predictions(means, covs)
     a, q = np.asarray(a), np.asarray(q)
     cov = np.asarray(cov)
     km, kc = a @ np.asarray(mean), a @ cov @ a.T + q
@@ -104,43 +114,44 @@ def test_predict_bank_equals_joint_and_closed_form():
 def test_joint_bank_round_trip():
     rng = np.random.default_rng(3)
     _, _, means, covs = _problem(rng)
-    mean, cov = filter_bank.bank_to_joint(jnp.asarray(means), jnp.asarray(covs))
+    mean, cov = jax.jit(filter_bank.bank_to_joint)(means, covs)
     assert cov.shape == (6 * M, 6 * M)
     dense = np.zeros((6 * M, 6 * M), np.float32)
     for m in range(M):
         dense[6 * m : 6 * m + 6, 6 * m : 6 * m + 6] = covs[m]
     np.testing.assert_array_equal(np.asarray(cov), dense)
-    back_m, back_c = filter_bank.joint_to_bank(mean, cov)
+    back_m, back_c = _joint_to_bank(mean, cov)
     np.testing.assert_array_equal(back_m, np.asarray(means, np.float32))
     np.testing.assert_array_equal(back_c, np.asarray(covs, np.float32))
 
 
-def _range_updates(p0, seed=4, mask=None):
+_joint_to_bank = jax.jit(filter_bank.joint_to_bank)  # one program per shape and dtype
+
+
+@jax.jit  # one program for every p0 (suite time: eager ops compile one by one)
+def _range_update_pair(seed, radars, truth, means, covs, c):
+    z = sensing.sample_ranges(jax.random.PRNGKey(seed), radars, truth[:, :3], c)
+    mean, cov = filter_bank.bank_to_joint(means, covs)
+    jm, jc = ckf.update(
+        mean, cov, z, sensing.range_model(radars), lambda zh: sensing.ddr_noise_cov(zh, c)
+    )
+    bm, bc = filter_bank.update_ranges(mean, cov, z, jnp.asarray(radars), filter_bank.ddr_R(c))
+    return mean, jm, jc, bm, bc
+
+
+def _range_updates(p0, seed=4):
     rng = np.random.default_rng(seed)
     truth, radars, means, covs = _problem(rng, p0=p0)
     c = sensing.noise_constant(RadarEquation(), M)
     with jax.enable_x64(True):
-        z = sensing.sample_ranges(jax.random.PRNGKey(seed), radars, truth[:, :3], c)
-        mean, cov = filter_bank.bank_to_joint(means, covs)
-        flat = None if mask is None else mask.reshape(-1)
-        jm, jc = ckf.update(
-            mean,
-            cov,
-            z,
-            sensing.range_model(radars),
-            lambda zh: sensing.ddr_noise_cov(zh, c),
-            mask=flat,
-        )
-        bm, bc = filter_bank.update_ranges(
-            mean, cov, z, jnp.asarray(radars), filter_bank.ddr_R(c), mask=mask
-        )
-    return np.asarray(mean), np.asarray(jm), np.asarray(jc), np.asarray(bm), np.asarray(bc)
+        out = _range_update_pair(seed, radars, truth, means, covs, c)
+    return tuple(np.asarray(a) for a in out)
 
 
 def _rel_diffs(p0, **kw):
     mean, jm, jc, bm, bc = _range_updates(p0, **kw)
-    _, jblocks = filter_bank.joint_to_bank(jm, jc)
-    _, bblocks = filter_bank.joint_to_bank(bm, bc)
+    _, jblocks = _joint_to_bank(jm, jc)
+    _, bblocks = _joint_to_bank(bm, bc)
     d_mean = np.abs(jm - bm).max() / np.abs(bm - mean).max()  # relative to the update
     d_cov = np.abs(np.asarray(jblocks) - np.asarray(bblocks)).max() / np.abs(bc).max()
     return d_mean, d_cov
@@ -170,13 +181,19 @@ def test_masks_drop_measurements_like_the_joint_filter():
     radars, means, covs, z, r_t, r_j, H, offs = _linear_setup(rng)
     keep3 = np.repeat(mask.reshape(-1), 3)
     with jax.enable_x64(True):
-        mean, cov = filter_bank.bank_to_joint(means, covs)
-        h = _joint_linear_h(jnp.asarray(radars), M)
-        jm, jc = ckf.update(mean, cov, z.reshape(-1), h, r_j, mask=keep3)
-        bm, bc = filter_bank.update_bank(
-            jnp.asarray(means), jnp.asarray(covs), z, jnp.asarray(radars), _linear_pair, r_t, mask
-        )
-        bm, bc = filter_bank.bank_to_joint(bm, bc)
+
+        @jax.jit  # one program (suite time: eager ops compile one by one)
+        def updates(radars, means, covs, z):
+            mean, cov = filter_bank.bank_to_joint(means, covs)
+            h = _joint_linear_h(jnp.asarray(radars), M)
+            jm, jc = ckf.update(mean, cov, z.reshape(-1), h, r_j, mask=keep3)
+            bm, bc = filter_bank.update_bank(
+                jnp.asarray(means), jnp.asarray(covs), z, jnp.asarray(radars), _linear_pair, r_t,
+                mask,
+            )  # fmt: skip
+            return mean, cov, jm, jc, filter_bank.bank_to_joint(bm, bc)
+
+        mean, cov, jm, jc, (bm, bc) = updates(radars, means, covs, z)
     # Textbook KF with the masked rows removed.
     km, kc = _kalman(
         np.asarray(mean),
@@ -193,6 +210,19 @@ def test_masks_drop_measurements_like_the_joint_filter():
     np.testing.assert_array_equal(np.asarray(bc)[:6, :6], covs[0])
 
 
+@jax.jit  # one program for both radars (suite time: eager ops compile one by one)
+def _mask_and_removal(radars, truth, means, covs, c, mask, others):
+    z = sensing.sample_ranges(jax.random.PRNGKey(0), radars, truth[:, :3], c)
+    z = z.reshape(N, M, 1)
+    args = (jnp.asarray(means), jnp.asarray(covs))
+    r = filter_bank.ddr_R(c)
+    am, ac = filter_bank.update_bank(*args, z, jnp.asarray(radars), filter_bank.range_pair, r, mask)
+    rm, rc = filter_bank.update_bank(
+        *args, z[others], jnp.asarray(radars[others]), filter_bank.range_pair, r
+    )
+    return am, ac, rm, rc
+
+
 @pytest.mark.parametrize("radar", [0, 2])
 def test_range_mask_equals_removing_the_radar(radar):
     """Masking every pair of one radar == the bank run without that radar (DDR, float64)."""
@@ -203,16 +233,7 @@ def test_range_mask_equals_removing_the_radar(radar):
     mask[radar] = False
     others = np.delete(np.arange(N), radar)
     with jax.enable_x64(True):
-        z = sensing.sample_ranges(jax.random.PRNGKey(0), radars, truth[:, :3], c)
-        z = np.asarray(z).reshape(N, M, 1)
-        args = (jnp.asarray(means), jnp.asarray(covs))
-        r = filter_bank.ddr_R(c)
-        am, ac = filter_bank.update_bank(
-            *args, z, jnp.asarray(radars), filter_bank.range_pair, r, mask
-        )
-        rm, rc = filter_bank.update_bank(
-            *args, z[others], jnp.asarray(radars[others]), filter_bank.range_pair, r
-        )
+        am, ac, rm, rc = _mask_and_removal(radars, truth, means, covs, c, mask, others)
     np.testing.assert_allclose(am, rm, rtol=0, atol=1e-10 * np.abs(rm).max())
     np.testing.assert_allclose(ac, rc, rtol=0, atol=1e-10 * np.abs(rc).max())
     assert np.abs(np.asarray(am) - means).max() > 0.1

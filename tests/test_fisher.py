@@ -58,11 +58,15 @@ def _mc_fisher(radar, target, var_fn, seed):
         v = var_fn(d)
         return jnp.sum(-0.5 * jnp.log(2 * jnp.pi * v) - 0.5 * (z - 2 * d) ** 2 / v)
 
-    d0 = jnp.sqrt(jnp.sum((target[None] - radar[:, None]) ** 2, axis=-1))
-    eps = jax.random.normal(jax.random.key(seed), (N_MC, *d0.shape), dtype=d0.dtype)
-    z = 2 * d0 + jnp.sqrt(var_fn(d0)) * eps  # samples drawn from the model itself
-    scores = jax.vmap(jax.grad(loglik), in_axes=(None, 0))(target, z)  # [S, M, 3]
-    return np.asarray(jnp.einsum("smi,smj->mij", scores, scores) / N_MC)
+    @jax.jit  # one program (eagerly, each of its ops compiles on its own)
+    def score_covariance():
+        d0 = jnp.sqrt(jnp.sum((target[None] - radar[:, None]) ** 2, axis=-1))
+        eps = jax.random.normal(jax.random.key(seed), (N_MC, *d0.shape), dtype=d0.dtype)
+        z = 2 * d0 + jnp.sqrt(var_fn(d0)) * eps  # samples drawn from the model itself
+        scores = jax.vmap(jax.grad(loglik), in_axes=(None, 0))(target, z)  # [S, M, 3]
+        return jnp.einsum("smi,smj->mij", scores, scores) / N_MC
+
+    return np.asarray(score_covariance())
 
 
 @pytest.mark.parametrize("name", list(GEOMETRIES))
@@ -70,7 +74,7 @@ def test_sfim_matches_monte_carlo_score_covariance(name):
     radar, target, c = GEOMETRIES[name]
     with jax.enable_x64(True):
         mc = _mc_fisher(radar, target, lambda d: c * d**4, seed=1)
-        j = np.asarray(fisher.sfim(radar, target, c))
+        j = np.asarray(jax.jit(lambda r, t: fisher.sfim(r, t, c))(radar, target))
     assert j.shape == (len(target), 3, 3)
     # MC relative error of E[s sᵀ] ~ sqrt(2/S) ~ 0.3% (S = 2e5): 2% is > 5 MC sigmas.
     assert np.all(_rel_frob(j, mc) < 0.02), _rel_frob(j, mc)
@@ -88,7 +92,7 @@ def test_sfim_ccr_matches_monte_carlo_score_covariance(name):
     sigma_r2 = sensing.ccr_variance(c, 125.0)
     with jax.enable_x64(True):
         mc = _mc_fisher(radar, target, lambda d: sigma_r2 * jnp.ones_like(d), seed=2)
-        j = np.asarray(fisher.sfim_ccr(radar, target, sigma_r2))
+        j = np.asarray(jax.jit(lambda r, t: fisher.sfim_ccr(r, t, sigma_r2))(radar, target))
     assert np.all(_rel_frob(j, mc) < 0.02), _rel_frob(j, mc)  # same MC argument as above
 
 
@@ -96,9 +100,10 @@ def test_sfim_batched_and_vmap():
     radar, target, c = GEOMETRIES["3r4t"]
     rb = np.stack([radar, radar + 5.0])
     tb = np.stack([target, target - 3.0])
-    batched = np.asarray(fisher.sfim(rb, tb, c))
-    mapped = np.asarray(jax.vmap(lambda r, t: fisher.sfim(r, t, c))(rb, tb))
-    single = np.asarray(fisher.sfim(rb[1], tb[1], c))
+    sfim = jax.jit(lambda r, t: fisher.sfim(r, t, c))  # one program per shape
+    batched = np.asarray(sfim(rb, tb))
+    mapped = np.asarray(jax.jit(jax.vmap(lambda r, t: fisher.sfim(r, t, c)))(rb, tb))
+    single = np.asarray(sfim(rb[1], tb[1]))
     assert batched.shape == (2, 4, 3, 3)
     np.testing.assert_allclose(batched, mapped, rtol=1e-6)  # float32, same maths
     np.testing.assert_allclose(batched[1], single, rtol=1e-6)
@@ -114,6 +119,7 @@ def test_pfim_equals_linear_kalman_information():
         P = p0 * np.eye(6)
         J = jnp.asarray(np.eye(6) / p0)
         step = jax.jit(fisher.pfim_step)
+        data_information = jax.jit(fisher.data_information)
         for _ in range(steps):
             x = A @ x
             diff = x[:3] - radar
@@ -128,39 +134,40 @@ def test_pfim_equals_linear_kalman_information():
             IKH = np.eye(6) - K @ H
             P = IKH @ P @ IKH.T + K @ R @ K.T
             j3 = H[:, :3].T @ np.linalg.inv(R) @ H[:, :3]
-            J = step(J, A, W, fisher.data_information(j3))
+            J = step(J, A, W, data_information(j3))
             # info form == inverse KF covariance; float64, cond(P) ~ 1e6: 1e-6 >> eps*cond.
             ref = np.linalg.inv(P)
             assert _rel_frob(np.asarray(J), ref) < 1e-6
         # same data information from the module: CCR and DDR-minus-variance-term forms
         sig2 = 3.0
         np.testing.assert_allclose(
-            np.asarray(fisher.sfim_ccr(radar, x[None, :3], sig2))[0],
+            np.asarray(jax.jit(lambda t: fisher.sfim_ccr(radar, t, sig2))(x[None, :3]))[0],
             H[:, :3].T @ H[:, :3] / sig2,
             rtol=1e-12,
         )
         var_term = np.einsum("n,ni,nj->ij", 8 / d**4, diff, diff)
-        np.testing.assert_allclose(
-            np.asarray(fisher.sfim(radar, x[None, :3], c))[0] - var_term, j3, rtol=1e-10
-        )
+        sfim = jax.jit(lambda t: fisher.sfim(radar, t, c))
+        np.testing.assert_allclose(np.asarray(sfim(x[None, :3]))[0] - var_term, j3, rtol=1e-10)
 
 
 def test_data_information_and_logdet():
     j3 = np.array([[2.0, 0.5, 0.0], [0.5, 1.0, 0.1], [0.0, 0.1, 0.3]])
-    j6 = np.asarray(fisher.data_information(jnp.asarray(j3)))
+    # jitted: eagerly, each of their small ops compiles on its own
+    data_information, logdet = jax.jit(fisher.data_information), jax.jit(fisher.logdet)
+    j6 = np.asarray(data_information(jnp.asarray(j3)))
     assert j6.shape == (6, 6)
     np.testing.assert_array_equal(j6[:3, :3], j3.astype(np.float32))
     np.testing.assert_array_equal(j6[3:], 0.0)
     np.testing.assert_array_equal(j6[:, 3:], 0.0)
-    assert fisher.data_information(np.zeros((5, 2, 3, 3))).shape == (5, 2, 6, 6)
+    assert data_information(np.zeros((5, 2, 3, 3))).shape == (5, 2, 6, 6)
     with jax.enable_x64(True):
-        ld = float(fisher.logdet(jnp.asarray(j3)))
+        ld = float(logdet(jnp.asarray(j3)))
     # floor 1e-6 shifts log det by ~tr(J^-1)*1e-6 ~ 5e-6; compare with the floored numpy value.
     assert ld == pytest.approx(np.linalg.slogdet(j3 + 1e-6 * np.eye(3))[1], abs=1e-10)
     # single radar: rank-1 FIM -> finite log det thanks to the information floor
     radar = np.array([[100.0, 0.0, 0.0]])
-    j1 = fisher.sfim(radar, np.array([[0.0, 0.0, 50.0]]), C4)
-    assert np.isfinite(float(fisher.logdet(j1)[0]))
+    j1 = jax.jit(lambda r, t: fisher.sfim(r, t, C4))(radar, np.array([[0.0, 0.0, 50.0]]))
+    assert np.isfinite(float(logdet(j1)[0]))
 
 
 def test_bad_inputs_raise():
@@ -172,10 +179,12 @@ def test_bad_inputs_raise():
         fisher.data_information(np.zeros((2, 2)))
 
 
-def test_entry_form_pfim_recursion_matches_pfim_step():
-    """fisher.pfim_logdets (the planner's entry-wise recursion) against pfim_step + logdet
-    on [..., 6, 6] arrays, a second implementation: float64 to 1e-11, float32 to 1e-4
-    (relative to log det values of O(10))."""
+def test_entry_form_pfim_recursion_matches_the_matrix_recursion():
+    """fisher.pfim_logdets (the planner's entry-wise recursion) against the textbook matrix
+    recursion ``J <- (W + A J^-1 A^T)^-1 + [[J_D, 0], [0, 0]]`` in numpy float64 (a second
+    implementation, LAPACK inverses and slogdet): float64 to 1e-11 (3e-13 seen), float32
+    to 1e-3 (1.6e-4 seen: log det values of O(10), and the float32 Cholesky of matrices
+    with condition numbers ~1e4 loses about 4 digits)."""
     from mjx_radar.physics import motion
 
     rng = np.random.default_rng(3)
@@ -184,15 +193,17 @@ def test_entry_form_pfim_recursion_matches_pfim_step():
     J0 = B @ B.transpose(0, 2, 1) * 0.1 + 0.01 * np.eye(6)
     C = rng.normal(size=(t, m, 3, 3)) * 0.3
     J3 = C @ np.swapaxes(C, -1, -2)
-    for x64, tol in ((True, 1e-11), (False, 1e-4)):
+    a, w = motion.cv_transition(0.1, 1), motion.cv_process_noise(0.1, 1.0, 1)
+    a, w = np.asarray(a, float), np.asarray(w, float)
+    j, want = J0.copy(), []
+    for k in range(t):
+        j = np.linalg.inv(4.0 * w + a @ np.linalg.inv(j) @ a.T)
+        j[:, :3, :3] += J3[k]
+        want.append(np.linalg.slogdet(j + fisher.INFO_FLOOR * np.eye(6))[1])
+    for x64, tol in ((True, 1e-11), (False, 1e-3)):
         with jax.enable_x64(x64):
-            a, w = motion.cv_transition(0.1, 1), motion.cv_process_noise(0.1, 1.0, 1)
             jd = tuple(jnp.asarray(J3[..., i, j]) for i, j in
                        ((0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2)))  # fmt: skip
-            got = fisher.pfim_logdets(jnp.asarray(J0), a, w, 4.0, jd)
-            j, want = jnp.asarray(J0), []
-            for k in range(t):
-                jdk = fisher.data_information(jnp.asarray(J3[k]))
-                j = jax.vmap(fisher.pfim_step, (0, None, None, 0))(j, a, 4.0 * w, jdk)
-                want.append(fisher.logdet(j))
-            np.testing.assert_allclose(np.asarray(got), np.asarray(jnp.stack(want)), atol=tol * 10)
+            # jitted: eagerly, each of the entry form's thousands of small ops compiles alone
+            got = jax.jit(lambda j0, d: fisher.pfim_logdets(j0, a, w, 4.0, d))(J0, jd)
+            np.testing.assert_allclose(np.asarray(got), np.stack(want), atol=tol)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -19,6 +20,9 @@ from mjx_radar.study.driver import file_label
 @pytest.fixture(scope="module")
 def env(tiny):
     return make(tiny, "ddr-sfim")
+
+
+# The library functions run jitted: eagerly, each of their small ops compiles on its own.
 
 
 def _obs(env, rng, radar_xy=None):
@@ -43,7 +47,7 @@ def test_features_against_numpy(env):
     """Each block of the features, recomputed in float64 numpy from the observation."""
     rng = np.random.default_rng(3)
     obs = _obs(env, rng)
-    f = np.asarray(F.features(env, obs), np.float64)
+    f = np.asarray(jax.jit(lambda o: F.features(env, o))(obs), np.float64)
     n, m = env.n_radars, env.n_targets
     assert f.shape == (F.feature_size(n, m),) and np.all(np.isfinite(f))
     sc, big_l = env.scenario, float(env.params.placement_half_width)
@@ -77,11 +81,13 @@ def test_features_against_numpy(env):
 def test_action_map_hits_the_limits_and_inverts(env):
     lower, upper = (np.asarray(b) for b in env.action_bounds)
     n = env.n_radars
-    np.testing.assert_allclose(F.action_to_control(env, -np.ones(2 * n)), lower, rtol=1e-6)
-    np.testing.assert_allclose(F.action_to_control(env, np.ones(2 * n)), upper, rtol=1e-6)
-    np.testing.assert_allclose(F.action_to_control(env, 5 * np.ones(2 * n)), upper, rtol=1e-6)
+    to_control = jax.jit(lambda a: F.action_to_control(env, a))
+    to_action = jax.jit(lambda c: F.control_to_action(env, c))
+    np.testing.assert_allclose(to_control(-np.ones(2 * n)), lower, rtol=1e-6)
+    np.testing.assert_allclose(to_control(np.ones(2 * n)), upper, rtol=1e-6)
+    np.testing.assert_allclose(to_control(5 * np.ones(2 * n)), upper, rtol=1e-6)
     a = np.linspace(-0.9, 0.9, 2 * n)
-    np.testing.assert_allclose(F.control_to_action(env, F.action_to_control(env, a)), a, atol=1e-6)
+    np.testing.assert_allclose(to_action(to_control(a)), a, atol=1e-6)
 
 
 def test_penalty_counts_close_radars(tiny):
@@ -89,29 +95,33 @@ def test_penalty_counts_close_radars(tiny):
     inside the keep-out); 600 m apart it is zero (smoke has no obstacles, no effort)."""
     env = make(dataclasses.replace(tiny, mpc=dataclasses.replace(tiny.mpc, alpha_effort=0.0)))
     rng = np.random.default_rng(0)
-    u = jnp.zeros((env.n_radars, 2))
+    u = np.zeros((env.n_radars, 2), np.float32)
     far_t = _obs(env, rng, radar_xy=np.array([[-300.0, 0.0], [300.0, 0.0]]))
     far_t = far_t._replace(mean=jnp.asarray(np.tile([0, 2000.0, 50, 0, 0, 0], env.n_targets)))
-    assert float(F.penalty(env, far_t, far_t, u)) == 0.0
-    close = far_t._replace(radar_state=far_t.radar_state.at[1, :2].set(jnp.array([-299.0, 0.0])))
-    np.testing.assert_allclose(float(F.penalty(env, close, close, u)), float(env.params.alpha_r2r))
+    penalty = jax.jit(lambda a, b, u: F.penalty(env, a, b, u))
+    assert float(penalty(far_t, far_t, u)) == 0.0
+    rs = np.asarray(far_t.radar_state).copy()
+    rs[1, :2] = [-299.0, 0.0]
+    close = far_t._replace(radar_state=jnp.asarray(rs))
+    np.testing.assert_allclose(float(penalty(close, close, u)), float(env.params.alpha_r2r))
 
 
 def test_keepout_depth_by_hand(env):
     """The graded keep-out: α_r2t Σ w_m (1 - d/R2T)_+ over radar-target pairs (3-D)."""
     rng = np.random.default_rng(1)
     r2t, alpha = float(env.params.r2t), float(env.params.alpha_r2t)
+    keepout_depth = jax.jit(lambda o: F.keepout_depth(env, o))
     o = _obs(env, rng, radar_xy=np.array([[0.0, 0.0], [5000.0, 0.0]]))
     mean = np.tile([0.0, 3000.0, 50.0, 0, 0, 0], env.n_targets)  # all far ...
     mean[:3] = [0.3 * r2t, 0.0, 0.4 * r2t]  # ... but target 0: d = 0.5 R2T from radar 0
     o = o._replace(mean=jnp.asarray(mean, jnp.float32))
-    np.testing.assert_allclose(float(F.keepout_depth(env, o)), alpha * 0.5, rtol=1e-6)
+    np.testing.assert_allclose(float(keepout_depth(o)), alpha * 0.5, rtol=1e-6)
     w = np.ones(env.n_targets)
     w[0] = 0.25  # its presence weight scales it
     o = o._replace(target_weight=jnp.asarray(w))
-    np.testing.assert_allclose(float(F.keepout_depth(env, o)), alpha * 0.125, rtol=1e-6)
+    np.testing.assert_allclose(float(keepout_depth(o)), alpha * 0.125, rtol=1e-6)
     o = o._replace(mean=jnp.asarray(np.tile([0.0, 3000.0, 50.0, 0, 0, 0], env.n_targets)))
-    assert float(F.keepout_depth(env, o)) == 0.0  # all outside: nothing
+    assert float(keepout_depth(o)) == 0.0  # all outside: nothing
 
 
 def test_registry_arguments_and_digests(tmp_path):
@@ -207,6 +217,7 @@ def test_shield_by_hand(env):
     amax = float(env.action_bounds[1][0, 0])
     dt = float(env.scenario.timing.dt_control)
     far = [0.0, 5000.0, 0.0, 0.0, 0.0, 0.0]
+    shielded = jax.jit(lambda o, u: shield(env, o, u))
 
     def case(v, drone, weight=1.0, a=0.5):
         o = _obs(env, rng, radar_xy=np.array([[0.0, 0.0], [3000.0, 3000.0]]))
@@ -220,7 +231,7 @@ def test_shield_by_hand(env):
             radar_state=jnp.asarray(rs), mean=jnp.asarray(mean), target_weight=jnp.asarray(w)
         )
         u = jnp.asarray([[a * amax, 0.3], [0.2 * amax, -0.1]], jnp.float32)
-        return np.asarray(shield(env, o, u))
+        return np.asarray(shielded(o, u))
 
     # ahead and closing: the drone sits 2 m inside R2T of where the radar would stop
     v = 20.0

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.estimation import linalg
+from mjx_radar.estimation import linalg_small as ls
 
 
 def _random_spd(rng, batch, n, cond=1e3):
@@ -24,11 +25,18 @@ def test_cholesky_solve_inv_logdet_match_numpy_float64():
     A = _random_spd(rng, (4,), 9)
     B = rng.standard_normal((4, 9, 5))
     with jax.enable_x64(True):
-        L = np.asarray(linalg.psd_cholesky(A))
-        X = np.asarray(linalg.psd_solve(A, B))
-        x = np.asarray(linalg.psd_solve(A, B[..., 0]))
-        Ainv = np.asarray(linalg.psd_inv(A))
-        ld = np.asarray(linalg.logdet_psd(A))
+        L, X, x, Ainv, ld = (
+            np.asarray(a)
+            for a in jax.jit(  # one program (suite time: eager ops compile one by one)
+                lambda A, B: (
+                    linalg.psd_cholesky(A),
+                    linalg.psd_solve(A, B),
+                    linalg.psd_solve(A, B[..., 0]),
+                    linalg.psd_inv(A),
+                    linalg.logdet_psd(A),
+                )
+            )(A, B)
+        )
     assert L.dtype == np.float64
     # cond 1e3, jitter 2.2e-15 relative: factors agree to ~1e-13 relative; 1e-11 is safe.
     np.testing.assert_allclose(L, np.linalg.cholesky(A), rtol=0, atol=1e-11 * np.abs(A).max())
@@ -42,23 +50,35 @@ def test_cholesky_solve_inv_logdet_match_numpy_float64():
 def test_float32_accuracy_and_dtype():
     rng = np.random.default_rng(1)
     A = _random_spd(rng, (), 12, cond=1e2).astype(np.float32)
-    L = linalg.psd_cholesky(A)
+    L, logdet, inv = jax.jit(  # one program (suite time: eager ops compile one by one)
+        lambda A: (linalg.psd_cholesky(A), linalg.logdet_psd(A), linalg.psd_inv(A))
+    )(A)
     assert L.dtype == jnp.float32
     ref = np.linalg.cholesky(A.astype(np.float64))
     # float32 eps 1.2e-7, jitter 1.2e-6 relative, cond 1e2 -> ~1e-5 relative is ample.
     np.testing.assert_allclose(np.asarray(L), ref, atol=2e-5 * np.abs(ref).max())
-    assert linalg.logdet_psd(A).dtype == jnp.float32
-    assert linalg.psd_inv(A).dtype == jnp.float32
+    assert logdet.dtype == jnp.float32
+    assert inv.dtype == jnp.float32
 
 
 def test_batched_equals_vmap_and_jit():
     rng = np.random.default_rng(2)
     A = _random_spd(rng, (2, 3), 5).astype(np.float32)
-    batched = linalg.psd_cholesky(A)
+    batched, logdet = jax.jit(lambda A: (linalg.psd_cholesky(A), linalg.logdet_psd(A)))(A)
     mapped = jax.jit(jax.vmap(jax.vmap(linalg.psd_cholesky)))(A)
     # identical arithmetic up to XLA fusion order: a few float32 ulps.
     np.testing.assert_allclose(np.asarray(batched), np.asarray(mapped), rtol=1e-5, atol=1e-6)
-    assert linalg.logdet_psd(A).shape == (2, 3)
+    assert logdet.shape == (2, 3)
+
+
+@jax.jit  # one program per dtype for every kind (suite time: eager ops compile one by one)
+def _degenerate_outputs(A):
+    return (
+        linalg.psd_cholesky(A),
+        linalg.logdet_psd(A),
+        linalg.logdet_psd(A, floor=1e-6),
+        linalg.psd_solve(A, jnp.ones(A.shape[-1], A.dtype)),
+    )
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
@@ -77,10 +97,8 @@ def test_degenerate_inputs_are_finite(kind, dtype):
         "indefinite": np.array(rng.standard_normal((n, n))),
     }[kind].astype(dtype)
     with jax.enable_x64(dtype == np.float64):
-        L = np.asarray(linalg.psd_cholesky(A))
-        ld = float(linalg.logdet_psd(A))
-        ld_floor = float(linalg.logdet_psd(A, floor=1e-6))
-        X = np.asarray(linalg.psd_solve(A, np.ones(n, dtype)))
+        L, ld, ld_floor, X = _degenerate_outputs(A)
+        L, ld, ld_floor, X = np.asarray(L), float(ld), float(ld_floor), np.asarray(X)
     assert np.all(np.isfinite(L)) and np.all(np.isfinite(X))
     assert np.isfinite(ld) and np.isfinite(ld_floor)
     np.testing.assert_array_equal(np.triu(L, 1), 0.0)
@@ -93,18 +111,31 @@ def test_degenerate_inputs_are_finite(kind, dtype):
 
 def test_logdet_floor_value():
     # zero information floored at 1e-6: log det = n log(1e-6) (relative jitter is ~0 here).
-    np.testing.assert_allclose(
-        float(linalg.logdet_psd(jnp.zeros((3, 3)), floor=1e-6)), 3 * np.log(1e-6), rtol=1e-5
-    )
+    logdet = jax.jit(lambda A: linalg.logdet_psd(A, floor=1e-6))  # one program
+    np.testing.assert_allclose(float(logdet(jnp.zeros((3, 3)))), 3 * np.log(1e-6), rtol=1e-5)
 
 
 def test_logdet_gradient_is_inverse():
     rng = np.random.default_rng(4)
     A = _random_spd(rng, (), 4, cond=10.0)
     with jax.enable_x64(True):
-        g = np.asarray(jax.grad(linalg.logdet_psd)(jnp.asarray(A)))
+        g = np.asarray(jax.jit(jax.grad(linalg.logdet_psd))(jnp.asarray(A)))
     # d logdet / dA = A^{-1} (symmetrised input): exact up to float64 rounding.
     np.testing.assert_allclose(0.5 * (g + g.T), np.linalg.inv(A), rtol=1e-9, atol=1e-12)
+
+
+@jax.jit  # one program per n for every kind (suite time: eager ops compile one by one)
+def _entry_and_array_forms(A):
+    n = A.shape[-1]
+    L_ref = linalg.psd_cholesky(A)
+    L = ls.psd_cholesky_entries(ls.entries(A))
+    zero = jnp.zeros(A.shape[0])
+    L = ls.from_entries([[L[i][j] if j <= i else zero for j in range(n)] for i in range(n)])
+    logdet = ls.logdet_from_cholesky_entries(ls.psd_cholesky_entries(ls.entries(A)))
+    inv = ls.from_entries(ls.inv_from_cholesky_entries(L_entries(ls, A)))
+    packed = ((0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2))
+    sym3 = ls.logdet_sym3(*(A[..., i, j] for i, j in packed)) if n == 3 else None
+    return L_ref, L, logdet, inv, sym3
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 6])
@@ -113,34 +144,25 @@ def test_entry_form_matches_array_form(n, kind):
     """linalg_small (one array per entry) is the same algorithm as linalg's arrays: the
     Cholesky factor agrees to round-off for PD, singular and indefinite input (float64);
     inverse and log det agree where they are well conditioned."""
-    from mjx_radar.estimation import linalg_small as ls
-
     rng = np.random.default_rng(n)
     B = rng.standard_normal((40, n, n))
     A = {"pd": B @ np.swapaxes(B, -1, -2) + 0.1 * np.eye(n),
          "singular": B[..., :1] @ np.swapaxes(B[..., :1], -1, -2),
          "indefinite": B + np.swapaxes(B, -1, -2)}[kind]  # fmt: skip
     with jax.enable_x64(True):
-        L_ref = np.asarray(linalg.psd_cholesky(A))
-        L = ls.psd_cholesky_entries(ls.entries(jnp.asarray(A)))
-        zero = jnp.zeros(A.shape[0])
-        L = np.asarray(ls.from_entries([[L[i][j] if j <= i else zero for j in range(n)]
-                                        for i in range(n)]))  # fmt: skip
+        L_ref, L, logdet, inv, sym3 = _entry_and_array_forms(A)
+        L_ref, L, logdet, inv = (np.asarray(a) for a in (L_ref, L, logdet, inv))
         scale = np.abs(L_ref).max()
         np.testing.assert_allclose(L, L_ref, atol=1e-12 * scale if kind != "singular" else 1e-7)
         assert np.all(np.isfinite(L))
         # (a singular input's log det is set by round-off-sized pivots: not compared)
-        logdet = np.asarray(ls.logdet_from_cholesky_entries(ls.psd_cholesky_entries(ls.entries(A))))
         if kind != "singular":
             want = 2 * np.log(np.diagonal(L_ref, 0, -2, -1)).sum(-1)
             np.testing.assert_allclose(logdet, want, atol=1e-9)
         if kind == "pd":
-            inv = np.asarray(ls.from_entries(ls.inv_from_cholesky_entries(L_entries(ls, A))))
             np.testing.assert_allclose(inv, np.linalg.inv(A), rtol=1e-9, atol=1e-12)
             if n == 3:
-                packed = ((0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2))
-                got = ls.logdet_sym3(*(A[..., i, j] for i, j in packed))
-                np.testing.assert_allclose(got, np.linalg.slogdet(A)[1], atol=1e-12)  # jitter δ
+                np.testing.assert_allclose(sym3, np.linalg.slogdet(A)[1], atol=1e-12)  # jitter δ
 
 
 def L_entries(ls, A):

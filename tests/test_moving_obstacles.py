@@ -40,8 +40,9 @@ def _reference_pose(path, loop, s):
 
 def test_pose_closed_form_loop_and_stop():
     mp = moving.moving_params((CAR, POLE), jnp.float32)
+    pose = jax.jit(moving.pose)  # one program per shape of t (not op by op)
     t = jnp.asarray([0.0, 5.0, 19.0, 75.0, 79.0, 160.0, 1234.5])
-    xy, unit = (np.asarray(a) for a in moving.pose(mp, t))
+    xy, unit = (np.asarray(a) for a in pose(mp, t))
     # hand values: car s = 50 + 10 t mod 800 on the 200 m square; pole s = min(10 t, 100)
     car = [(-50, -100), (0, -100), (100, -60), (-100, -100), (-60, -100), (-50, -100)]
     np.testing.assert_allclose(xy[:6, 0], car, atol=2e-3)
@@ -49,7 +50,7 @@ def test_pose_closed_form_loop_and_stop():
     np.testing.assert_allclose(xy[:, 1], [(0, 50), (0, 100), (0, 150), (0, 150), (0, 150),
                                           (0, 150), (0, 150)], atol=1e-4)  # fmt: skip
     ts = np.random.default_rng(0).uniform(0.0, 500.0, 400)
-    xy = np.asarray(moving.pose(mp, jnp.asarray(ts))[0])
+    xy = np.asarray(pose(mp, jnp.asarray(ts))[0])
     np.testing.assert_allclose(xy[:, 0], _reference_pose(SQUARE, True, 50 + 10 * ts), atol=5e-3)
     np.testing.assert_allclose(xy[:, 1], _reference_pose(POLE.path, False, 10 * ts), atol=5e-3)
 
@@ -69,7 +70,7 @@ def test_keep_out_cost_follows_path(tiny):
     radar[:, 1, :2] = np.stack([car_x + 1.0, np.full(hz, -104.5)], -1)  # alongside the car
     h = costs.Horizon(jnp.zeros((hz, 2, 2)), jnp.asarray(radar), jnp.zeros((hz, 12, 1, 6)),
                       jnp.zeros((1, 6, 6)))  # fmt: skip
-    got = np.asarray(costs.moving_obstacle(h, task, params))
+    got = np.asarray(jax.jit(lambda h, params: costs.moving_obstacle(h, task, params))(h, params))
     ref = np.zeros(hz)
     for k in range(hz):  # the static cost with the car as a static box at its pose at t_k
         box = Obstacle(kind="box", pos=(car_x[k], -100.0, 1.5), size=(3.0, 1.5, 1.5), yaw=0.0)
@@ -88,9 +89,10 @@ def test_line_of_sight_at_two_times():
     # the high target crosses y = -100 at z = 10 * 30 / 60 = 5 > 3 m (clears the roof).
     # The line to the third target crosses y = -100 at x = 20 * 30 / 230 = 2.6 (inside the
     # car's half length 3), z = 0.13. Pole at (0, 100) between the second radar and it.
-    b5 = np.asarray(moving.blocked((CAR, POLE), mp, 5.0, a, b))
+    blocked = jax.jit(lambda mp, t, a, b: moving.blocked((CAR, POLE), mp, t, a, b))  # one program
+    b5 = np.asarray(blocked(mp, 5.0, a, b))
     # t = 15: car at (100, -100) (s = 200), pole at (0, 150): nothing blocked.
-    b15 = np.asarray(moving.blocked((CAR, POLE), mp, 15.0, a, b))
+    b15 = np.asarray(blocked(mp, 15.0, a, b))
     np.testing.assert_array_equal(b5, [[True, False, True], [False, False, True]])
     np.testing.assert_array_equal(b15, np.zeros((2, 3), bool))
 
@@ -103,14 +105,15 @@ def test_plan_visibility_uses_horizon_times(tiny):
     params = params._replace(plan_time=jnp.float32(4.4))  # t_k = 4.5 .. 5.0: car x -5 .. 0
     radar = jnp.broadcast_to(jnp.asarray([[2.0, -130.0, 0.0], [300.0, 0.0, 0.0]]), (6, 2, 3))
     tgt = jnp.broadcast_to(jnp.asarray([[2.0, -70.0, 2.0]]), (6, 1, 3))
-    vis = np.asarray(moving.plan_visibility(task, params, radar, tgt))
+    plan_visibility = jax.jit(lambda params: moving.plan_visibility(task, params, radar, tgt))
+    vis = np.asarray(plan_visibility(params))  # one program for both planning times
     car_x = -50.0 + 10.0 * (4.4 + 0.1 * np.arange(1, 7))
     clear = np.abs(car_x - 2.0) > 3.0  # the sight line x = 2 is outside the car's length
     np.testing.assert_array_equal(clear, [True] * 4 + [False] * 2)
     np.testing.assert_array_equal(vis[:, 0, 0], clear)
     assert vis[:, 1, 0].all()
     params = params._replace(plan_time=jnp.float32(5.5))  # car x 6 .. 11: rear > 2
-    vis = np.asarray(moving.plan_visibility(task, params, radar, tgt))
+    vis = np.asarray(plan_visibility(params))
     assert vis.all()
 
 
@@ -125,7 +128,7 @@ def test_truth_plant_stops_radar_at_vehicle():
     lim = RadarLimits()
     p = plant.make_plant(1, 0, 0.025, lim, moving=(van,))
     mp = moving.moving_params((van,), jnp.float32)
-    data = plant.init_data(p, jnp.asarray([[-30.0, 0.0, 0.0, 0.0, lim.speed, 0.0]]))
+    s0 = jnp.asarray([[-30.0, 0.0, 0.0, 0.0, lim.speed, 0.0]])
 
     def body(d, k):
         d = moving_bodies.pose_bodies(p, d, mp, k * p.dt)
@@ -133,7 +136,8 @@ def test_truth_plant_stops_radar_at_vehicle():
         return d, (plant.radar_state(p, d), plant.obstacle_contacts(p, d), d.geom_xpos)
 
     ks = jnp.arange(1, 241)
-    _, (states, contacts, gx) = jax.jit(lambda d: jax.lax.scan(body, d, ks))(data)
+    run = jax.jit(lambda s0: jax.lax.scan(body, plant.init_data(p, s0), ks))  # one program
+    _, (states, contacts, gx) = run(s0)
     x = np.asarray(states[:, 0, 0])
     gid = int(p.index.obstacle_geoms[-1])
     np.testing.assert_allclose(np.asarray(gx[:, gid, 1]), -2.0 + np.asarray(ks) * 0.025,

@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from mjx_radar.env import closed_loop
 from mjx_radar.estimation import fisher
@@ -40,6 +41,8 @@ def test_single_radar_closes_in_and_holds_outside_r2t():
     assert np.all(dist[-100:] <= r2t + 25.0), dist[-100:].max()  # holds close
 
 
+@pytest.mark.slow  # a 200-step closed loop of its own (25-35 s on 2 cores); test_closed_loop
+# checks the R2R keep-out of every mobile method in CI
 def test_two_radars_never_within_r2r():
     raw = HOVER | {
         "n_radars": 2,
@@ -61,6 +64,19 @@ def test_objective_terms_against_direct_computation():
         _objective_terms()
 
 
+def _planned(task, u, radar, mean, cov, params):
+    """The objective of ``u`` from the planning context of (radar, mean, cov), and the
+    context's cubature points, as one jitted program (eagerly, each of their hundreds of
+    small ops compiles on its own)."""
+
+    @jax.jit
+    def run(u, radar, mean, cov, params):
+        ctx = objective.plan_context(task, radar, mean, cov)
+        return *objective.make_objective(task)(u, ctx, params), ctx.target_points
+
+    return run(u, radar, mean, cov, params)
+
+
 def _objective_terms():
     raw = {
         "name": "obj",
@@ -73,17 +89,14 @@ def _objective_terms():
     mean = jnp.asarray(s.target_init, jnp.float32).reshape(-1)
     cov = 4.0 * jnp.eye(12)
     task, params = build(s, "ddr-sfim")
-    ctx = objective.plan_context(task, radar, mean, cov)
-    cost, plan = objective.make_objective(task)(jnp.zeros((4, 4)), ctx, params)
+    cost, plan, pts = _planned(task, jnp.zeros((4, 4)), radar, mean, cov, params)
     c = noise_constant(s.radar_eq, 2)
-    pts = np.asarray(ctx.target_points)  # [H, P, M, 6]
+    pts = np.asarray(pts)  # [H, P, M, 6]
+    sfim_logdet = jax.jit(lambda p: fisher.logdet(fisher.sfim(radar[:, :3], p, c)))
     info = 0.0
     n_rt = 0.0
     for t in range(4):
-        ld = [
-            np.sum(np.asarray(fisher.logdet(fisher.sfim(radar[:, :3], jnp.asarray(p[:, :3]), c))))
-            for p in pts[t]
-        ]
+        ld = [np.sum(np.asarray(sfim_logdet(jnp.asarray(p[:, :3])))) for p in pts[t]]
         info += s.mpc.gamma**t * np.mean(ld)
         d = np.linalg.norm(pts[t][:, None, :, :3] - np.asarray(radar)[None, :, None, :3], axis=-1)
         n_rt += s.mpc.gamma**t * np.mean(np.sum(d < s.mpc.r2t, axis=(1, 2)))
@@ -112,21 +125,21 @@ def test_pfim_objective_against_direct_recursion():
         mean = jnp.asarray(s.target_init).reshape(-1)
         cov = jnp.diag(jnp.linspace(1.0, 9.0, 12))
         task, params = build(s, "ddr-pfim")
-        ctx = objective.plan_context(task, radar, mean, cov)
-        _, plan = objective.make_objective(task)(jnp.zeros((5, 6)), ctx, params)
+        _, plan, pts = _planned(task, jnp.zeros((5, 6)), radar, mean, cov, params)
         from mjx_radar.physics import motion
 
         c = noise_constant(s.radar_eq, 2)
         a = np.asarray(motion.cv_transition(s.timing.dt_control, 1))
         w = np.asarray(motion.cv_process_noise(s.timing.dt_control, s.sigma_w2, 1))
-        pts = np.asarray(ctx.target_points)
+        pts = np.asarray(pts)
+        sfim = jax.jit(lambda p: fisher.sfim(radar[:, :3], p, c))
         info = 0.0
         for m in range(2):
             j = np.linalg.inv(np.asarray(cov)[6 * m : 6 * m + 6, 6 * m : 6 * m + 6])
             for t in range(5):
                 jd = np.zeros((6, 6))
                 for p in pts[t]:
-                    jd[:3, :3] += np.asarray(fisher.sfim(radar[:, :3], jnp.asarray(p[:, :3]), c))[m]
+                    jd[:3, :3] += np.asarray(sfim(jnp.asarray(p[:, :3])))[m]
                 jd /= len(pts[t])
                 j = np.linalg.inv(w + a @ np.linalg.inv(j) @ a.T) + jd  # textbook numpy
                 floored = j + fisher.INFO_FLOOR * np.eye(6)  # the documented log-det floor

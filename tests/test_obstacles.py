@@ -1,6 +1,7 @@
 """Obstacles: contacts in the plant, SDF, line of sight, masked updates, scenario files."""
 
 import dataclasses
+import functools
 from pathlib import Path
 
 import jax
@@ -73,7 +74,11 @@ def _box_distance_sampled(obs, xy, n=4000):
     pts = np.concatenate([np.stack(e, -1) * sgn for e in edges for sgn in (1, -1)])
     c, s = np.cos(obs.yaw), np.sin(obs.yaw)
     pts = pts @ np.array([[c, s], [-s, c]]) + np.asarray(obs.pos[:2])
-    return np.linalg.norm(xy[:, None] - pts[None], axis=-1).min(-1)
+    d2 = [
+        ((q[:, None, 0] - pts[:, 0]) ** 2 + (q[:, None, 1] - pts[:, 1]) ** 2).min(-1)
+        for q in np.array_split(xy, max(1, len(xy) // 256))
+    ]  # chunks of [256, 4n]: |q - p|² per coordinate, then the root of the minimum
+    return np.sqrt(np.concatenate(d2))
 
 
 def test_sdf_lookup_matches_analytic_distance():
@@ -81,7 +86,8 @@ def test_sdf_lookup_matches_analytic_distance():
     cyl = Obstacle("cylinder", (-40.0, 25.0, 5.0), (6.0, 5.0))
     grid = obstacles.sdf_grid((box, cyl, TOWER), 100.0)
     xy = np.random.default_rng(0).uniform(-120, 120, (4000, 2))
-    look = np.asarray(obstacles.sdf(grid, jnp.asarray(xy, jnp.float32)))
+    sdf = jax.jit(obstacles.sdf)  # one program per query shape (not op by op)
+    look = np.asarray(sdf(grid, jnp.asarray(xy, jnp.float32)))
     d_cyl = np.linalg.norm(xy - [-40.0, 25.0], axis=-1) - 6.0
     tower = np.max(np.abs(xy - [0.0, -60.0]) - 15.0, axis=-1)  # inside: -depth
     tower = np.where(
@@ -97,7 +103,7 @@ def test_sdf_lookup_matches_analytic_distance():
     assert np.abs(look - exact).max() < 0.5 * res  # medial axes inside smooth a little
     far = np.asarray([[500.0, 0.0]])  # outside the grid: clamped value + distance
     exact_far = obstacles.union_sdf((box, cyl, TOWER), far)[0]
-    assert abs(float(obstacles.sdf(grid, jnp.asarray(far))[0]) - exact_far) < 2.0
+    assert abs(float(sdf(grid, jnp.asarray(far))[0]) - exact_far) < 2.0
 
 
 def _inside(obs, p):
@@ -135,10 +141,14 @@ def test_line_of_sight_matches_direct_geometry(obs):
     n = 1500
     a = np.concatenate([rng.uniform(-60, 60, (n, 2)), rng.uniform(0, 5, (n, 1))], -1)
     b = np.concatenate([rng.uniform(-60, 60, (n, 2)), rng.uniform(0, 60, (n, 1))], -1)
-    blocked = np.asarray(occlusion.segment_blocked(occlusion.occluders((obs,)), a, b))
+    blocked = np.asarray(jax.jit(occlusion.segment_blocked)(occlusion.occluders((obs,)), a, b))
     t = np.linspace(0, 1, 4001)[:, None, None]
-    _, depth = _inside(obs, a[None] + t * (b - a)[None])  # [T, n]
-    deepest = depth.max(0)
+    deepest = np.concatenate(  # depth [T, n] maxed over T, 15 segments at a time (memory)
+        [
+            _inside(obs, a[None, k] + t * (b - a)[None, k])[1].max(0)
+            for k in np.split(np.arange(n), 100)
+        ]
+    )
     clear_cut = np.abs(deepest) > 0.05  # skip grazing segments (sampling resolution)
     assert clear_cut.mean() > 0.95
     np.testing.assert_array_equal(blocked[clear_cut], deepest[clear_cut] > 0)
@@ -154,29 +164,53 @@ def _hand_geometry():
 
 def test_blocked_pair_has_zero_fisher_information():
     radars, targets = _hand_geometry()
-    vis = np.asarray(occlusion.visibility((WALL,), radars, targets))
+    vis = np.asarray(jax.jit(lambda r, t: occlusion.visibility((WALL,), r, t))(radars, targets))
     np.testing.assert_array_equal(vis, [[False, True], [True, True], [True, True]])
     c = 7.285e-10
-    masked = fisher.sfim(radars, targets, c, mask=vis)
-    by_hand = fisher.sfim(radars[1:], targets, c)  # radar 0 sees only target 1
-    by_hand = by_hand.at[1].add(fisher.sfim(radars[:1], targets[1:], c)[0])
+
+    @jax.jit  # each side one program (not op by op)
+    def masked_side(radars, targets, vis):
+        packed = fisher.sfim_packed(radars, targets, fisher.ddr_weight(c), mask=vis)
+        return fisher.sfim(radars, targets, c, mask=vis), fisher.unpack_sym3(packed)
+
+    @jax.jit
+    def by_hand_side(radars, targets):
+        by_hand = fisher.sfim(radars[1:], targets, c)  # radar 0 sees only target 1
+        return by_hand.at[1].add(fisher.sfim(radars[:1], targets[1:], c)[0])
+
+    masked, unpacked = masked_side(radars, targets, vis)
+    by_hand = by_hand_side(radars, targets)
     np.testing.assert_allclose(masked, by_hand, rtol=1e-6)
-    packed = fisher.sfim_packed(radars, targets, fisher.ddr_weight(c), mask=vis)
-    np.testing.assert_allclose(fisher.unpack_sym3(packed), by_hand, rtol=1e-5)
+    np.testing.assert_allclose(unpacked, by_hand, rtol=1e-5)
+
+
+@functools.cache
+def _update_inputs():
+    """``(radars, mean, cov, z, visibility)`` of :func:`_hand_geometry` in float64: one
+    program, shared by both noise models."""
+    with jax.enable_x64(True):
+        radars, targets = _hand_geometry()
+
+        @jax.jit
+        def inputs(radars, targets):
+            truth = jnp.concatenate([targets, jnp.array([[3.0, -2, 0], [1, 1, 0.5]])], -1)
+            truth = truth.reshape(-1)
+            key = jax.random.PRNGKey(4)
+            a = jax.random.normal(key, (12, 12))
+            cov = 20.0 * jnp.eye(12) + a @ a.T
+            mean = truth + jnp.linalg.cholesky(cov) @ jax.random.normal(key, (12,))
+            z = range_model(radars)(truth) + 0.3 * jax.random.normal(jax.random.PRNGKey(5), (6,))
+            return mean, cov, z, occlusion.visibility((WALL,), radars, targets)
+
+        return radars, *inputs(radars, targets)
 
 
 @pytest.mark.parametrize("noise", ["ddr", "array"])
 def test_masked_update_equals_update_without_the_measurement(noise):
     with jax.enable_x64(True):
-        radars, targets = _hand_geometry()
-        truth = jnp.concatenate([targets, jnp.array([[3.0, -2, 0], [1, 1, 0.5]])], -1).reshape(-1)
-        key = jax.random.PRNGKey(4)
-        a = jax.random.normal(key, (12, 12))
-        cov = 20.0 * jnp.eye(12) + a @ a.T
-        mean = truth + jnp.linalg.cholesky(cov) @ jax.random.normal(key, (12,))
+        radars, mean, cov, z, vis = _update_inputs()
         h = range_model(radars)
-        z = h(truth) + 0.3 * jax.random.normal(jax.random.PRNGKey(5), (6,))
-        keep = np.asarray(occlusion.visibility((WALL,), radars, targets)).reshape(-1)
+        keep = np.asarray(vis).reshape(-1)
         idx = np.flatnonzero(keep)
 
         def r_full(zh):
@@ -187,11 +221,17 @@ def test_masked_update_equals_update_without_the_measurement(noise):
                 ddr_noise_cov(zh, 1e-6) if noise == "ddr" else jnp.diag(jnp.arange(1.0, 7.0)[idx])
             )
 
-        m1, p1 = ckf.update(mean, cov, z, h, r_full, mask=jnp.asarray(keep))
-        m2, p2 = ckf.update(mean, cov, z[idx], lambda x: h(x)[idx], r_kept)
+        @jax.jit  # the three updates: one program (not op by op)
+        def updates(mean, cov, z):
+            return (
+                ckf.update(mean, cov, z, h, r_full, mask=jnp.asarray(keep)),
+                ckf.update(mean, cov, z[idx], lambda x: h(x)[idx], r_kept),
+                ckf.update(mean, cov, z, h, r_full),
+            )
+
+        (m1, p1), (m2, p2), (m3, _) = updates(mean, cov, z)
         np.testing.assert_allclose(m1, m2, rtol=0, atol=1e-10)
         np.testing.assert_allclose(p1, p2, rtol=0, atol=1e-10)
-        m3, _ = ckf.update(mean, cov, z, h, r_full)
         assert np.abs(np.asarray(m3 - m1)).max() > 1e-3  # the mask did change something
 
 
@@ -209,11 +249,19 @@ def test_obstacle_cost_term():
     obs = dataclasses.replace(base, obstacles=(Obstacle("cylinder", (210, 0, 5), (6, 5)),))
     state = jnp.array([[200.0, 0, 0, 0, 0, 0]])
     u = jnp.zeros((5, 2))
-    costs = []
-    for s in (base, obs):
-        task, params = build(s, "ddr-sfim")
-        ctx = objective.plan_context(task, state, jnp.asarray(s.target_init[0]), jnp.eye(6))
-        costs.append(objective.make_objective(task)(u, ctx, params))
+    scenarios = (base, obs)
+    tasks, params = zip(*(build(s, "ddr-sfim") for s in scenarios), strict=True)
+
+    @jax.jit  # both scenarios' costs: one program (not op by op)
+    def both(u, state, means, params):
+        out = []
+        for task, mean, p in zip(tasks, means, params, strict=True):
+            ctx = objective.plan_context(task, state, mean, jnp.eye(6))
+            out.append(objective.make_objective(task)(u, ctx, p))
+        return out
+
+    means = [jnp.asarray(s.target_init[0]) for s in scenarios]
+    costs = both(u, state, means, params)
     (c0, p0), (c1, p1) = costs
     assert "obstacle" not in p0.terms
     np.testing.assert_allclose(float(c1 - c0), float(p1.terms["obstacle"]), rtol=1e-5)

@@ -37,6 +37,11 @@ def textbook_pda(x, P, Z, valid, H, R, pd, lam, pg):
     return xp, beta0 * P + (1 - beta0) * Pc + Pt, beta0
 
 
+@jax.jit  # one program for every case (suite time: eager ops compile one by one)
+def _pda_linear(x, P, Z, valid, H, R, pd, lam, gamma, pg):
+    return pda.pda_update(x, P, Z, valid, lambda v: H @ v, R, pd, lam, gamma, pg)
+
+
 @pytest.mark.parametrize("lam", [1e-4, 0.05, 2.0])
 @pytest.mark.parametrize("pd", [0.3, 0.9, 1.0])
 def test_pda_update_matches_textbook_on_a_linear_case(lam, pd):
@@ -54,9 +59,9 @@ def test_pda_update_matches_textbook_on_a_linear_case(lam, pd):
     pg = 0.99
     want = textbook_pda(x, P, Z, valid, H, R, pd, lam, pg)
     with jax.enable_x64(True):  # float64 so the comparison can be tight
-        (xm, Pm), (beta0, beta) = pda.pda_update(
+        (xm, Pm), (beta0, beta) = _pda_linear(
             jnp.asarray(x), jnp.asarray(P), jnp.asarray(Z), jnp.asarray(valid),
-            lambda v: jnp.asarray(H) @ v, jnp.asarray(R), jnp.float64(pd), jnp.float64(lam),
+            jnp.asarray(H), jnp.asarray(R), jnp.float64(pd), jnp.float64(lam),
             jnp.float64(chi2.ppf(pg, p)), jnp.float64(pg),
         )  # fmt: skip
         xm, Pm, beta0, beta = (np.asarray(a) for a in (xm, Pm, beta0, beta))
@@ -73,9 +78,10 @@ def test_no_measurements_or_pd_zero_leave_the_prediction():
     x, P = jnp.arange(4.0), jnp.eye(4) * 2.0
     H = jnp.eye(2, 4)
     z = jnp.ones((3, 2))
+    update = jax.jit(lambda valid, pd: pda.pda_update(x, P, z, valid, lambda v: H @ v, jnp.eye(2),
+                                                      pd, 0.1, 9.21, 0.99))  # fmt: skip
     for valid, pd in ((jnp.zeros(3, bool), 0.9), (jnp.ones(3, bool), 0.0)):
-        (xm, Pm), (b0, _) = pda.pda_update(x, P, z, valid, lambda v: H @ v, jnp.eye(2),
-                                           jnp.float32(pd), 0.1, 9.21, 0.99)  # fmt: skip
+        (xm, Pm), (b0, _) = update(valid, jnp.float32(pd))  # one program for both cases
         np.testing.assert_allclose(np.asarray(xm), np.asarray(x), atol=1e-6)
         np.testing.assert_allclose(np.asarray(Pm), np.asarray(P), atol=1e-6)
         assert float(b0) == pytest.approx(1.0)
@@ -100,8 +106,9 @@ def test_mixed_fleet_noise_per_radar_in_the_bank_and_the_planner_factor():
     pd = jnp.full((n, m), 0.9)
     args = (zs, valid, radars, RangeModel())
     tail = (False, pd, 1e-3, 9.0, 0.99)
-    got = pda.update_bank(means, covs, *args, mixed, *tail)
-    want = pda.update_bank(means, covs, *args, shared, *tail)
+    bank = jax.jit(lambda noise: pda.update_bank(means, covs, *args, noise, *tail))
+    got = bank(mixed)
+    want = bank(shared)
     np.testing.assert_allclose(got[0], want[0], rtol=1e-5)
     sc = SimpleNamespace(detection=SimpleNamespace(clutter=True, gate_probability=0.99))
     task = SimpleNamespace(scenario=sc, measurement=RangeModel())
@@ -109,5 +116,5 @@ def test_mixed_fleet_noise_per_radar_in_the_bank_and_the_planner_factor():
     for noise in (shared, mixed):
         params = SimpleNamespace(noise=noise, method=SimpleNamespace(ccr=False), detection=det)
         factor = pda.planner_factor(task, params)
-        q = factor(jnp.full((4, n, 5), 0.9), jnp.full((4, n, 5), 1e4))
+        q = jax.jit(factor)(jnp.full((4, n, 5), 0.9), jnp.full((4, n, 5), 1e4))
         assert q.shape == (4, n, 5) and bool(jnp.all(jnp.isfinite(q)))

@@ -42,10 +42,12 @@ def _place_batch(shape, params, trials):
 
 
 def _place(s, method="stationary", seed=None, trials=TRIALS):
-    """Placements of trials 0..trials-1 (one compiled program per shape and trial count)."""
+    """Placements of trials 0..trials-1 (trials <= TRIALS): the first of TRIALS trials,
+    so that one compiled program per shape serves every trial count (trial t's draws
+    are its own streams', whatever the batch)."""
     states, ok = _place_batch(shape_key(s), task_params(s, METHODS[method], seed),
-                              jnp.arange(trials))  # fmt: skip
-    return np.asarray(states), np.asarray(ok)
+                              jnp.arange(TRIALS))  # fmt: skip
+    return np.asarray(states)[:trials], np.asarray(ok)[:trials]
 
 
 def test_random_placement_respects_box_and_keep_outs():
@@ -123,10 +125,14 @@ def test_initial_estimate_error_has_covariance_p0():
     s = _scenario(targets=RAW["targets"][:1], p0=p0)
     shape, params = shape_key(s), task_params(s, METHODS["ddr-sfim"])
 
-    def one(t):
-        return placement.initial_conditions(shape, params, trial_streams(params.seed, t))
+    @jax.jit  # one program for both p0 (the parameters are runtime numbers)
+    def batch(prm):
+        def one(t):
+            return placement.initial_conditions(shape, prm, trial_streams(params.seed, t))
 
-    init = jax.jit(jax.vmap(one))(jnp.arange(n))
+        return jax.vmap(one)(jnp.arange(n))
+
+    init = batch(params)
     np.testing.assert_array_equal(init.cov[0], p0 * np.eye(6))
     np.testing.assert_array_equal(init.target_state[0], np.float32(s.target_init))
     err = np.asarray(init.mean, np.float64) - np.asarray(s.target_init).reshape(-1)
@@ -137,9 +143,9 @@ def test_initial_estimate_error_has_covariance_p0():
     assert np.all(np.abs(off) < 4 * p0 / np.sqrt(n)), off
     # ... and the error scales with sqrt(p0) (the same normal draws: common random numbers)
     params4 = task_params(_scenario(targets=RAW["targets"][:1], p0=4 * p0), METHODS["ddr-sfim"])
-    e4 = placement.initial_conditions(shape, params4, trial_streams(params.seed, 3)).mean
-    e1 = init.mean[3]
-    tgt = params.target_init.ravel()
+    e4 = np.asarray(batch(params4).mean[3])  # trial 3 with trial_streams(params.seed, 3)
+    e1 = np.asarray(init.mean[3])
+    tgt = np.asarray(params.target_init).ravel()
     np.testing.assert_allclose(e4 - tgt, 2 * (e1 - tgt), rtol=1e-5, atol=1e-5)
 
 
@@ -149,14 +155,9 @@ def test_common_random_numbers_across_methods():
     states = {m: _place(s, m, trials=8)[0] for m in METHODS}
     for m in METHODS:
         np.testing.assert_array_equal(states[m], states["stationary"])
-    means = {
-        m: np.asarray(
-            placement.initial_conditions(
-                shape, task_params(s, METHODS[m]), trial_streams(s.seed, 2)
-            ).mean
-        )
-        for m in METHODS
-    }
+    # one program for every method (the parameters are runtime numbers), not op by op
+    mean = jax.jit(lambda p: placement.initial_conditions(shape, p, trial_streams(s.seed, 2)).mean)
+    means = {m: np.asarray(mean(task_params(s, METHODS[m]))) for m in METHODS}
     for m in METHODS:
         np.testing.assert_array_equal(means[m], means["stationary"])
     # another seed: another placement; another trial: another placement

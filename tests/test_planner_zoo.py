@@ -71,6 +71,13 @@ def test_cross_entropy_refuses_a_bad_elite():
                                jnp.ones(D), LOWER, UPPER, elite=0)  # fmt: skip
 
 
+def _added(u, i, h):
+    """A copy of ``u`` with ``h`` added to entry ``i``."""
+    out = u.copy()
+    out[i] += h
+    return out
+
+
 @pytest.mark.parametrize(
     "rollout",
     ["analytic", pytest.param("mjx", marks=pytest.mark.slow)],  # suite time
@@ -86,13 +93,16 @@ def test_objective_gradient_matches_finite_differences(rollout):
         s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, horizon=4, rollout=rollout))
         env = make(s, "ddr-sfim")
         state = jax.jit(env.reset)(env.trial_key(0, 0))
-        cost = env.objective(state.obs)
-        u = 0.3 * jax.random.normal(jax.random.PRNGKey(2), (4, 2 * env.n_radars))
-        u = u * env.action_bounds[1].reshape(-1)
-        g = jax.jit(jax.grad(lambda x: cost(x)[0]))(u)
-        f = jax.jit(lambda x: cost(x)[0])
+        # the objective's planning context is traced inside each jitted function (eagerly,
+        # each of its many small ops compiles on its own)
+        cost = lambda x: env.objective(state.obs)(x)[0]  # noqa: E731
+        # host float64 arithmetic below: the same IEEE operations as jnp's, no compilations
+        u = 0.3 * np.asarray(jax.random.normal(jax.random.PRNGKey(2), (4, 2 * env.n_radars)))
+        u = u * np.asarray(env.action_bounds[1]).reshape(-1)
+        g = np.asarray(jax.jit(jax.grad(cost))(u))
+        f = jax.jit(cost)
         idx = [(0, 0), (0, 1), (1, 2), (2, 5), (3, 3)]
-        fd = [(f(u.at[i].add(1e-4)) - f(u.at[i].add(-1e-4))) / 2e-4 for i in idx]
+        fd = [(float(f(_added(u, i, 1e-4))) - float(f(_added(u, i, -1e-4)))) / 2e-4 for i in idx]
     np.testing.assert_allclose([g[i] for i in idx], fd, rtol=1e-5, atol=1e-9)
     assert np.any(np.abs(np.asarray(g)) > 1e-6)
 
@@ -158,7 +168,7 @@ def test_planner_table_sets_the_gradient_steps():
         env = make(s.replace(planner={"gradient_steps": steps}), "ddr-sfim")
         planner = base.make("grad", env)
         assert planner.settings.gradient_steps == steps
-        state = env.reset(env.trial_key(0, 0))
+        state = jax.jit(env.reset)(env.trial_key(0, 0))  # one program, not op by op
         action, _ = jax.jit(planner.plan)(planner.init(), state.obs, jax.random.PRNGKey(0))
         actions.append(np.asarray(action))
         assert np.all(np.isfinite(actions[-1]))

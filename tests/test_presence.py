@@ -23,29 +23,34 @@ def test_error_metrics_are_the_present_targets_marginal():
     truth = rng.normal(size=(m, 6)) * 10
     mean = truth.reshape(-1) + rng.normal(size=6 * m)
     here = np.array([True, False, True])
-    got = presence.error_metrics(jnp.asarray(truth), jnp.asarray(mean), jnp.asarray(cov),
-                                 jnp.asarray(here))  # fmt: skip
+    # jitted: eagerly, each of their small ops compiles on its own
+    error_metrics, crlb_pos = jax.jit(presence.error_metrics), jax.jit(presence.crlb_pos)
+    got = error_metrics(jnp.asarray(truth), jnp.asarray(mean), jnp.asarray(cov),
+                        jnp.asarray(here))  # fmt: skip
     idx = np.concatenate([np.arange(6 * j, 6 * j + 6) for j in (0, 2)])
     e = (mean - truth.reshape(-1))[idx]
     nees = e @ np.linalg.solve(cov[np.ix_(idx, idx)], e)
     pos = e.reshape(2, 6)[:, :3]
     ref = (np.sqrt((pos**2).sum() / 2), np.sqrt((e**2).sum() / 2), nees)
     np.testing.assert_allclose(np.asarray(got, np.float64), ref, rtol=1e-5)
-    none = presence.error_metrics(jnp.asarray(truth), jnp.asarray(mean), jnp.asarray(cov),
-                                  jnp.zeros(m, bool))  # fmt: skip
+    none = error_metrics(jnp.asarray(truth), jnp.asarray(mean), jnp.asarray(cov),
+                         jnp.zeros(m, bool))  # fmt: skip
     assert [float(x) for x in none] == [0.0, 0.0, 0.0]
     np.testing.assert_allclose(
-        float(presence.crlb_pos(jnp.array([4.0, 100.0, 16.0]), jnp.asarray(here))),
+        float(crlb_pos(jnp.array([4.0, 100.0, 16.0]), jnp.asarray(here))),
         np.sqrt(10.0), rtol=1e-6,
     )  # fmt: skip
 
 
 def test_start_tracks_resets_blocks_and_cross_covariance():
     m = 2
-    cov = jnp.full((12, 12), 0.5) + jnp.eye(12)
-    truth = jnp.arange(12.0).reshape(m, 6)
-    mean, cov2 = presence.start_tracks(jnp.zeros(12), cov, jnp.array([False, True]), truth,
-                                       jax.random.PRNGKey(0), 50.0)  # fmt: skip
+    # float32 inputs made on the host and one jitted call: eagerly, every op compiles alone
+    cov = np.full((12, 12), 0.5, np.float32) + np.eye(12, dtype=np.float32)
+    truth = np.arange(12.0, dtype=np.float32).reshape(m, 6)
+    start = jax.jit(lambda *a: presence.start_tracks(*a, 50.0))
+    mean, cov2 = (np.asarray(x) for x in start(np.zeros(12, np.float32), cov,
+                                               np.array([False, True]), truth,
+                                               jax.random.PRNGKey(0)))  # fmt: skip
     np.testing.assert_array_equal(mean[:6], 0.0)
     assert np.all(np.abs(np.asarray(mean[6:]) - np.arange(6, 12)) < 5 * np.sqrt(50))
     np.testing.assert_array_equal(cov2[6:, 6:], 50.0 * np.eye(6))
@@ -72,12 +77,14 @@ def test_absent_target_costs_nothing_in_the_planner(tiny):
     h1 = Horizon(ctl, radar, jnp.asarray(pts1, jnp.float32), info[:1])
     p2 = params._replace(target_weight=jnp.array([1.0, 0.0]), r2t=jnp.float32(150.0))
     p1 = params1._replace(r2t=jnp.float32(150.0), noise=params.noise)  # C carries M: same C
-    for term in (costs.information, costs.radar_target):  # jitted: one compilation each
-        two, one = (jax.jit(lambda h, p, t=t, f=term: f(h, t, p)) for t in (task, task1))
-        np.testing.assert_allclose(two(h2, p2), one(h1, p1), rtol=2e-6, atol=1e-4)
-    # weights [1, 1] are the unweighted term
+    terms = (costs.information, costs.radar_target)
+    two = {f: jax.jit(lambda h, p, f=f: f(h, task, p)) for f in terms}  # one compilation each
+    for term in terms:
+        one = jax.jit(lambda h, p, f=term: f(h, task1, p))
+        np.testing.assert_allclose(two[term](h2, p2), one(h1, p1), rtol=2e-6, atol=1e-4)
+    # weights [1, 1] are the unweighted term (the compiled information term above)
     full = params._replace(target_weight=jnp.array([1.0, 1.0]))
-    info = jax.jit(lambda h, p: costs.information(h, task, p))
+    info = two[costs.information]
     np.testing.assert_allclose(info(h2, full), info(h2, params), rtol=1e-6)
 
 

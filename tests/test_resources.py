@@ -120,7 +120,9 @@ def test_estimate_within_factor_of_bundled_scenarios(platform, case):
     assert LO <= est / xla and (est / xla <= HI or xla < 10e6), (case, est / xla)
 
 
-@pytest.mark.parametrize("structure", ["joint", pytest.param("per-target", marks=pytest.mark.slow)])
+@pytest.mark.slow  # a 4-radar program compiled cold (45-65 s on 2 cores); the model stays in CI
+# through the recorded XLA figures (test_estimate_within_factor_of_bundled_scenarios)
+@pytest.mark.parametrize("structure", ["joint", "per-target"])
 def test_estimate_matches_a_fresh_compilation(tmp_path, structure):
     """Compiles a small shape's step program now and compares with XLA's figure."""
     from mjx_radar.engine import programs, runner

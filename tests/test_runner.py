@@ -116,6 +116,7 @@ def test_steps_not_a_multiple_of_the_control_period(tiny):
         runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, 6)
 
 
+@pytest.mark.slow  # a program of its own (30-40 s on 2 cores) for one edge of the records
 def test_fewer_mppi_samples_than_kept_samples_runs(tiny):
     # The plan and idle branches of the closed loop record min(32, samples) samples.
     s = dataclasses.replace(tiny, mppi=dataclasses.replace(tiny.mppi, samples=16))

@@ -20,6 +20,9 @@ RTOL, ATOL = 1e-9, 1e-12
 SHAPES = [(50, 5), (200, 90), (20, 90), (10, 3), (5, 40), (200, 180), (3, 2)]
 
 
+# Every estimator runs jitted: eagerly, each of its small ops compiles on its own.
+
+
 def _data(n: int, p: int, seed: int = 0) -> np.ndarray:
     """Correlated, non-centred Gaussian samples ``[n, p]`` with unequal scales."""
     rng = np.random.default_rng(seed + 1000 * n + p)
@@ -51,7 +54,7 @@ def test_oas_matches_sklearn(n, p):
 def test_empirical_matches_sklearn():
     x = _data(30, 7)
     with jax.enable_x64(True):
-        cov, rho = empirical(jnp.asarray(x))
+        cov, rho = jax.jit(empirical)(jnp.asarray(x))
         np.testing.assert_allclose(np.asarray(cov), empirical_covariance(x), rtol=RTOL, atol=ATOL)
         assert float(rho) == 0.0
 
@@ -78,7 +81,8 @@ def test_uniform_weights_on_subset_equal_sklearn_on_subset(name):
         np.testing.assert_allclose(np.asarray(cov), ref_cov, rtol=RTOL, atol=ATOL)
         np.testing.assert_allclose(float(rho), ref_rho, rtol=RTOL, atol=ATOL)
         # Explicit centre equal to the subset mean gives the same answer.
-        cov_c, _ = fn(jnp.asarray(x_bad), jnp.asarray(mask / k), jnp.asarray(x[mask].mean(0)))
+        cov_c, _ = jax.jit(fn)(jnp.asarray(x_bad), jnp.asarray(mask / k),
+                               jnp.asarray(x[mask].mean(0)))  # fmt: skip
         np.testing.assert_allclose(np.asarray(cov_c), ref_cov, rtol=RTOL, atol=ATOL)
 
 
@@ -88,7 +92,7 @@ def test_explicit_center_equals_sklearn_assume_centered():
     for fn, ref in [(ledoit_wolf, sk_ledoit_wolf), (oas, sk_oas)]:
         ref_cov, ref_rho = ref(x - c, assume_centered=True)
         with jax.enable_x64(True):
-            cov, rho = fn(jnp.asarray(x), None, jnp.asarray(c))
+            cov, rho = jax.jit(fn)(jnp.asarray(x), None, jnp.asarray(c))
             np.testing.assert_allclose(np.asarray(cov), ref_cov, rtol=RTOL, atol=ATOL)
             np.testing.assert_allclose(float(rho), ref_rho, rtol=RTOL, atol=ATOL)
 
@@ -116,17 +120,17 @@ def test_non_uniform_weights_follow_documented_formula():
     c = x.mean(0) + 0.1  # an arbitrary centre, not the weighted mean
     (lw_cov, lw_rho), (oas_cov, oas_rho) = _reference_weighted(x, w, c)
     with jax.enable_x64(True):
-        cov, rho = ledoit_wolf(jnp.asarray(x), jnp.asarray(w), jnp.asarray(c))
+        cov, rho = jax.jit(ledoit_wolf)(jnp.asarray(x), jnp.asarray(w), jnp.asarray(c))
         np.testing.assert_allclose(np.asarray(cov), lw_cov, rtol=RTOL, atol=ATOL)
         np.testing.assert_allclose(float(rho), lw_rho, rtol=RTOL, atol=ATOL)
-        cov, rho = oas(jnp.asarray(x), jnp.asarray(w), jnp.asarray(c))
+        cov, rho = jax.jit(oas)(jnp.asarray(x), jnp.asarray(w), jnp.asarray(c))
         np.testing.assert_allclose(np.asarray(cov), oas_cov, rtol=RTOL, atol=ATOL)
         np.testing.assert_allclose(float(rho), oas_rho, rtol=RTOL, atol=ATOL)
     # Integer weights = repeated rows for the empirical covariance.
     counts = np.arange(1, 26) % 4
     rep = np.repeat(x, counts, axis=0)
     with jax.enable_x64(True):
-        cov, _ = empirical(jnp.asarray(x), jnp.asarray(counts.astype(float)))
+        cov, _ = jax.jit(empirical)(jnp.asarray(x), jnp.asarray(counts.astype(float)))
         np.testing.assert_allclose(np.asarray(cov), empirical_covariance(rep), rtol=RTOL, atol=ATOL)
 
 
@@ -135,13 +139,13 @@ def test_degenerate_inputs_are_finite():
     x1 = _data(30, 1)
     with jax.enable_x64(True):
         for fn, ref in [(ledoit_wolf, sk_ledoit_wolf), (oas, sk_oas)]:
-            cov, rho = fn(jnp.asarray(x1))
+            cov, rho = jax.jit(fn)(jnp.asarray(x1))
             ref_cov, ref_rho = ref(x1)
             np.testing.assert_allclose(np.asarray(cov), ref_cov, rtol=RTOL, atol=ATOL)
             assert float(rho) == ref_rho == 0.0
     same = jnp.ones((20, 6), jnp.float32)
     for fn in (ledoit_wolf, oas, empirical):
-        cov, rho = fn(same)
+        cov, rho = jax.jit(fn)(same)
         assert cov.dtype == jnp.float32
         assert np.all(np.isfinite(np.asarray(cov))) and np.isfinite(float(rho))
         # S = 0 up to the square of the float32 round-off of the weighted mean

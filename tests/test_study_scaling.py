@@ -60,6 +60,8 @@ def reference(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow  # 95-115 s on 2 cores: two programs compiled cold for a 2-device mesh in
+# a subprocess; the shard and kill-resume tests keep chunk order and consolidation in CI
 def test_two_devices_bit_identical(reference, tmp_path):
     """Same per-device chunk on 2 forced host devices: the same executable, the same bits."""
     out = tmp_path / "two"

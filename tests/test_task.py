@@ -158,9 +158,16 @@ def test_make_task_is_cached_per_shape():
 
 
 def _ctx(task, s, radar):
-    mean = jnp.asarray(s.target_init, jnp.result_type(float)).reshape(-1)
-    cov = 4.0 * jnp.eye(mean.shape[0], dtype=mean.dtype)
-    return objective.plan_context(task, radar, mean, cov)
+    """The planning context of ``radar``, jitted: eagerly, each of its many small ops
+    would compile on its own."""
+
+    @jax.jit
+    def ctx(radar):
+        mean = jnp.asarray(s.target_init, jnp.result_type(float)).reshape(-1)
+        cov = 4.0 * jnp.eye(mean.shape[0], dtype=mean.dtype)
+        return objective.plan_context(task, radar, mean, cov)
+
+    return ctx(radar)
 
 
 RADARS = jnp.array([[100.0, 0, 0, 0.3, 2.0, 0.1], [-80.0, 40.0, 0, -2.0, 0.0, 0.0]])
@@ -231,20 +238,22 @@ def _hand_information(task, s, ctx, params, kind):
     a6 = np.asarray(motion.cv_transition(s.timing.dt_control, 1, np.float64))
     w6 = np.asarray(motion.cv_process_noise(s.timing.dt_control, s.sigma_w2, 1, np.float64))
     info = np.array(ctx.info0, np.float64)
+    # jitted, one program each (eagerly, their small ops compile one by one)
+    sfim = jax.jit(lambda p: fisher.sfim(radar, p, c))
+    sfim_ccr = jax.jit(lambda p: fisher.sfim_ccr(radar, p, sigma_r2))
     out = 0.0
     for t in range(h):
         if kind == "pfim":
             term = 0.0
             for j in range(m):
-                jd = np.mean([np.asarray(fisher.sfim(radar, p[j : j + 1, :3], c))[0]
+                jd = np.mean([np.asarray(sfim(p[j : j + 1, :3]))[0]
                               for p in pts[t]], axis=0)  # fmt: skip
                 prior = np.linalg.inv(w6 + a6 @ np.linalg.inv(info[j]) @ a6.T)
                 info[j] = prior + np.pad(jd, ((0, 3), (0, 3)))
                 term += np.linalg.slogdet(info[j] + fisher.INFO_FLOOR * np.eye(6))[1]
         else:
-            f = (lambda p: fisher.sfim(radar, p, c)) if kind == "sfim" else (
-                lambda p: fisher.sfim_ccr(radar, p, sigma_r2))  # fmt: skip
-            term = np.mean([sum(np.linalg.slogdet(np.asarray(j3) + floor)[1] for j3 in f(p[:, :3]))
+            f = sfim if kind == "sfim" else sfim_ccr
+            term = np.mean([sum(np.linalg.slogdet(j3 + floor)[1] for j3 in np.asarray(f(p[:, :3])))
                             for p in pts[t]])  # fmt: skip
         out += s.mpc.gamma**t * -term
     return out
@@ -257,8 +266,9 @@ def test_information_flags_switch_one_compiled_objective():
         _, p_pfim = build(s, "ddr-pfim")
         _, p_ccr = build(s, "ccr-sfim")
         assert task.a6.dtype == jnp.float64  # built under x64 (shape used only here)
-        ctx = objective.plan_context(task, jnp.asarray(STILL), jnp.asarray(s.target_init).ravel(),
-                                     jnp.diag(jnp.linspace(1.0, 6.0, 12)))  # fmt: skip
+        ctx = jax.jit(lambda: objective.plan_context(  # one program, not op by op
+            task, jnp.asarray(STILL), jnp.asarray(s.target_init).ravel(),
+            jnp.diag(jnp.linspace(1.0, 6.0, 12))))()  # fmt: skip
         u = jnp.zeros((s.mpc.horizon, 2 * s.n_radars))
         f = jax.jit(lambda p: objective.make_objective(task)(u, ctx, p)[1].terms["information"])
         got = {}

@@ -46,16 +46,17 @@ def test_height_and_gradient_match_a_reference():
     h = rng.uniform(0.0, 60.0, (9, 12))
     g, ref = _grid(h, (400.0, 300.0))
     p = rng.uniform(-260.0, 260.0, (500, 2))  # some outside the grid: clamped
-    got = np.asarray(terrain.height(g, jnp.asarray(p, jnp.float32)))
+    height, gradient = jax.jit(terrain.height), jax.jit(terrain.gradient)  # not op by op
+    got = np.asarray(height(g, jnp.asarray(p, jnp.float32)))
     np.testing.assert_allclose(got, ref(p), atol=1e-4)  # float32 of heights <= 60 m
     inside = rng.uniform(-190.0, 190.0, (300, 2))
     eps = 1e-3
     fd = np.stack([(ref(inside + [eps, 0]) - ref(inside - [eps, 0])) / (2 * eps),
                    (ref(inside + [0, eps]) - ref(inside - [0, eps])) / (2 * eps)], -1)  # fmt: skip
-    grad = np.asarray(terrain.gradient(g, jnp.asarray(inside, jnp.float32)))
+    grad = np.asarray(gradient(g, jnp.asarray(inside, jnp.float32)))
     on_line = np.any(np.abs(np.modf((inside + [200, 150]) / [400 / 11, 300 / 8])[0]) < 1e-3, -1)
     np.testing.assert_allclose(grad[~on_line], fd[~on_line], atol=2e-3)
-    outside = np.asarray(terrain.gradient(g, jnp.array([[250.0, 0.0], [0.0, -200.0]])))
+    outside = np.asarray(gradient(g, jnp.array([[250.0, 0.0], [0.0, -200.0]])))
     assert outside[0, 0] == 0.0 and outside[1, 1] == 0.0  # flat across the edge
 
 
@@ -76,8 +77,11 @@ def test_terrain_los_equals_brute_force_ray_march():
     march = np.array([np.min(a[k, 2] + ts * (b[k, 2] - a[k, 2])
                              - ref(a[k, :2] + ts[:, None] * (b[k, :2] - a[k, :2])))
                       for k in range(n)])  # fmt: skip
-    got = np.asarray(jax.jit(terrain_los.min_clearance)(g, jnp.asarray(a, jnp.float32),
-                                                        jnp.asarray(b, jnp.float32)))  # fmt: skip
+    # min clearance and blocked flags: one program (not op by op)
+    both = jax.jit(lambda g, a, b: (terrain_los.min_clearance(g, a, b),
+                                    terrain_los.segment_blocked(g, a, b)))  # fmt: skip
+    got, blocked = (np.asarray(x) for x in both(g, jnp.asarray(a, jnp.float32),
+                                                jnp.asarray(b, jnp.float32)))  # fmt: skip
     grade = np.max(np.abs(np.diff(h, axis=1))) / (400 / 11) + np.max(np.abs(np.diff(h, axis=0))) / (
         300 / 8
     )
@@ -87,8 +91,6 @@ def test_terrain_los_equals_brute_force_ray_march():
     assert np.all(march - got <= band)
     clear = np.abs(march) > band
     assert clear.mean() > 0.95 and 0.2 < (march < 0).mean() < 0.9  # a mixed sample
-    blocked = np.asarray(terrain_los.segment_blocked(g, jnp.asarray(a, jnp.float32),
-                                                     jnp.asarray(b, jnp.float32)))  # fmt: skip
     np.testing.assert_array_equal(blocked[clear], march[clear] < 0)
 
 
@@ -103,7 +105,7 @@ def test_los_over_a_ridge_closed_form(tmp_path):
     occ = occlusion.with_terrain(None, terrain.terrain_grid(t))
     radar = jnp.array([[-100.0, 0.0, 30.0]])
     tgt = jnp.array([[100.0, 0.0, 69.0], [100.0, 0.0, 71.0], [100.0, 50.0, 71.0]])
-    vis = np.asarray(occlusion.line_of_sight(occ, radar, tgt))
+    vis = np.asarray(jax.jit(occlusion.line_of_sight)(occ, radar, tgt))
     np.testing.assert_array_equal(vis, [[False, True, True]])
 
 
@@ -152,11 +154,16 @@ def test_radar_driving_up_a_known_slope_has_the_analytic_z(tmp_path):
     assert p.fast  # the contact-free fast step is kept
     data = physics.init_data(p, jnp.array([[-50.0, 20.0, 0.0, th, 0.0, 0.0]]),
                              jnp.array([[0.0, 0.0, 300.0, 0.0, 0.0, 0.0]]))  # fmt: skip
-    step = jax.jit(lambda d: physics.step(p, d, jnp.array([[a, 0.0]])))
+
+    @jax.jit  # the step and the radar's z: one program (not op by op)
+    def step(d):
+        d = physics.step(p, d, jnp.array([[a, 0.0]]))
+        return d, physics.radar_state(p, d)[0, 2]
+
     zs, ref = [], []
     for k in range(1, 81):
-        data = step(data)
-        zs.append(float(physics.radar_state(p, data)[0, 2]))
+        data, z = step(data)
+        zs.append(float(z))
         s = 0.5 * a * (k * dt) ** 2
         ref.append(0.1 * (-50 + s * np.cos(th)) + 0.15 * (20 + s * np.sin(th)) + 5.0 + 2.0)
     np.testing.assert_allclose(zs, ref, atol=2e-4)
@@ -193,7 +200,7 @@ def test_slope_cost_closed_form(tmp_path):
     task = type("T", (), {"scenario": type("S", (), {"terrain": t})()})()
     radar = jnp.zeros((4, 3, 6)).at[..., 0].set(jnp.arange(3.0) * 10)
     hz = costs.Horizon(jnp.zeros((4, 3, 2)), radar, None, None)
-    got = np.asarray(costs.terrain_slope(hz, task, None))
+    got = np.asarray(jax.jit(lambda hz: costs.terrain_slope(hz, task, None))(hz))
     np.testing.assert_allclose(got, 7.0 * 3 * (1.0 - np.tan(np.radians(30.0))), rtol=1e-5)
 
 
@@ -292,7 +299,7 @@ def test_planner_rollouts_and_terms_know_the_terrain():
     state = jnp.array([[0.0, 0.0, 0.0, 0.0, 10.0, 0.0], [150.0, -200.0, 0.0, 1.0, 5.0, 0.1],
                        [-300.0, 280.0, 0.0, 2.0, 0.0, 0.0],
                        [220.0, 0.0, 0.0, -1.0, 3.0, 0.0]])  # fmt: skip
-    traj = np.asarray(task.rollout(state, jnp.ones((5, 4, 2))))
+    traj = np.asarray(jax.jit(task.rollout)(state, jnp.ones((5, 4, 2))))
     z = terrain.height_np(s.terrain, traj[..., :2].astype(float)) + s.terrain.antenna_height
     np.testing.assert_allclose(traj[..., 2], z, atol=1e-3)
     off, _ = build(s.replace(mpc={"los": False}))
@@ -320,5 +327,6 @@ def test_placement_stands_on_gentle_ground():
     assert ok.all()
     xy = states[..., :2].astype(float)
     np.testing.assert_allclose(states[..., 2], terrain.height_np(s.terrain, xy) + 2.0, atol=1e-3)
-    grade = np.asarray(terrain.slope(terrain.terrain_grid(s.terrain), jnp.asarray(states[..., :2])))
+    grid = terrain.terrain_grid(s.terrain)
+    grade = np.asarray(jax.jit(terrain.slope)(grid, jnp.asarray(states[..., :2])))
     assert grade.max() <= terrain.max_grade(s.terrain)

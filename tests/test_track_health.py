@@ -1,5 +1,6 @@
 """Lost-track detector (mirror lock, divergence, k-sigma rule) and the ground prior."""
 
+import functools
 import math
 
 import jax
@@ -66,6 +67,12 @@ def test_healthy_stays_unflagged():
     assert not f.lost.any() and not bool(state.ever_lost)
 
 
+@functools.partial(jax.jit, static_argnames="cfg")  # one program per cfg (eager ops compile)
+def _first_step(mean, cov, cfg=None):
+    """``th.step_health`` from a fresh state against ``TRUTH``."""
+    return th.step_health(th.init_health(2), jnp.asarray(TRUTH), mean, cov, DT, cfg)
+
+
 @pytest.mark.parametrize(
     "corrupt",
     [
@@ -77,17 +84,18 @@ def test_healthy_stays_unflagged():
 )
 def test_diverged(corrupt):
     mean, cov = corrupt(jnp.asarray(TRUTH.reshape(-1)), jnp.asarray(COV))
-    _, f = th.step_health(th.init_health(2), jnp.asarray(TRUTH), mean, cov, DT)
+    _, f = _first_step(mean, cov)
     assert bool(f.diverged) and bool(f.lost)
 
 
 def test_min_pivot_matches_eigenvalue_sign():
     rng = np.random.default_rng(2)
+    min_pivot = jax.jit(th.min_pivot)  # unrolled LDLᵀ: one program instead of its eager ops
     for _ in range(50):
         b = rng.normal(size=(6, 6))
         a = b @ b.T + rng.uniform(-3, 1) * np.eye(6)
         pd = np.linalg.eigvalsh(a).min() > 0
-        assert (float(th.min_pivot(jnp.asarray(a))) > 0) == pd
+        assert (float(min_pivot(jnp.asarray(a))) > 0) == pd
 
 
 def test_k_sigma_boundary():
@@ -97,22 +105,20 @@ def test_k_sigma_boundary():
     for err, lost in ((bound * 0.999, False), (bound * 1.001, True)):
         mean = TRUTH.copy()
         mean[0, 0] += err
-        _, f = th.step_health(
-            th.init_health(2), jnp.asarray(TRUTH), jnp.asarray(mean.reshape(-1)), COV, DT, cfg
-        )
+        _, f = _first_step(jnp.asarray(mean.reshape(-1)), COV, cfg)
         assert bool(f.beyond_sigma) is lost and bool(f.lost) is lost
     # the floor wins when k sqrt(tr P) is smaller: 40 m error with a 50 m floor is kept
     mean = TRUTH.copy()
     mean[1, 1] += 40.0
-    _, f = th.step_health(th.init_health(2), jnp.asarray(TRUTH), jnp.asarray(mean.reshape(-1)),
-                          COV, DT)  # fmt: skip
+    _, f = _first_step(jnp.asarray(mean.reshape(-1)), COV)
     assert not bool(f.lost)
 
 
 def test_vmaps_over_trials():
     means = jnp.stack([jnp.asarray(TRUTH.reshape(-1)), jnp.full(12, jnp.nan)])
-    state = jax.vmap(lambda _: th.init_health(2))(jnp.arange(2))
-    _, f = jax.vmap(th.step_health, (0, None, 0, None, None))(state, TRUTH, means, COV, DT)
+    state = jax.jit(jax.vmap(lambda _: th.init_health(2)))(jnp.arange(2))
+    step = jax.jit(jax.vmap(th.step_health, (0, None, 0, None, None)), static_argnums=4)
+    _, f = step(state, TRUTH, means, COV, DT)  # one program (eager ops compile one by one)
     np.testing.assert_array_equal(f.lost, [False, True])
 
 
@@ -125,11 +131,15 @@ def _random_gaussian(seed, m=3):
     return jnp.asarray(rng.normal(0, 30, 6 * m)), jnp.asarray(b @ b.T + 0.1 * np.eye(6 * m))
 
 
+_reflect = jax.jit(reflect)  # one program per shape (eager ops compile one by one)
+_ground_prior = jax.jit(apply_ground_prior)
+
+
 def test_reflection_is_an_involution_and_keeps_pd():
     mean, cov = _random_gaussian(0)
-    s = reflection_signs(jnp.array([True, False, True]))
-    m1, c1 = reflect(mean, cov, s)
-    m2, c2 = reflect(m1, c1, s)
+    s = jax.jit(reflection_signs)(jnp.array([True, False, True]))
+    m1, c1 = _reflect(mean, cov, s)
+    m2, c2 = _reflect(m1, c1, s)
     np.testing.assert_array_equal(m2, mean)
     np.testing.assert_array_equal(c2, cov)
     np.testing.assert_array_equal(c1, c1.T)
@@ -139,13 +149,13 @@ def test_reflection_is_an_involution_and_keeps_pd():
 def test_ground_prior_reflects_only_below_ground():
     mean, cov = _random_gaussian(1)
     mean = mean.at[2].set(-40.0).at[8].set(12.0).at[14].set(-0.5)
-    out_m, out_c = jax.jit(apply_ground_prior)(mean, cov)
+    out_m, out_c = _ground_prior(mean, cov)
     exp_s = np.ones(18)
     exp_s[[2, 5, 14, 17]] = -1  # z and vz of targets 0 and 2
     np.testing.assert_array_equal(out_m, mean * exp_s)
     np.testing.assert_array_equal(out_c, cov * np.outer(exp_s, exp_s))
     assert np.all(np.asarray(out_m).reshape(3, 6)[:, 2] >= 0)
-    again = apply_ground_prior(out_m, out_c)  # idempotent: nothing left below ground
+    again = _ground_prior(out_m, out_c)  # idempotent: nothing left below ground
     np.testing.assert_array_equal(again[0], out_m)
     np.testing.assert_array_equal(again[1], out_c)
 
@@ -153,6 +163,6 @@ def test_ground_prior_reflects_only_below_ground():
 def test_ground_prior_noop_above_ground():
     mean, cov = _random_gaussian(2)
     mean = mean.at[jnp.array([2, 8, 14])].set(jnp.array([0.0, 3.0, 70.0]))
-    out_m, out_c = apply_ground_prior(mean, cov)
+    out_m, out_c = _ground_prior(mean, cov)
     np.testing.assert_array_equal(out_m, mean)
     np.testing.assert_array_equal(out_c, cov)

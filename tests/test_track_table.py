@@ -23,18 +23,19 @@ TARGETS = np.array([[-150.0, 480, 55], [-50, 495, 63], [50, 510, 71], [150, 525,
 
 
 def test_trilaterate_recovers_a_known_point_and_its_mirror_choice():
+    trilaterate = jax.jit(multilateration.trilaterate)  # one program for every call
     with jax.enable_x64(True):
         p = jnp.asarray(RADARS[:3])
         for t in TARGETS:
             r = np.linalg.norm(t - RADARS[:3], axis=1)
-            x, ok = multilateration.trilaterate(p, jnp.asarray(r))
+            x, ok = trilaterate(p, jnp.asarray(r))
             assert bool(ok)
             np.testing.assert_allclose(np.asarray(x), t, atol=1e-8)  # the upper solution
         # inconsistent ranges (no intersection) and collinear radars are refused
-        _, ok = multilateration.trilaterate(p, jnp.asarray([10.0, 10.0, 10.0]))
+        _, ok = trilaterate(p, jnp.asarray([10.0, 10.0, 10.0]))
         assert not bool(ok)
         line = jnp.asarray([[0.0, 0, 0], [100, 0, 0], [200, 0, 0]])
-        _, ok = multilateration.trilaterate(line, jnp.asarray([150.0, 120, 150]))
+        _, ok = trilaterate(line, jnp.asarray([150.0, 120, 150]))
         assert not bool(ok)
 
 
@@ -126,6 +127,13 @@ def test_range_azimuth_birth_from_one_radar():
     assert float(cov[0, 2, 2]) < s.height_std**2 + 1.0  # height: the prior's spread at most
 
 
+@jax.jit  # one program for every case (suite time: eager ops compile one by one)
+def _one_track():
+    return track_table.insert(
+        track_table.empty(1, 2), jnp.zeros((1, 6)), jnp.eye(6)[None], jnp.ones(1, bool)
+    )
+
+
 @pytest.mark.parametrize("m,n", [(2, 3), (3, 5), (4, 4)])
 def test_m_of_n_confirmation_and_deletion_match_a_python_reference(m, n):
     rules = track_table.LifeRules(confirm_m=m, confirm_n=n, delete_misses=4, delete_cov=1e9)
@@ -142,9 +150,7 @@ def test_m_of_n_confirmation_and_deletion_match_a_python_reference(m, n):
         table = track_table.insert(table, jnp.zeros((1, 6)), jnp.eye(6)[None], ok)
         return table, table.status[0]
 
-    table = track_table.insert(
-        track_table.empty(1, 2), jnp.zeros((1, 6)), jnp.eye(6)[None], jnp.ones(1, bool)
-    )
+    table = _one_track()
     # scan t: maintain with hit[t], then a birth at t if the slot is empty
     _, status = jax.lax.scan(scan, table, (jnp.arange(steps), jnp.asarray(hits)))
     ref, st, hist, miss, age = [], 1, [1], 0, 1
@@ -163,18 +169,20 @@ def test_m_of_n_confirmation_and_deletion_match_a_python_reference(m, n):
 
 
 def test_deletion_by_covariance_bound_and_labels():
+    # (inputs built in numpy: every eager jnp op would compile a program of its own)
     rules = track_table.LifeRules(delete_cov=100.0)
-    table = track_table.empty(3, 2)
-    covs = jnp.stack([jnp.eye(6), 50.0 * jnp.eye(6), jnp.eye(6)])
+    table = jax.jit(track_table.empty, static_argnums=(0, 1))(3, 2)
+    covs = np.stack([np.eye(6), 50.0 * np.eye(6), np.eye(6)]).astype(np.float32)
+    ones = np.ones((3, 6), np.float32)
     insert = jax.jit(track_table.insert)
-    table = insert(table, jnp.ones((3, 6)), covs, jnp.array([True, True, False]))
+    table = insert(table, ones, covs, np.array([True, True, False]))
     assert np.asarray(table.label).tolist() == [0, 1, -1]
-    table = jax.jit(track_table.maintain, static_argnums=2)(table, jnp.ones(3, bool), rules)
+    table = jax.jit(track_table.maintain, static_argnums=2)(table, np.ones(3, bool), rules)
     assert np.asarray(table.status).tolist() == [1, 0, 0]  # tr P_pos = 150 > 100: gone
-    table = insert(table, jnp.ones((2, 6)), covs[:2], jnp.array([True, True]))
+    table = insert(table, ones[:2], covs[:2], np.array([True, True]))
     assert np.asarray(table.label).tolist() == [0, 2, 3]  # labels never reused
     # more births than free slots: the extra ones are dropped
-    table = insert(table, jnp.ones((1, 6)), covs[:1], jnp.array([True]))
+    table = insert(table, ones[:1], covs[:1], np.array([True]))
     assert np.asarray(table.label).tolist() == [0, 2, 3] and int(table.next_label) == 4
 
 
@@ -202,6 +210,6 @@ def test_ownership_two_tracks_on_one_return():
 def test_sorted_scans_hide_the_truth_order():
     zs = jnp.array([[[30.0], [10.0], [20.0]]])
     valid = jnp.array([[True, False, True]])
-    z, v = track_update.sorted_scans(zs, valid)
+    z, v = jax.jit(track_update.sorted_scans)(zs, valid)
     assert np.asarray(z)[0, :, 0].tolist() == [20.0, 30.0, 10.0]
     assert np.asarray(v).tolist() == [[True, True, False]]

@@ -1,0 +1,48 @@
+"""scripts/bench_suite.py: the suite's compile profile, summed by file and test."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("bench_suite", REPO / "scripts/bench_suite.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_summary_sums_per_file_and_ranks_tests(tmp_path):
+    rows = [
+        {"id": "tests/test_a.py::x", "wall": 10.0, "xla_n": 300, "xla_s": 8.0},
+        {"id": "tests/test_a.py::y", "wall": 2.5, "xla_n": 1, "xla_s": 2.0, "trace_s": 0.5},
+        {"id": "tests/test_b.py::z", "wall": 20.0, "xla_n": 2, "xla_s": 15.0},
+    ]
+    path = tmp_path / "p.jsonl"
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    text = _bench().summarise(path, top=5)
+    lines = text.splitlines()
+    assert lines[0].startswith("3 tests: wall 32 s") and "303 compilations 25 s" in lines[0]
+    files = lines[3:5]  # the slowest file first
+    assert files[0].split() == ["20.0", "2", "15.0", "tests/test_b.py"]
+    assert files[1].split() == ["12.5", "301", "10.0", "tests/test_a.py"]
+    assert lines[-1].split()[-1] == "tests/test_a.py::y"
+
+
+def test_records_the_compilations_of_a_test(tmp_path):
+    """The suite's ``--compile-profile`` option, on one test that compiles 5 programs."""
+    out = tmp_path / "p.jsonl"
+    test = "tests/test_gospa.py::test_metrics_settings_are_host_only"
+    cmd = [sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", test]
+    proc = subprocess.run([*cmd, f"--compile-profile={out}"], cwd=REPO, capture_output=True,
+                          text=True, timeout=300)  # fmt: skip
+    assert proc.returncode == 0, proc.stdout[-2000:]
+    (rec,) = [json.loads(line) for line in out.read_text().splitlines()]
+    assert rec["id"] == test and rec["xla_n"] >= 1, rec
+    assert 0 < rec["xla_s"] <= rec["wall"], rec
