@@ -1,7 +1,7 @@
 """Where the test suite's time goes: per file and per test, wall and JAX compilation.
 
-Runs the README's test command (or the pytest arguments given after ``--``) with the
-suite's ``--compile-profile`` option, then sums the per-test records: wall seconds
+Runs pytest with the README's test options (``DEFAULT``, or the arguments given after
+``--``) and the suite's ``--compile-profile`` option, then sums the per-test records: wall seconds
 (setup + call + teardown), XLA compilations (count, seconds), tracing and lowering
 seconds in the test's own process (a test's subprocesses are counted only in its wall)::
 

@@ -47,6 +47,10 @@ def pytest_configure(config):
         from mjx_radar.engine import compile_cache
 
         compile_cache.enable(os.environ["MJX_RADAR_CACHE_DIR"])
+    if config.getoption("compile_profile"):  # every test process (workers included)
+        import jax.monitoring
+
+        jax.monitoring.register_event_duration_secs_listener(_on_duration)
 
 
 _COMPILES: dict = {}  # --compile-profile: this process's compile events during one test
@@ -72,15 +76,10 @@ def pytest_runtest_protocol(item, nextitem):
     if not path:
         yield
         return
-    if not _COMPILES.get("_listening"):
-        import jax.monitoring
-
-        jax.monitoring.register_event_duration_secs_listener(_on_duration)
     _COMPILES.clear()
-    _COMPILES["_listening"] = True
     t0 = time.perf_counter()
     yield
-    rec = {k: v for k, v in _COMPILES.items() if not k.startswith("_")}
+    rec = dict(_COMPILES)
     with open(path, "a") as f:
         f.write(json.dumps({"id": item.nodeid, "wall": time.perf_counter() - t0, **rec}) + "\n")
 
