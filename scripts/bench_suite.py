@@ -8,9 +8,13 @@ seconds in the test's own process (a test's subprocesses are counted only in its
     python scripts/bench_suite.py [--out runs/suite.jsonl] [--top 25] [--summarise-only]
         [-- -m "not slow" -n 2 --dist loadfile tests/]
 
-A test with many XLA compilations and little work calls JAX eagerly (each primitive
-compiles on first use): jit what it compares. One with a few long compilations compiles
-a closed loop of its own: share a program with another test, or mark it ``slow``.
+With ``--compile-profile`` a record also lists the closed-loop programs the test compiled
+or loaded (``engine.programs.COMPILE_LOG``: key, scenario, batch, kind, planner, source)
+and its compilations of 1 s or more by function name (``xla_long``); the summary ends
+with the programs by key. A test with many XLA compilations and little work calls JAX
+eagerly (each primitive compiles on first use): jit what it compares. One with a few long
+compilations compiles a closed loop of its own: share a program with another test, or mark
+it ``slow``.
 """
 
 from __future__ import annotations
@@ -49,7 +53,30 @@ def summarise(path: Path, top: int) -> str:
     out += ["", f"{'wall s':>7} {'XLA n':>6} {'XLA s':>6}  test"]
     for r in sorted(rows, key=lambda r: -r["wall"])[:top]:
         out.append(f"{r['wall']:7.1f} {r.get('xla_n', 0):6.0f} {r.get('xla_s', 0):6.1f}  {r['id']}")
-    return "\n".join(out)
+    return "\n".join(out + programs(rows, top))
+
+
+def programs(rows: list[dict], top: int) -> list[str]:
+    """The closed-loop programs (``engine.programs.COMPILE_LOG`` entries the profile
+    records per test) by program key, costliest first: which tests traced and compiled
+    each, and which loaded it from the session's caches. A program compiled by one test
+    only, of a shape or option no other test uses, is a candidate for sharing."""
+    seen: dict[str, list] = collections.defaultdict(list)
+    for r in rows:
+        for p in r.get("programs", []):
+            seen[p["key"]].append((r["id"], p))
+    if not seen:
+        return []
+    cost = {k: sum(p["trace_lower_s"] + p["xla_compile_s"] for _, p in v) for k, v in seen.items()}
+    out = ["", f"{len(seen)} closed-loop programs, {sum(len(v) for v in seen.values())} uses:"]
+    for key in sorted(seen, key=lambda k: -cost[k])[:top]:
+        p = seen[key][0][1]
+        uses = "; ".join(f"{i.split('/')[-1]} ({q['source']})" for i, q in seen[key])
+        out.append(
+            f"{cost[key]:7.1f} s  {key} {p.get('scenario', '?')} batch {p['batch']} "
+            f"kind {p['kind']} planner {p.get('planner', '?')}: {uses}"
+        )
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,6 +8,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -61,11 +62,13 @@ _EVENTS = {  # jax.monitoring duration events -> (count key, seconds key)
 }
 
 
-def _on_duration(event: str, duration: float, **_) -> None:
+def _on_duration(event: str, duration: float, fun_name: str = "?", **_) -> None:
     if event in _EVENTS:
         n, s = _EVENTS[event]
         _COMPILES[n] = _COMPILES.get(n, 0) + 1
         _COMPILES[s] = _COMPILES.get(s, 0.0) + duration
+        if n == "xla_n" and duration >= 1.0:  # the long compilations, by function name
+            _COMPILES.setdefault("xla_long", []).append([fun_name, round(duration, 2)])
 
 
 @pytest.hookimpl(hookwrapper=True)
@@ -77,9 +80,14 @@ def pytest_runtest_protocol(item, nextitem):
         yield
         return
     _COMPILES.clear()
+    log = getattr(sys.modules.get("mjx_radar.engine.programs"), "COMPILE_LOG", [])
+    n_log = len(log)
     t0 = time.perf_counter()
     yield
     rec = dict(_COMPILES)
+    log = getattr(sys.modules.get("mjx_radar.engine.programs"), "COMPILE_LOG", [])
+    if len(log) > n_log:  # the closed-loop programs this test compiled or loaded
+        rec["programs"] = log[n_log:]
     with open(path, "a") as f:
         f.write(json.dumps({"id": item.nodeid, "wall": time.perf_counter() - t0, **rec}) + "\n")
 

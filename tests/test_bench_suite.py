@@ -35,6 +35,25 @@ def test_summary_sums_per_file_and_ranks_tests(tmp_path):
     assert lines[-1].split()[-1] == "tests/test_a.py::y"
 
 
+def test_summary_lists_the_closed_loop_programs_by_key(tmp_path):
+    prog = {"key": "k1", "scenario": "smoke", "batch": 2, "kind": "sfim", "planner": "mppi"}
+    rows = [
+        {"id": "tests/test_a.py::x", "wall": 30.0,
+         "programs": [prog | {"source": "traced", "trace_lower_s": 5.0, "xla_compile_s": 20.0}]},
+        {"id": "tests/test_b.py::z", "wall": 3.0,
+         "programs": [prog | {"source": "export cache", "trace_lower_s": 0.5,
+                              "xla_compile_s": 1.5}]},
+    ]  # fmt: skip
+    path = tmp_path / "p.jsonl"
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    lines = _bench().summarise(path, top=5).splitlines()
+    assert lines[-2] == "1 closed-loop programs, 2 uses:"
+    assert lines[-1] == (
+        "   27.0 s  k1 smoke batch 2 kind sfim planner mppi: test_a.py::x (traced); "
+        "test_b.py::z (export cache)"
+    )
+
+
 def test_records_the_compilations_of_a_test(tmp_path):
     """The suite's ``--compile-profile`` option, on one test that compiles 5 programs."""
     out = tmp_path / "p.jsonl"
@@ -46,3 +65,4 @@ def test_records_the_compilations_of_a_test(tmp_path):
     (rec,) = [json.loads(line) for line in out.read_text().splitlines()]
     assert rec["id"] == test and rec["xla_n"] >= 1, rec
     assert 0 < rec["xla_s"] <= rec["wall"], rec
+    assert "programs" not in rec  # no closed loop in this test

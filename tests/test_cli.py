@@ -94,10 +94,14 @@ def test_validate_bundled_scenarios(capsys):
 
 
 def test_run_smoke_end_to_end(tmp_path, capsys):
-    # A real subprocess: console entry point, files, summary line.
+    # A real subprocess: console entry point, files, summary line. Stationary radars: the
+    # program of test_closed_loop's stationary run (smoke, analytic, 2 trials, one period
+    # per segment), loaded from the session's caches when that ran first. Planned runs
+    # through the CLI: test_run_with_a_plugin_planner below and tests/test_options_cli.py.
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "mjx_radar", "run", "scenarios/smoke.toml", "--steps", "16",
-           "--trials", "2", "--rollouts", "analytic", "--out", str(out)]  # fmt: skip
+           "--trials", "2", "--rollouts", "analytic", "--method", "stationary",
+           "--out", str(out)]  # fmt: skip
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert "mean position RMSE" in proc.stdout

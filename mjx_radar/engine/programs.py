@@ -276,11 +276,16 @@ def compile_programs(
         _CACHE[mem_key] = progs
         COMPILE_LOG.append(
             {
+                "scenario": scenario.name,
                 "n_radars": scenario.n_radars,
                 "n_targets": scenario.n_targets,
                 "batch": batch,
                 "devices": mesh.size,
                 "kind": kind,
+                "periods": periods,
+                "full": full,
+                "planner": planner,
+                "key": key[:12],
                 "source": source,
                 "trace_lower_s": t1 - t0,
                 "xla_compile_s": t2 - t1,
