@@ -43,6 +43,7 @@ __all__ = [
     "device_mesh",
     "precompile",
     "program_log",
+    "programs_needed",
     "run_trials",
 ]
 
@@ -55,13 +56,7 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     ``jobs`` holds ``(scenario, method)`` pairs (a method or its name), or scenarios
     alone (every method's kind); jobs of the same shape and kind share one program.
     """
-    shapes = {}
-    for job in jobs:
-        s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
-        ms = [parse_method(m) for m in methods] or list(METHODS.values())
-        for kind, planner in dict.fromkeys((m.kind, m.planner) for m in ms):
-            shapes.setdefault((shape_key(s), kind, planner), (s, kind, planner))
-    todo = list(shapes.values())
+    todo = _program_jobs(jobs)
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     t0 = time.perf_counter()
     parallel(
@@ -73,6 +68,26 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
         ]
     )
     return time.perf_counter() - t0
+
+
+def _program_jobs(jobs) -> list[tuple]:
+    """``(scenario, kind, planner)`` of each distinct program of ``jobs`` (as
+    :func:`precompile`'s): methods of one shape, program kind and planner share one."""
+    shapes = {}
+    for job in jobs:
+        s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
+        ms = [parse_method(m) for m in methods] or list(METHODS.values())
+        for kind, planner in dict.fromkeys((m.kind, m.planner) for m in ms):
+            shapes.setdefault((shape_key(s), kind, planner), (s, kind, planner))
+    return list(shapes.values())
+
+
+def programs_needed(jobs, n_devices: int) -> int:
+    """How many compiled programs ``jobs`` (as :func:`precompile`'s) hold alive on
+    ``n_devices`` devices: one per shape, program kind and planner *per device*
+    (:func:`device_programs`), the count a study keeps alive
+    (:func:`mjx_radar.engine.live_programs.keep_alive`)."""
+    return len(_program_jobs(jobs)) * n_devices
 
 
 def program_log(since: int = 0) -> list[dict]:
