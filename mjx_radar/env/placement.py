@@ -66,8 +66,8 @@ def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array,
         first = jnp.argmax(ok)
         return placed.at[i].set(cand3[i, first]), all_ok & ok[first]
 
-    # A loop, not N unrolled copies: the program's size does not grow with N (a 32-radar
-    # placement compiled for 13 s), the same numbers (the masked distances are +inf).
+    # A loop, not N unrolled copies: the program's size does not grow with N (32 unrolled
+    # radars compiled for 6 s on 2 CPU cores), the same numbers (masked distances: +inf).
     placed, all_ok = jax.lax.fori_loop(0, n, place, (jnp.zeros((n, 3)), jnp.array(True)))
     theta = jax.random.uniform(k_th, (n,), minval=-jnp.pi, maxval=jnp.pi)
     theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
