@@ -24,8 +24,9 @@ def pytest_addoption(parser):
     parser.addoption(
         "--compile-profile",
         metavar="PATH",
-        help="append one JSON line per test to PATH: its wall seconds and JAX's compile "
-        "counts and seconds in the test's process (scripts/bench_suite.py sums them)",
+        help="append one JSON line per test to PATH: its wall seconds, JAX's compile "
+        "counts and seconds in the test's process, its compilations of >= 1 s by name and "
+        "the closed-loop programs it compiled or loaded (scripts/bench_suite.py sums them)",
     )
 
 
@@ -71,6 +72,12 @@ def _on_duration(event: str, duration: float, fun_name: str = "?", **_) -> None:
             _COMPILES.setdefault("xla_long", []).append([fun_name, round(duration, 2)])
 
 
+def _program_log() -> list:
+    """``engine.programs.COMPILE_LOG`` once a test imported it (empty before): the suite
+    does not import the engine for tests that do not use it."""
+    return getattr(sys.modules.get("mjx_radar.engine.programs"), "COMPILE_LOG", [])
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item, nextitem):
     """With ``--compile-profile``: the test's wall time (setup, call, teardown) and the XLA
@@ -80,14 +87,12 @@ def pytest_runtest_protocol(item, nextitem):
         yield
         return
     _COMPILES.clear()
-    log = getattr(sys.modules.get("mjx_radar.engine.programs"), "COMPILE_LOG", [])
-    n_log = len(log)
+    n_log = len(_program_log())
     t0 = time.perf_counter()
     yield
     rec = dict(_COMPILES)
-    log = getattr(sys.modules.get("mjx_radar.engine.programs"), "COMPILE_LOG", [])
-    if len(log) > n_log:  # the closed-loop programs this test compiled or loaded
-        rec["programs"] = log[n_log:]
+    if len(_program_log()) > n_log:  # the closed-loop programs this test compiled or loaded
+        rec["programs"] = _program_log()[n_log:]
     with open(path, "a") as f:
         f.write(json.dumps({"id": item.nodeid, "wall": time.perf_counter() - t0, **rec}) + "\n")
 

@@ -92,7 +92,8 @@ def programs_needed(jobs, n_devices: int) -> int:
 
 def program_log(since: int = 0) -> list[dict]:
     """The programs this process compiled from entry ``since`` of :data:`COMPILE_LOG` on:
-    shape, kind, source, trace and XLA seconds."""
+    scenario and shape, batch, kind, periods, ``full``, planner, program key, source
+    (traced or export cache), trace-and-lower and XLA seconds."""
     return [
         {k: round(v, 2) if isinstance(v, float) else v for k, v in e.items()}
         for e in COMPILE_LOG[since:]
