@@ -14,6 +14,8 @@ and variants of the code path, set through the environment of the process:
 
     base        MJX's step for contacts (``physics.plant.MESH_CONTACTS = False``): the
                 code before issue 37
+    perkind     every method in its own kind's program (a study's stationary radars
+                not riding along in a planning program: the code before the sixth session)
     staged      the staged truth step (physics/staged_step.py), the default
     fastxla     staged, with XLA_FLAGS=FAST_XLA (autotuning off, no expensive LLVM
                 passes: compiles faster, changes float32 round-off; docs/scaling.md)
@@ -71,12 +73,20 @@ CASES = {
 FAST_XLA = "--xla_gpu_autotune_level=0 --xla_llvm_disable_expensive_passes=true"
 VARIANTS = {
     "base": {},
+    "perkind": {},
     "staged": {},
     "fastxla": {"XLA_FLAGS": FAST_XLA},
 }
 #: the base variant's process: MJX's own step for scenes with contacts
 BASE = (
     "import runpy, sys; import mjx_radar.physics.plant as p; p.MESH_CONTACTS = False; "
+    "sys.argv = ['mjx-radar', *sys.argv[1:]]; runpy.run_module('mjx_radar', run_name='__main__')"
+)
+#: the perkind variant's process: each method in the program of its own kind
+PERKIND = (
+    "import runpy, sys; import mjx_radar.engine.runner as r; "
+    "from mjx_radar.task.method import parse_method as pm; "
+    "r.shared_programs = lambda ms: {pm(m).name: (pm(m).kind, pm(m).planner) for m in ms}; "
     "sys.argv = ['mjx-radar', *sys.argv[1:]]; runpy.run_module('mjx_radar', run_name='__main__')"
 )
 FIELDS = ["case", "variant", "temperature", "wall_s", "compile_s", "sim_s", "rc", "device"]
@@ -104,7 +114,17 @@ def main() -> None:
     ap.add_argument("--cases", default="town,paper,run")
     ap.add_argument("--variants", default="base,staged")
     ap.add_argument("--warm", action="store_true", help="also rerun each case warm")
+    ap.add_argument("--paper-trials", type=int, default=500, help="trials of the paper case")
+    ap.add_argument(
+        "--deterministic", action="store_true", help="studies with deterministic GPU kernels"
+    )
     args = ap.parse_args()
+    if args.paper_trials < 1:
+        ap.error("--paper-trials must be >= 1")
+    CASES["paper"][CASES["paper"].index("--trials") + 1] = str(args.paper_trials)
+    if args.deterministic:  # compare_studies.py then shows what a change does to the numbers
+        CASES["town"].append("--deterministic")
+        CASES["paper"].append("--deterministic")
     args.out.mkdir(parents=True, exist_ok=True)
     table = args.out / "compile.csv"
     done = set()
@@ -123,7 +143,9 @@ def main() -> None:
                 res = args.out / f"res-{case}-{variant}-{temp}"
                 shutil.rmtree(res, ignore_errors=True)
                 env = dict(os.environ, **VARIANTS[variant], MJX_RADAR_CACHE_DIR=str(cache))
-                entry = ["-c", BASE] if variant == "base" else ["-m", "mjx_radar"]
+                entry = {"base": ["-c", BASE], "perkind": ["-c", PERKIND]}.get(
+                    variant, ["-m", "mjx_radar"]
+                )
                 cmd = [sys.executable, *entry, *CASES[case], "--out", str(res)]
                 t0 = time.perf_counter()
                 p = subprocess.run(cmd, env=env, capture_output=True, text=True)

@@ -14,7 +14,7 @@ import pytest
 from mjx_radar.env import Observation, make
 from mjx_radar.learning import features as F
 from mjx_radar.registry import Registry
-from mjx_radar.study.driver import file_label
+from mjx_radar.study.chunks import file_label
 
 
 @pytest.fixture(scope="module")

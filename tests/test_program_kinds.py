@@ -8,7 +8,7 @@ import pytest
 from mjx_radar.engine import runner
 from mjx_radar.env import closed_loop
 from mjx_radar.scenario.reader import load_scenario
-from mjx_radar.task.method import METHODS, parse_method
+from mjx_radar.task.method import METHODS, parse_method, runs, shared_programs
 from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import make_task
 
@@ -24,7 +24,8 @@ def _lowered(scenario, kind: str, method: str) -> str:
 
 @pytest.fixture(scope="module")
 def hlo(tiny):
-    kinds = {"none": "stationary", "sfim": "ddr-sfim", "pfim": "ddr-pfim", "all": "ddr-sfim"}
+    kinds = {"none": "stationary", "sfim": "ddr-sfim", "pfim": "ddr-pfim", "all": "ddr-sfim",
+             "sfim+none": "stationary"}  # fmt: skip
     return {k: _lowered(tiny, k, m) for k, m in kinds.items()}
 
 
@@ -43,10 +44,11 @@ def test_single_kind_programs_leave_out_the_other_branches(hlo):
     # "all" joins plan / idle and SFIM / PFIM by two runtime conds; a kind has neither
     assert cases["all"] == cases["sfim"] + 2 == cases["pfim"] + 2
     assert cases["none"] == cases["sfim"]
+    assert cases["sfim+none"] == cases["sfim"] + 1  # plan or hold; SFIM only
     # no planner at all without one (MPPI's iteration and sampling loops are gone)
-    assert loops["none"] < loops["sfim"] <= loops["pfim"] == loops["all"]
+    assert loops["none"] < loops["sfim"] == loops["sfim+none"] <= loops["pfim"] == loops["all"]
     size = {k: len(t) for k, t in hlo.items()}
-    assert size["none"] < size["sfim"] < size["pfim"] < size["all"]
+    assert size["none"] < size["sfim"] < size["sfim+none"] < size["pfim"] < size["all"]
 
 
 def test_precompile_compiles_one_program_per_shape_and_kind(tiny, monkeypatch):
@@ -65,5 +67,30 @@ def test_precompile_compiles_one_program_per_shape_and_kind(tiny, monkeypatch):
     assert {k for s, k in seen if s == shape_key(tiny)} == {"sfim", "pfim"}
     assert {k for s, k in seen if s == shape_key(bigger)} == {"none"}
     seen.clear()
-    runner.precompile([tiny], 2, 8)  # a scenario alone: every method's kind
-    assert sorted(k for _, k in seen) == ["none", "pfim", "sfim"]
+    runner.precompile([tiny], 2, 8)  # a scenario alone: every method; stationary rides along
+    assert sorted(k for _, k in seen) == ["pfim", "sfim+none"]
+
+
+def test_stationary_rides_along_in_a_planning_program():
+    """A study's programs per shape: stationary joins the SFIM (else PFIM) program of the
+    built-in MPPI; a registered planner, or stationary alone, keeps its own."""
+    every = shared_programs(METHODS)
+    assert every == {"stationary": ("sfim+none", "mppi"), "ccr-sfim": ("sfim+none", "mppi"),
+                     "ddr-sfim": ("sfim+none", "mppi"), "ccr-pfim": ("pfim", "mppi"),
+                     "ddr-pfim": ("pfim", "mppi")}  # fmt: skip
+    assert shared_programs(["stationary", "ccr-pfim"])["stationary"] == ("pfim+none", "mppi")
+    assert shared_programs(["stationary"]) == {"stationary": ("none", "hold")}
+    assert shared_programs(["ddr-sfim", "ccr-sfim"])["ddr-sfim"] == ("sfim", "mppi")
+    alone = shared_programs(["stationary", "ddr-sfim+cem"])
+    assert alone == {"stationary": ("none", "hold"), "ddr-sfim+cem": ("sfim", "cem")}
+    # which programs run which methods (run_trials refuses the others)
+    stationary, sfim, pfim = (parse_method(m) for m in ("stationary", "ddr-sfim", "ddr-pfim"))
+    assert runs(("sfim+none", "mppi"), stationary) and runs(("sfim+none", "mppi"), sfim)
+    assert runs(("all", "mppi"), pfim) and runs(("none", "hold"), stationary)
+    assert not runs(("sfim", "mppi"), stationary) and not runs(("sfim+none", "mppi"), pfim)
+    assert not runs(("sfim+none", "cem"), sfim) and not runs(("bogus", "mppi"), sfim)
+
+
+def test_run_trials_refuses_a_program_that_does_not_run_the_method(tiny):
+    with pytest.raises(ValueError, match="does not run the method ddr-pfim"):
+        runner.run_trials(tiny, "ddr-pfim", 0, [0], 4, program=("sfim+none", "mppi"))

@@ -44,10 +44,9 @@ def test_study_files_and_finite(study_dir):
     meta = json.loads((study_dir / "study.json").read_text())
     assert meta["methods"] == ["stationary", "ddr-sfim"] and meta["trials"] == 4
     assert meta["non_finite"] == 0 and meta["devices"].startswith("[")
-    # this study's programs only (not those other tests compiled in this process)
+    # this study's program only (stationary rides along in the SFIM one)
     assert {(p["n_radars"], p["batch"], p["kind"]) for p in meta["programs"]} <= {
-        (2, 2, "none"),
-        (2, 2, "sfim"),
+        (2, 2, "sfim+none")
     }
     assert all(p["trace_lower_s"] >= 0 and p["xla_compile_s"] >= 0 for p in meta["programs"])
     frame = _frame(study_dir)
@@ -62,7 +61,8 @@ def test_study_files_and_finite(study_dir):
 
 
 def test_trial_independent_of_batch_mates(study_dir):
-    """Trial i's numbers do not depend on the other trials of its (same-size) batch."""
+    """Trial i's numbers do not depend on the other trials of its (same-size) batch, nor
+    on the program that runs its method."""
     import dataclasses
 
     from mjx_radar.engine import runner
@@ -70,13 +70,17 @@ def test_trial_independent_of_batch_mates(study_dir):
 
     s = load_scenario("smoke")
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout="analytic"))
-    res = runner.run_trials(s, "ddr-sfim", 3, [3, 1], 8, full=False)
     frame = _frame(study_dir)
-    ddr = frame[frame["method"] == "ddr-sfim"]
-    for row, trial in enumerate((3, 1)):
-        np.testing.assert_array_equal(
-            res["rmse_pos"][row], ddr[ddr["trial"] == trial]["rmse_pos"].to_numpy()
-        )
+    # run alone, each method in its own program: the study's shared program (stationary
+    # rides along in the SFIM one) gives the same numbers bit for bit
+    for method in ("ddr-sfim", "stationary"):
+        res = runner.run_trials(s, method, 3, [3, 1], 8, full=False)
+        rows = frame[frame["method"] == method]
+        for row, trial in enumerate((3, 1)):
+            for col in ("rmse_pos", "nees", "crlb_pos", "gospa"):
+                np.testing.assert_array_equal(
+                    res[col][row], rows[rows["trial"] == trial][col].to_numpy(), err_msg=col
+                )
 
 
 def test_kill9_then_resume_is_identical(study_dir, tmp_path, sigkill_once_written):

@@ -11,8 +11,10 @@ output kind, batch and device mesh (:mod:`mjx_radar.engine.programs`): the noise
 model and the scenario's numbers are runtime arguments
 (:class:`~mjx_radar.task.params.TaskParams`), so the CCR and DDR methods of a kind,
 and every scenario that differs only in its numbers, share it; a run compiles only
-the information it needs (stationary radars: no planner). Compilation is ahead of
-time and timed apart from the simulation.
+the information it needs (stationary radars: no planner), while a study's stationary
+radars ride along in a planning method's program of their shape (kind ``sfim+none``:
+plan or hold by a runtime flag, the same numbers; :func:`program_map`). Compilation is
+ahead of time and timed apart from the simulation.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import numpy as np
 from jax.sharding import Mesh
 
 from mjx_radar.engine import compile_cache
+from mjx_radar.engine.program_jobs import program_jobs, program_map, programs_needed
 from mjx_radar.engine.programs import (
     COMPILE_LOG,
     compile_programs,
@@ -34,8 +37,8 @@ from mjx_radar.engine.programs import (
 )
 from mjx_radar.engine.threads import parallel
 from mjx_radar.scenario.schema import Scenario
-from mjx_radar.task.method import METHODS, parse_method
-from mjx_radar.task.params import shape_key, task_params
+from mjx_radar.task.method import parse_method, runs
+from mjx_radar.task.params import task_params
 
 __all__ = [
     "COMPILE_LOG",
@@ -43,6 +46,7 @@ __all__ = [
     "device_mesh",
     "precompile",
     "program_log",
+    "program_map",
     "programs_needed",
     "run_trials",
 ]
@@ -56,7 +60,7 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
     ``jobs`` holds ``(scenario, method)`` pairs (a method or its name), or scenarios
     alone (every method's kind); jobs of the same shape and kind share one program.
     """
-    todo = _program_jobs(jobs)
+    todo = program_jobs(jobs)
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
     t0 = time.perf_counter()
     parallel(
@@ -68,26 +72,6 @@ def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> f
         ]
     )
     return time.perf_counter() - t0
-
-
-def _program_jobs(jobs) -> list[tuple]:
-    """``(scenario, kind, planner)`` of each distinct program of ``jobs`` (as
-    :func:`precompile`'s): methods of one shape, program kind and planner share one."""
-    shapes = {}
-    for job in jobs:
-        s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
-        ms = [parse_method(m) for m in methods] or list(METHODS.values())
-        for kind, planner in dict.fromkeys((m.kind, m.planner) for m in ms):
-            shapes.setdefault((shape_key(s), kind, planner), (s, kind, planner))
-    return list(shapes.values())
-
-
-def programs_needed(jobs, n_devices: int) -> int:
-    """How many compiled programs ``jobs`` (as :func:`precompile`'s) hold alive on
-    ``n_devices`` devices: one per shape, program kind and planner *per device*
-    (:func:`device_programs`), the count a study keeps alive
-    (:func:`mjx_radar.engine.live_programs.keep_alive`)."""
-    return len(_program_jobs(jobs)) * n_devices
 
 
 def program_log(since: int = 0) -> list[dict]:
@@ -122,6 +106,7 @@ def run_trials(
     phase: Callable[[str], None] | None = None,
     on_segment: Callable[[int, tuple], None] | None = None,
     masks: bool = False,
+    program: tuple[str, str] | None = None,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
@@ -144,6 +129,9 @@ def run_trials(
             segment waits for it: keep it cheap (e.g. :meth:`mjx_radar.viz.live.LiveView.update`).
         masks: with ``full``, also the per-pair masks ``visible`` and ``detected``
             ``[T, K, N, M]`` (a program of its own; off: they are not computed).
+        program: ``(kind, planner)`` of the program to run the method with: one that
+            serves the method's kind (a study's shared program, :func:`program_map`;
+            the same numbers; :func:`mjx_radar.task.method.runs`); None: its own.
 
     Returns:
         dict of numpy arrays: the metrics (:data:`mjx_radar.rundir.results.METRIC_COLUMNS`)
@@ -158,6 +146,9 @@ def run_trials(
         raise ValueError(f"steps: {steps} must be a multiple of {every}")
     periods = periods or segment_periods(scenario, steps)
     method = parse_method(method)
+    program = program or (method.kind, method.planner)
+    if not runs(program, method):
+        raise ValueError(f"program {program}: does not run the method {method.name}")
     params = task_params(scenario, method, seed)
     trials = np.asarray(trials, np.int32)
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
@@ -172,8 +163,7 @@ def run_trials(
         periods,
         full,
         devices,
-        method.kind,
-        method.planner,
+        *program,
         masks,
     )
     compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0

@@ -5,7 +5,8 @@ the carry is the warm start ``u_plan [H, 2N]`` (the previous mean sequence shift
 one control step) and the last :class:`~mjx_radar.planners.base.ControlRecord` (planned
 positions, kept samples, weights, costs). What is compiled follows the task's program
 kind: nothing for ``"none"`` (the radars keep still), one information kind, or both
-behind ``lax.cond`` on the method's runtime flags (``"all"``).
+behind ``lax.cond`` on the method's runtime flags (``"all"``); ``"sfim+none"`` /
+``"pfim+none"`` plan or hold by the flag ``plans`` (a study's shared program).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import jax.numpy as jnp
 
 from mjx_radar.control import mppi
 from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.task.method import plans_optional
 from mjx_radar.task.planner import make_planner
 
 
@@ -64,7 +66,7 @@ class MPPIPlanner(Planner):
         kind = self.task.kind
         if kind == "none":  # stationary program: no planner compiled
             return self._idle(carry)
-        if kind != "all":  # one information kind: always plans
+        if not plans_optional(kind):  # one information kind: always plans
             return self._mppi(carry, obs, key)
         return jax.lax.cond(
             self.env.params.method.plans,

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import re
 import shlex
 import shutil
 import sys
@@ -40,21 +39,11 @@ import pandas as pd
 
 from mjx_radar.errors import InputError
 from mjx_radar.registry import PLANNERS
+from mjx_radar.study.chunks import Chunk
 from mjx_radar.task.method import METHODS, parse_method
 
 #: settings that must be the same when a study is resumed (they change the numbers)
 CONFIG_KEYS = ("scenarios", "methods", "trials", "steps", "seed", "chunk", "rollouts", "precision")
-
-
-@dataclass
-class Chunk:
-    scenario: object  # Scenario
-    method: str
-    steps: int
-    seed: int
-    first: int
-    last: int
-    path: Path
 
 
 @dataclass
@@ -149,43 +138,17 @@ def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> d
     return manifest
 
 
-def file_label(method: str) -> str:
-    """``method`` as a file-name part: unchanged unless it holds characters other than
-    letters, digits, ``._+-`` (``ddr-sfim+policy:runs/p1``), then those as ``_`` plus a
-    digest of the name (distinct names stay distinct)."""
-    safe = re.sub(r"[^A-Za-z0-9._+-]", "_", method)
-    if safe == method:
-        return method
-    return f"{safe[:60]}-{hashlib.sha256(method.encode()).hexdigest()[:8]}"
-
-
-def all_chunks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[Chunk]:
-    """Every chunk in study order."""
-    chunks = []
-    for s, _, steps, seed in scenarios:
-        for method in methods:
-            for first in range(0, trials, chunk):
-                last = min(first + chunk, trials) - 1
-                path = out / "chunks" / f"{s.name}__{file_label(method)}__{first}-{last}.parquet"
-                chunks.append(Chunk(s, method, steps, seed, first, last, path))
-    return chunks
-
-
-def rounds(todo: list[Chunk], n_dev: int) -> list[list[Chunk]]:
-    """Chunks grouped ``n_dev`` at a time, each group of one scenario and method."""
-    out: list[list[Chunk]] = []
-    for c in todo:
-        last = out[-1] if out else None
-        same = last and last[0].scenario is c.scenario and last[0].method == c.method
-        if same and len(last) < n_dev:
-            last.append(c)
-        else:
-            out.append([c])
-    return out
-
-
-def run_round(group: list[Chunk], chunk: int, n_dev: int, mesh, progress, times: StudyTimes):
-    """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files."""
+def run_round(
+    group: list[Chunk],
+    chunk: int,
+    n_dev: int,
+    mesh,
+    progress,
+    times: StudyTimes,
+    program: tuple[str, str] | None = None,
+):
+    """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files;
+    ``program``: the ``(kind, planner)`` the chunks' method runs with (None: its own)."""
     from mjx_radar.engine import runner
     from mjx_radar.rundir import results
 
@@ -203,6 +166,7 @@ def run_round(group: list[Chunk], chunk: int, n_dev: int, mesh, progress, times:
         full=False,
         progress=progress,
         mesh=mesh,
+        program=program,
     )
     times.compile_s += res["compile_s"]
     times.sim_s += res["sim_s"]

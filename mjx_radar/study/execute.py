@@ -133,6 +133,7 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
 def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
 
     from mjx_radar.engine import live_programs, resources, runner
+    from mjx_radar.study import chunks as chunks_of
     from mjx_radar.study import driver
 
     joining = worker.kind != "single"  # workers share the directory
@@ -150,7 +151,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         resources.check(s, args.chunk * n_dev, n_steps, n_dev, full=False, batch_option="--chunk")
     if worker.index == 0 or worker.kind == "shard":
         manifest = driver.start_manifest(args.out, scenarios, config, manifest)
-    chunks = driver.all_chunks(scenarios, args.methods, args.trials, args.chunk, args.out)
+    chunks = chunks_of.all_chunks(scenarios, args.methods, args.trials, args.chunk, args.out)
     driver.remove_temporaries(worker.mine(chunks))  # of this worker's killed writes
     todo = [c for c in worker.mine(chunks) if not c.path.exists()]
     print(
@@ -195,7 +196,9 @@ def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
     from tqdm import tqdm
 
     from mjx_radar.engine import runner
+    from mjx_radar.study import chunks as chunks_of
     from mjx_radar.study import driver
+    from mjx_radar.task.params import shape_key
 
     if todo:
         steps0 = todo[0].steps
@@ -204,6 +207,8 @@ def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
         wall = runner.precompile(shapes, args.chunk * n_dev, steps0, mesh=mesh)
         times.compile_s += wall
         print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
+    # the methods of a shape share one program (the union of their kinds)
+    programs = runner.program_map([(c.scenario, c.method) for c in todo])
     total = sum(c.steps * (c.last - c.first + 1) for c in todo)
     with tqdm(
         total=total,
@@ -213,11 +218,18 @@ def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
         dynamic_ncols=True,
         disable=not todo or not args.progress,
     ) as bar:
-        for group in driver.rounds(todo, n_dev):
+        for group in chunks_of.rounds(todo, n_dev):
             bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
             done = sum(c.last - c.first + 1 for c in group)
+            program = programs[(shape_key(group[0].scenario), group[0].method)]
             driver.run_round(
-                group, args.chunk, n_dev, mesh, lambda k, n=done: bar.update(k * n), times
+                group,
+                args.chunk,
+                n_dev,
+                mesh,
+                lambda k, n=done: bar.update(k * n),
+                times,
+                program,
             )
 
 

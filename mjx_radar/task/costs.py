@@ -39,6 +39,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.estimation import detection, fisher, measurement, pda
+from mjx_radar.task.method import information_of
 from mjx_radar.world import moving, obstacles
 
 
@@ -64,9 +65,9 @@ class CostTerm(NamedTuple):
 
 
 def information(h: Horizon, task, params) -> jax.Array:
-    kind = getattr(task, "kind", "all")  # a program of one information kind compiles only it
-    if kind in ("sfim", "pfim"):
-        return -(_pfim if kind == "pfim" else _sfim)(h, task, params)
+    info = information_of(getattr(task, "kind", "all"))  # one kind: only its branch
+    if info is not None:
+        return -(_pfim if info == "pfim" else _sfim)(h, task, params)
     return -jax.lax.cond(
         params.method.pfim, lambda: _pfim(h, task, params), lambda: _sfim(h, task, params)
     )

@@ -11,7 +11,12 @@ kind* (:data:`PROGRAM_KINDS`, the method's ``info``): ``"none"`` compiles no pla
 at all, ``"sfim"`` / ``"pfim"`` only that information, so CCR and DDR methods of an
 information kind share a program (``ccr`` stays a runtime flag). Kind ``"all"``
 serves every method: both information branches joined by ``lax.cond`` on the runtime
-flags (an unbatched predicate stays a branch under ``vmap``).
+flags (an unbatched predicate stays a branch under ``vmap``); ``"sfim+none"`` and
+``"pfim+none"`` serve one information kind and ``stationary`` (plan or hold, a
+``lax.cond`` on ``plans``). In a study the stationary radars run in the program of a
+planning method of their scenario shape (:func:`shared_programs`): the fixed loop
+(truth, filter, metrics), the larger part of a program, is compiled once less, and
+every method's numbers are those of its own program.
 
 A method is planner x information x noise model: ``planner`` names the registered
 planner (:mod:`mjx_radar.planners`) that moves the radars -- the paper's MPPI for the
@@ -28,7 +33,9 @@ from typing import Any, NamedTuple
 NOISE_MODELS = ("ddr", "ccr")
 INFO_KINDS = ("sfim", "pfim", "none")
 #: what a compiled program carries of the planner: one information kind, or all methods
-PROGRAM_KINDS = ("none", "sfim", "pfim", "all")
+PROGRAM_KINDS = ("none", "sfim", "pfim", "sfim+none", "pfim+none", "all")
+#: the planners whose methods share a program of several kinds (the built-in ones)
+SHARING_PLANNERS = ("mppi", "hold")
 
 
 @dataclass(frozen=True)
@@ -177,3 +184,56 @@ def with_planners(names, planners) -> list[str]:
             continue
         out += [parse_method(method, p).name for p in planners]
     return list(dict.fromkeys(out))
+
+
+def information_of(kind: str) -> str | None:
+    """The one information a program of ``kind`` maximises (``"sfim"``, ``"pfim"``), or
+    None: no planner (``"none"``) or both behind a runtime branch (``"all"``)."""
+    info = kind.partition("+")[0]
+    return info if info in ("sfim", "pfim") else None
+
+
+def plans_optional(kind: str) -> bool:
+    """Whether a program of ``kind`` plans or holds by the runtime flag ``plans``."""
+    return kind == "all" or kind.endswith("+none")
+
+
+def served(kind: str) -> set[str]:
+    """The information kinds of the methods a program of ``kind`` runs."""
+    if kind == "all":
+        return {"sfim", "pfim", "none"}
+    info, _, hold = kind.partition("+")
+    return {info, hold} - {""}
+
+
+def runs(program: tuple[str, str], method: Method) -> bool:
+    """Whether the program ``(kind, planner)`` runs ``method``: its own, or a shared
+    one of the built-in planners whose kind serves the method's (:func:`shared_programs`)."""
+    kind, planner = program
+    if (kind, planner) == (method.kind, method.planner):
+        return True
+    shared = method.planner in SHARING_PLANNERS and planner == "mppi"
+    return shared and kind in PROGRAM_KINDS and method.kind in served(kind)
+
+
+def shared_programs(methods) -> dict[str, tuple[str, str]]:
+    """``{method name: (program kind, planner)}`` for methods run on one scenario shape.
+
+    The stationary radars (``hold``) ride along in the program of a planning method of
+    the built-in MPPI (the SFIM one if there is one): kind ``"sfim+none"`` or
+    ``"pfim+none"``, which plans or holds by the runtime flag ``plans`` and gives every
+    method the numbers of its own program bit for bit. SFIM and PFIM keep programs of
+    their own: under one ``"all"`` program the PFIM objective, compiled inside a
+    runtime branch, differs from its own program by float32 round-off (CCR-PFIM on
+    paper_3r4t). Registered planners keep their own programs.
+    """
+    ms = [parse_method(m) for m in methods]
+    infos = [i for i in ("sfim", "pfim") if any(m.info == i and m.planner == "mppi" for m in ms)]
+    host = infos[0] if infos and any(m.kind == "none" for m in ms) else None
+    out = {}
+    for m in ms:
+        if host is not None and m.planner in SHARING_PLANNERS and m.kind in (host, "none"):
+            out[m.name] = (f"{host}+none", "mppi")
+        else:
+            out[m.name] = (m.kind, m.planner)
+    return out
