@@ -84,7 +84,7 @@ BASE = (
 )
 #: the perkind variant's process: each method in the program of its own kind
 PERKIND = (
-    "import runpy, sys; import mjx_radar.engine.runner as r; "
+    "import runpy, sys; import mjx_radar.engine.program_jobs as r; "
     "from mjx_radar.task.method import parse_method as pm; "
     "r.shared_programs = lambda ms: {pm(m).name: (pm(m).kind, pm(m).planner) for m in ms}; "
     "sys.argv = ['mjx-radar', *sys.argv[1:]]; runpy.run_module('mjx_radar', run_name='__main__')"

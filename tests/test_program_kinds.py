@@ -8,7 +8,7 @@ import pytest
 from mjx_radar.engine import runner
 from mjx_radar.env import closed_loop
 from mjx_radar.scenario.reader import load_scenario
-from mjx_radar.task.method import METHODS, parse_method, runs, shared_programs
+from mjx_radar.task.method import METHODS, SWITCH, parse_method, runs, shared_programs
 from mjx_radar.task.params import shape_key, task_params
 from mjx_radar.task.task import make_task
 
@@ -25,7 +25,7 @@ def _lowered(scenario, kind: str, method: str) -> str:
 @pytest.fixture(scope="module")
 def hlo(tiny):
     kinds = {"none": "stationary", "sfim": "ddr-sfim", "pfim": "ddr-pfim", "all": "ddr-sfim",
-             "sfim+none": "stationary"}  # fmt: skip
+             "sfim+none": "stationary", SWITCH: "ddr-pfim"}  # fmt: skip
     return {k: _lowered(tiny, k, m) for k, m in kinds.items()}
 
 
@@ -45,13 +45,18 @@ def test_single_kind_programs_leave_out_the_other_branches(hlo):
     assert cases["all"] == cases["sfim"] + 2 == cases["pfim"] + 2
     assert cases["none"] == cases["sfim"]
     assert cases["sfim+none"] == cases["sfim"] + 1  # plan or hold; SFIM only
+    # a study's one program: a switch of hold and both whole planners, none inside them
+    assert cases[SWITCH] == cases["sfim"] + 1
     # no planner at all without one (MPPI's iteration and sampling loops are gone)
     assert loops["none"] < loops["sfim"] == loops["sfim+none"] <= loops["pfim"] == loops["all"]
+    # both planners (PFIM's and SFIM's loops), the fixed loop once (shared functions once)
+    assert loops["pfim"] < loops[SWITCH] <= loops["sfim"] + loops["pfim"] - loops["none"]
     size = {k: len(t) for k, t in hlo.items()}
     assert size["none"] < size["sfim"] < size["sfim+none"] < size["pfim"] < size["all"]
+    assert size["pfim"] < size[SWITCH] < size["sfim"] + size["pfim"] - size["none"]
 
 
-def test_precompile_compiles_one_program_per_shape_and_kind(tiny, monkeypatch):
+def test_precompile_compiles_one_program_per_shape(tiny, monkeypatch):
     seen = []
 
     def fake(scenario, batch, periods, full, devices, kind="all", planner="mppi"):
@@ -63,22 +68,23 @@ def test_precompile_compiles_one_program_per_shape_and_kind(tiny, monkeypatch):
     bigger = dataclasses.replace(tiny, mpc=dataclasses.replace(tiny.mpc, horizon=4))
     jobs = [(tiny, "ddr-sfim"), (tiny, "ccr-sfim"), (other, "ddr-pfim"), (bigger, "stationary")]
     runner.precompile(jobs, 2, 8)
-    assert sorted(k for _, k in seen) == ["none", "pfim", "sfim"]  # each program once
-    assert {k for s, k in seen if s == shape_key(tiny)} == {"sfim", "pfim"}
+    # one program per shape: a renamed copy is the same shape; stationary alone keeps its own
+    assert sorted(k for _, k in seen) == ["none", SWITCH]
+    assert {k for s, k in seen if s == shape_key(tiny)} == {SWITCH}
     assert {k for s, k in seen if s == shape_key(bigger)} == {"none"}
     seen.clear()
-    runner.precompile([tiny], 2, 8)  # a scenario alone: every method; stationary rides along
-    assert sorted(k for _, k in seen) == ["pfim", "sfim+none"]
+    runner.precompile([tiny], 2, 8)  # a scenario alone: every method, one program
+    assert [k for _, k in seen] == [SWITCH]
 
 
 def test_stationary_rides_along_in_a_planning_program():
-    """A study's programs per shape: stationary joins the SFIM (else PFIM) program of the
-    built-in MPPI; a registered planner, or stationary alone, keeps its own."""
-    every = shared_programs(METHODS)
-    assert every == {"stationary": ("sfim+none", "mppi"), "ccr-sfim": ("sfim+none", "mppi"),
-                     "ddr-sfim": ("sfim+none", "mppi"), "ccr-pfim": ("pfim", "mppi"),
-                     "ddr-pfim": ("pfim", "mppi")}  # fmt: skip
+    """A study's programs per shape: the built-in methods share one (the switch of
+    whole planners for both informations); a registered planner, or a method alone,
+    keeps its own."""
+    assert shared_programs(METHODS) == dict.fromkeys(METHODS, (SWITCH, "mppi"))
+    assert shared_programs(["ccr-sfim", "ddr-pfim"])["ccr-sfim"] == (SWITCH, "mppi")
     assert shared_programs(["stationary", "ccr-pfim"])["stationary"] == ("pfim+none", "mppi")
+    assert shared_programs(["ddr-sfim", "stationary"])["stationary"] == ("sfim+none", "mppi")
     assert shared_programs(["stationary"]) == {"stationary": ("none", "hold")}
     assert shared_programs(["ddr-sfim", "ccr-sfim"])["ddr-sfim"] == ("sfim", "mppi")
     alone = shared_programs(["stationary", "ddr-sfim+cem"])
@@ -89,6 +95,7 @@ def test_stationary_rides_along_in_a_planning_program():
     assert runs(("all", "mppi"), pfim) and runs(("none", "hold"), stationary)
     assert not runs(("sfim", "mppi"), stationary) and not runs(("sfim+none", "mppi"), pfim)
     assert not runs(("sfim+none", "cem"), sfim) and not runs(("bogus", "mppi"), sfim)
+    assert all(runs((SWITCH, "mppi"), m) for m in METHODS.values())
 
 
 def test_run_trials_refuses_a_program_that_does_not_run_the_method(tiny):

@@ -49,14 +49,14 @@ def test_segment_periods_divide_the_control_periods():
 
 
 def test_programs_needed_counts_one_per_shape_kind_planner_and_device():
-    """What a study keeps alive: the paper study's 3 shapes x 2 programs (CCR and DDR
-    share a kind; stationary rides along in the SFIM one) on 4 devices is 24 programs,
-    not its 15 scenario-method pairs (which let the study evict and reload programs
-    round after round on 4 GPUs)."""
+    """What a study keeps alive: the paper study's 3 shapes x 1 program (its five
+    methods share one per shape) on 4 devices is 12 programs, not its 15 scenario-method
+    pairs (counting pairs had let the study evict and reload programs round after round
+    on 4 GPUs)."""
     paper = [load_scenario(n) for n in ("paper_3r4t", "paper_4r4t", "paper_6r3t")]
     methods = ["stationary", "ccr-sfim", "ccr-pfim", "ddr-sfim", "ddr-pfim"]
     jobs = [(s, m) for s in paper for m in methods]
-    assert runner.programs_needed(jobs, 4) == 24 and runner.programs_needed(jobs, 1) == 6
+    assert runner.programs_needed(jobs, 4) == 12 and runner.programs_needed(jobs, 1) == 3
     smoke = load_scenario("smoke")  # a renamed copy is the same shape; a planner is not
     twin = dataclasses.replace(smoke, name="twin")
     jobs = [(smoke, "ddr-sfim"), (twin, "ccr-sfim"), (smoke, "ddr-sfim+ps")]

@@ -49,6 +49,7 @@ __all__ = [
     "program_map",
     "programs_needed",
     "run_trials",
+    "set_metrics",
 ]
 
 
@@ -107,6 +108,7 @@ def run_trials(
     on_segment: Callable[[int, tuple], None] | None = None,
     masks: bool = False,
     program: tuple[str, str] | None = None,
+    sets: bool = True,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
@@ -132,6 +134,9 @@ def run_trials(
         program: ``(kind, planner)`` of the program to run the method with: one that
             serves the method's kind (a study's shared program, :func:`program_map`;
             the same numbers; :func:`mjx_radar.task.method.runs`); None: its own.
+        sets: compute the set metrics (GOSPA, OSPA, continuity) on the host here; False:
+            leave the sets in the result for :func:`set_metrics` (a study computes them
+            in a background thread while the devices run its next chunks).
 
     Returns:
         dict of numpy arrays: the metrics (:data:`mjx_radar.rundir.results.METRIC_COLUMNS`)
@@ -208,7 +213,8 @@ def run_trials(
             res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
     res["placement_ok"] = np.concatenate([np.asarray(w[4]) for w in workers])
     sim_s = time.perf_counter() - t0
-    res |= _set_columns(scenario, res, full)
+    if sets:
+        res |= set_metrics(scenario, res, full)
     res |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
     res["control_hz"] = (steps // every) / sim_s
     return res
@@ -247,9 +253,9 @@ def device_programs(
     return first + parallel([lambda d=d: one(d) for d in devices[1:]])
 
 
-def _set_columns(scenario: Scenario, res: dict, full: bool) -> dict:
-    """GOSPA, OSPA and continuity per trial and step (host, after the run; the sets of a
-    metrics-only run are dropped from ``res``)."""
+def set_metrics(scenario: Scenario, res: dict, full: bool = False) -> dict:
+    """GOSPA, OSPA and continuity per trial and step of a :func:`run_trials` result
+    (host, after the run; the sets of a metrics-only run are dropped from ``res``)."""
     from mjx_radar.env.records import SET_KEYS, estimate_sets
     from mjx_radar.rundir.results import set_columns
 

@@ -6,11 +6,13 @@ one control step) and the last :class:`~mjx_radar.planners.base.ControlRecord` (
 positions, kept samples, weights, costs). What is compiled follows the task's program
 kind: nothing for ``"none"`` (the radars keep still), one information kind, or both
 behind ``lax.cond`` on the method's runtime flags (``"all"``); ``"sfim+none"`` /
-``"pfim+none"`` plan or hold by the flag ``plans`` (a study's shared program).
+``"pfim+none"`` plan or hold by the flag ``plans``; ``"sfim+pfim+none"`` switches
+between holding and each information's whole planner (a study's shared programs).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 import jax
@@ -18,7 +20,7 @@ import jax.numpy as jnp
 
 from mjx_radar.control import mppi
 from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
-from mjx_radar.task.method import plans_optional
+from mjx_radar.task.method import SWITCH, plans_optional
 from mjx_radar.task.planner import make_planner
 
 
@@ -35,7 +37,14 @@ class MPPIPlanner(Planner):
     def __init__(self, env):
         super().__init__(env)
         self.task = env.task
-        self._optimize = make_planner(env.task) if env.task.kind != "none" else None
+        kind = env.task.kind
+        self._optimize = make_planner(env.task) if kind not in ("none", SWITCH) else None
+        # a study's one program per shape: each information's whole planner in a branch
+        self._per_info = (
+            {i: make_planner(dataclasses.replace(env.task, kind=i)) for i in ("sfim", "pfim")}
+            if kind == SWITCH
+            else None
+        )
 
     def init(self) -> MPPICarry:
         sc = self.env.scenario
@@ -46,10 +55,10 @@ class MPPIPlanner(Planner):
         zeros = jnp.zeros((self.env.scenario.n_radars, 2))
         return zeros, MPPICarry(carry.u_plan, idle_record(self.env.scenario, zeros))
 
-    def _mppi(self, carry: MPPICarry, obs, key):
+    def _mppi(self, carry: MPPICarry, obs, key, optimize=None):
         sc = self.env.scenario
         params = self.env.planning_params(obs)  # presence weights, vehicles' time
-        res, mean_plan = self._optimize(
+        res, mean_plan = (optimize or self._optimize)(
             obs.radar_state, obs.mean, obs.cov, carry.u_plan, key, params
         )
         keep = slice(0, kept_samples(sc))
@@ -66,6 +75,18 @@ class MPPIPlanner(Planner):
         kind = self.task.kind
         if kind == "none":  # stationary program: no planner compiled
             return self._idle(carry)
+        if kind == SWITCH:  # hold, or plan with the method's information
+            flags = self.env.params.method
+            branch = flags.plans.astype(jnp.int32) * (1 + flags.pfim.astype(jnp.int32))
+            sfim, pfim = self._per_info["sfim"], self._per_info["pfim"]
+            return jax.lax.switch(
+                branch,
+                [
+                    lambda: self._idle(carry),
+                    lambda: self._mppi(carry, obs, key, sfim),
+                    lambda: self._mppi(carry, obs, key, pfim),
+                ],
+            )
         if not plans_optional(kind):  # one information kind: always plans
             return self._mppi(carry, obs, key)
         return jax.lax.cond(

@@ -146,9 +146,12 @@ def run_round(
     progress,
     times: StudyTimes,
     program: tuple[str, str] | None = None,
+    writer=None,
 ):
     """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files;
-    ``program``: the ``(kind, planner)`` the chunks' method runs with (None: its own)."""
+    ``program``: the ``(kind, planner)`` the chunks' method runs with (None: its own);
+    ``writer``: a :class:`~mjx_radar.study.chunks.Background` that computes the set
+    metrics and writes the files while the devices run the next round (None: here)."""
     from mjx_radar.engine import runner
     from mjx_radar.rundir import results
 
@@ -167,18 +170,27 @@ def run_round(
         progress=progress,
         mesh=mesh,
         program=program,
+        sets=False,
     )
     times.compile_s += res["compile_s"]
     times.sim_s += res["sim_s"]
-    time_s = c0.scenario.timing.dt_filter * np.arange(1, c0.steps + 1)
-    for i, c in enumerate(group):
-        n = c.last - c.first + 1
-        rows = slice(i * chunk, i * chunk + n)
-        metrics = {k: res[k][rows] for k in results.METRIC_COLUMNS}
-        ids_c = np.arange(c.first, c.last + 1)
-        frame = results.metrics_frame(c.scenario.name, c.method, ids_c, time_s, metrics)
-        results.write_parquet(c.path, frame)
-        times.chunks_run += 1
+
+    def write():
+        res.update(runner.set_metrics(c0.scenario, res))
+        time_s = c0.scenario.timing.dt_filter * np.arange(1, c0.steps + 1)
+        for i, c in enumerate(group):
+            n = c.last - c.first + 1
+            rows = slice(i * chunk, i * chunk + n)
+            metrics = {k: res[k][rows] for k in results.METRIC_COLUMNS}
+            ids_c = np.arange(c.first, c.last + 1)
+            frame = results.metrics_frame(c.scenario.name, c.method, ids_c, time_s, metrics)
+            results.write_parquet(c.path, frame)
+            times.chunks_run += 1
+
+    if writer is None:
+        write()
+    else:
+        writer.submit(write)
 
 
 def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:

@@ -210,14 +210,17 @@ def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
     # the methods of a shape share one program (the union of their kinds)
     programs = runner.program_map([(c.scenario, c.method) for c in todo])
     total = sum(c.steps * (c.last - c.first + 1) for c in todo)
-    with tqdm(
-        total=total,
-        unit="trial-step",
-        desc="study",
-        file=sys.stderr,
-        dynamic_ncols=True,
-        disable=not todo or not args.progress,
-    ) as bar:
+    with (
+        tqdm(
+            total=total,
+            unit="trial-step",
+            desc="study",
+            file=sys.stderr,
+            dynamic_ncols=True,
+            disable=not todo or not args.progress,
+        ) as bar,
+        chunks_of.Background() as writer,  # host metrics and files beside the next round
+    ):
         for group in chunks_of.rounds(todo, n_dev):
             bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
             done = sum(c.last - c.first + 1 for c in group)
@@ -230,6 +233,7 @@ def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
                 lambda k, n=done: bar.update(k * n),
                 times,
                 program,
+                writer,
             )
 
 

@@ -13,10 +13,12 @@ information kind share a program (``ccr`` stays a runtime flag). Kind ``"all"``
 serves every method: both information branches joined by ``lax.cond`` on the runtime
 flags (an unbatched predicate stays a branch under ``vmap``); ``"sfim+none"`` and
 ``"pfim+none"`` serve one information kind and ``stationary`` (plan or hold, a
-``lax.cond`` on ``plans``). In a study the stationary radars run in the program of a
-planning method of their scenario shape (:func:`shared_programs`): the fixed loop
-(truth, filter, metrics), the larger part of a program, is compiled once less, and
-every method's numbers are those of its own program.
+``lax.cond`` on ``plans``); :data:`SWITCH` (``"sfim+pfim+none"``) serves every
+built-in method: hold, or each information's whole planner, by a runtime switch. A study
+runs the built-in methods of one scenario shape in one such program
+(:func:`shared_programs`): the fixed loop (truth, filter, metrics), the larger part of a
+program, is compiled once per shape, and every method's numbers are those of its own
+program bit for bit.
 
 A method is planner x information x noise model: ``planner`` names the registered
 planner (:mod:`mjx_radar.planners`) that moves the radars -- the paper's MPPI for the
@@ -33,7 +35,10 @@ from typing import Any, NamedTuple
 NOISE_MODELS = ("ddr", "ccr")
 INFO_KINDS = ("sfim", "pfim", "none")
 #: what a compiled program carries of the planner: one information kind, or all methods
-PROGRAM_KINDS = ("none", "sfim", "pfim", "sfim+none", "pfim+none", "all")
+#: every built-in method in one program: hold, or each information's whole planner, by a
+#: runtime switch (a study's program per shape; the numbers of each method's own program)
+SWITCH = "sfim+pfim+none"
+PROGRAM_KINDS = ("none", "sfim", "pfim", "sfim+none", "pfim+none", SWITCH, "all")
 #: the planners whose methods share a program of several kinds (the built-in ones)
 SHARING_PLANNERS = ("mppi", "hold")
 
@@ -189,21 +194,18 @@ def with_planners(names, planners) -> list[str]:
 def information_of(kind: str) -> str | None:
     """The one information a program of ``kind`` maximises (``"sfim"``, ``"pfim"``), or
     None: no planner (``"none"``) or both behind a runtime branch (``"all"``)."""
-    info = kind.partition("+")[0]
-    return info if info in ("sfim", "pfim") else None
+    infos = set(kind.split("+")) & {"sfim", "pfim"}
+    return infos.pop() if len(infos) == 1 else None
 
 
 def plans_optional(kind: str) -> bool:
     """Whether a program of ``kind`` plans or holds by the runtime flag ``plans``."""
-    return kind == "all" or kind.endswith("+none")
+    return kind == "all" or (kind != "none" and "none" in kind.split("+"))
 
 
 def served(kind: str) -> set[str]:
     """The information kinds of the methods a program of ``kind`` runs."""
-    if kind == "all":
-        return {"sfim", "pfim", "none"}
-    info, _, hold = kind.partition("+")
-    return {info, hold} - {""}
+    return {"sfim", "pfim", "none"} if kind == "all" else set(kind.split("+"))
 
 
 def runs(program: tuple[str, str], method: Method) -> bool:
@@ -219,21 +221,29 @@ def runs(program: tuple[str, str], method: Method) -> bool:
 def shared_programs(methods) -> dict[str, tuple[str, str]]:
     """``{method name: (program kind, planner)}`` for methods run on one scenario shape.
 
-    The stationary radars (``hold``) ride along in the program of a planning method of
-    the built-in MPPI (the SFIM one if there is one): kind ``"sfim+none"`` or
-    ``"pfim+none"``, which plans or holds by the runtime flag ``plans`` and gives every
-    method the numbers of its own program bit for bit. SFIM and PFIM keep programs of
-    their own: under one ``"all"`` program the PFIM objective, compiled inside a
-    runtime branch, differs from its own program by float32 round-off (CCR-PFIM on
-    paper_3r4t). Registered planners keep their own programs.
+    The methods of the built-in planners (:data:`SHARING_PLANNERS`: MPPI and the
+    stationary radars' ``hold``) share one program: of their one information kind, with
+    ``"+none"`` when stationary radars ride along (plan or hold by the runtime flag
+    ``plans``), or :data:`SWITCH` for both informations (each information's whole planner
+    in a branch of a runtime switch). Each method gets the numbers of its own program bit
+    for bit; one ``"all"`` program (both informations behind a branch inside the
+    objective) does not (CCR-PFIM differs by float32 round-off). Registered planners, and
+    a built-in method alone, keep their own programs.
     """
     ms = [parse_method(m) for m in methods]
-    infos = [i for i in ("sfim", "pfim") if any(m.info == i and m.planner == "mppi" for m in ms)]
-    host = infos[0] if infos and any(m.kind == "none" for m in ms) else None
+    built_in = [m for m in ms if m.planner in SHARING_PLANNERS]
+    kinds = {m.kind for m in built_in}
+    infos = sorted(kinds - {"none"}, key=("sfim", "pfim").index)
+    if len(infos) == 2:
+        shared = SWITCH
+    elif infos:
+        shared = infos[0] + ("+none" if "none" in kinds else "")
+    else:
+        shared = "none"
     out = {}
     for m in ms:
-        if host is not None and m.planner in SHARING_PLANNERS and m.kind in (host, "none"):
-            out[m.name] = (f"{host}+none", "mppi")
+        if m.planner in SHARING_PLANNERS and shared != m.kind:
+            out[m.name] = (shared, "mppi")
         else:
             out[m.name] = (m.kind, m.planner)
     return out
