@@ -34,10 +34,10 @@ from typing import Any, NamedTuple
 
 NOISE_MODELS = ("ddr", "ccr")
 INFO_KINDS = ("sfim", "pfim", "none")
-#: what a compiled program carries of the planner: one information kind, or all methods
 #: every built-in method in one program: hold, or each information's whole planner, by a
 #: runtime switch (a study's program per shape; the numbers of each method's own program)
 SWITCH = "sfim+pfim+none"
+#: what a compiled program carries of the planner: one information kind, several, or all
 PROGRAM_KINDS = ("none", "sfim", "pfim", "sfim+none", "pfim+none", SWITCH, "all")
 #: the planners whose methods share a program of several kinds (the built-in ones)
 SHARING_PLANNERS = ("mppi", "hold")
