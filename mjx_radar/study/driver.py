@@ -195,12 +195,15 @@ def run_round(
 
 def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:
     """Concatenates chunk files (in the given order) into one long-format table."""
-    frame = pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True)
-    seen = list(dict.fromkeys(frame["method"].astype(str)))  # "METHOD+PLANNER" names too
+    frames = [pd.read_parquet(p) for p in paths]
+    # "METHOD+PLANNER" names too; categories per chunk before concatenating (the string
+    # columns of millions of rows took most of a paper study's consolidation)
+    seen = list(dict.fromkeys(m for f in frames for m in f["method"].astype(str).unique()))
     methods = [m for m in METHODS if m in seen] + [m for m in seen if m not in METHODS]
-    frame["scenario"] = pd.Categorical(frame["scenario"].astype(str), categories=scenario_order)
-    frame["method"] = pd.Categorical(frame["method"].astype(str), categories=methods)
-    return frame
+    for f in frames:
+        f["scenario"] = pd.Categorical(f["scenario"].astype(str), categories=scenario_order)
+        f["method"] = pd.Categorical(f["method"].astype(str), categories=methods)
+    return pd.concat(frames, ignore_index=True)
 
 
 def _gospa_settings(scenario) -> dict:
