@@ -1,8 +1,8 @@
 """Which compiled programs a set of study jobs needs (:func:`mjx_radar.engine.runner.precompile`).
 
 A job is a ``(scenario, method)`` pair or a scenario alone (every method). Programs are
-per scenario shape, program kind and planner; per shape the stationary radars ride along
-in a planning method's program (:func:`mjx_radar.task.method.shared_programs`).
+per scenario shape, program kind and planner; per shape the built-in methods share one
+program (:func:`mjx_radar.task.method.shared_programs`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ __all__ = ["program_jobs", "program_map", "programs_needed"]
 
 def program_map(jobs) -> dict[tuple, tuple[str, str]]:
     """``{(shape, method name): (program kind, planner)}`` of ``jobs``: per scenario
-    shape, the stationary radars ride along in a planning method's program
+    shape, the built-in methods share one program
     (:func:`mjx_radar.task.method.shared_programs`)."""
     by_shape: dict = {}
     for job in jobs:
@@ -36,8 +36,9 @@ def program_jobs(jobs) -> list[tuple]:
     out = {}
     for job in jobs:
         s = job[0] if isinstance(job, tuple) else job
+        own = shape_key(s)
         for (shape, _), (kind, planner) in programs.items():
-            if shape == shape_key(s):
+            if shape == own:
                 out.setdefault((shape, kind, planner), (s, kind, planner))
     return list(out.values())
 

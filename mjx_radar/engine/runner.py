@@ -11,10 +11,10 @@ output kind, batch and device mesh (:mod:`mjx_radar.engine.programs`): the noise
 model and the scenario's numbers are runtime arguments
 (:class:`~mjx_radar.task.params.TaskParams`), so the CCR and DDR methods of a kind,
 and every scenario that differs only in its numbers, share it; a run compiles only
-the information it needs (stationary radars: no planner), while a study's stationary
-radars ride along in a planning method's program of their shape (kind ``sfim+none``:
-plan or hold by a runtime flag, the same numbers; :func:`program_map`). Compilation is
-ahead of time and timed apart from the simulation.
+the information it needs (stationary radars: no planner), while a study runs the
+built-in methods of a shape in one program (kinds ``sfim+none``, ``pfim+none``,
+``sfim+pfim+none``: hold or plan by runtime flags, the same numbers;
+:func:`program_map`). Compilation is ahead of time and timed apart from the simulation.
 """
 
 from __future__ import annotations
