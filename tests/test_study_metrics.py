@@ -32,6 +32,25 @@ def test_lost_counts_and_kept_mean():
     assert np.isnan(sm.kept_mean(values, np.ones(4, bool))).all()
 
 
+def test_lost_counts_by_cell_equal_each_cells_table():
+    """One grouping of a long table gives each cell's :func:`lost_counts` of its [T, K]
+    table exactly, whatever the row order (float 0/1 ``lost``, as the metrics files)."""
+    rng = np.random.default_rng(3)
+    tables, rows = {}, []
+    for sc, meth, t, k, p in (("a", "ddr-sfim", 7, 5, 0.2), ("a", "stationary", 7, 5, 0.0),
+                              ("b", "ddr-sfim", 3, 9, 0.5)):  # fmt: skip
+        lost = rng.random((t, k)) < p
+        tables[f"{sc}/{meth}"] = sm.lost_counts(lost)
+        trial, step = np.meshgrid(np.arange(t), np.arange(1, k + 1), indexing="ij")
+        cols = {"trial": trial.ravel(), "step": step.ravel(), "lost": lost.ravel().astype(float)}
+        rows.append(pd.DataFrame({"scenario": sc, "method": meth, **cols}))
+    frame = pd.concat(rows, ignore_index=True).sample(frac=1.0, random_state=0)
+    frame[["scenario", "method"]] = frame[["scenario", "method"]].astype("category")
+    got = sm.lost_counts_by_cell(frame)
+    assert got == tables and list(got) == sorted(tables)
+    assert got["a/stationary"]["trials_lost"] == 0 and got["b/ddr-sfim"]["trials"] == 3
+
+
 def _frame(lost_col=True):
     """2 steps x 10 trials; ccr-sfim loses trials 0 and 1 (1e6 m), ddr-sfim loses trial 9."""
     trials = np.arange(10)

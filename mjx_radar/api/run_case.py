@@ -206,24 +206,16 @@ def _with_metrics(s, o: dict, label):
         raise ScenarioError(msg) from None
 
 
-def process_options(req: RunRequest) -> None:
-    """The process-wide settings a run asks for: the persistent compilation cache and
-    deterministic GPU kernels (XLA's flag must be set before JAX starts its backend)."""
-    from mjx_radar.engine import compile_cache
+def process_options(req: RunRequest) -> bool:
+    """The process-wide settings a run asks for: deterministic GPU kernels (XLA's flag must
+    be set before JAX starts its backend: :mod:`mjx_radar.engine.determinism`) and the
+    persistent compilation cache. Returns whether the kernels are deterministic."""
+    from mjx_radar.engine import compile_cache, determinism
 
+    deterministic = determinism.apply(req.deterministic)  # before anything starts JAX
     if req.cache and not compile_cache.enabled():
         compile_cache.enable(req.cache_dir)
-    if req.deterministic:
-        flags = os.environ.get("XLA_FLAGS", "")
-        if "--xla_gpu_deterministic_ops=true" not in flags:
-            import jax
-
-            if any(d.platform == "gpu" for d in jax.devices()):
-                raise InputError(
-                    "deterministic = True: JAX has started its GPU backend without XLA's "
-                    "--xla_gpu_deterministic_ops=true; set XLA_FLAGS before importing jax"
-                )
-            os.environ["XLA_FLAGS"] = f"{flags} --xla_gpu_deterministic_ops=true".strip()
+    return deterministic
 
 
 def precision_scope(req: RunRequest):
@@ -245,7 +237,7 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
     from mjx_radar.engine import resources, runner
     from mjx_radar.env.placement import check_placeable
 
-    process_options(req)
+    deterministic = process_options(req)
     with precision_scope(req):
         if checks:
             resources.check(req.scenario, len(req.trials), req.steps)
@@ -254,7 +246,7 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
             except ValueError as err:
                 raise InputError(str(err)) from None
         view = {} if live is None else live.runner_options()
-        return runner.run_trials(
+        res = runner.run_trials(
             req.scenario,
             req.method,
             req.seed,
@@ -265,3 +257,4 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
             masks=req.masks,
             **view,
         )
+        return res | {"deterministic": deterministic}

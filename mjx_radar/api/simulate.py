@@ -67,8 +67,10 @@ def simulate(
         association: ``"pda"``, ``"jpda"`` or ``"gnn"``: the scenario's ``[tracker]
             association`` for this run (``run --association``; docs/tracking.md).
         precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
-        deterministic: deterministic GPU kernels (``--deterministic``; on a GPU, XLA's flag
-            must be set before JAX starts, else a one-line ``InputError``).
+        deterministic: deterministic GPU kernels (``--deterministic``; XLA's flag is set
+            before JAX starts its GPU backend, else a one-line ``InputError``): the same
+            numbers from every compilation and on any number of GPUs
+            (:mod:`mjx_radar.engine.determinism`).
         cache_dir: the persistent compilation cache's folder (``--cache-dir``).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
         gospa_cutoff, gospa_order: GOSPA / OSPA cutoff c [m] and order p
@@ -165,6 +167,6 @@ def _simulate(req, progress: bool, view=(False, None, 0)) -> Run:
         steps,
         res,
         precision=req.precision,
-        deterministic=req.deterministic,
+        deterministic=bool(res.get("deterministic", False)),
     )
     return Run(s, method, req.seed, ids, steps, frame, arrays, meta, None, res)

@@ -76,6 +76,7 @@ def run_study(
     *,
     planners=None,
     plugins=(),
+    deterministic: bool = False,
 ) -> Study:
     """Runs (or resumes) a Monte Carlo study and returns it (``mjx-radar study``).
 
@@ -96,6 +97,8 @@ def run_study(
         planners: run every planning method with each of these planners
             (``study --planners``): methods ``"METHOD+PLANNER"`` (``mppi`` keeps the name).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
+        deterministic: deterministic GPU kernels (``--deterministic``, see
+            :func:`mjx_radar.simulate`).
 
     Raises:
         ScenarioError: an invalid scenario or argument (nothing compiled, nothing written).
@@ -128,6 +131,8 @@ def run_study(
             isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi
         ):
             raise ScenarioError(f"{name} = {value!r}: must be an integer in [{lo}, {hi}] or None")
+    if not isinstance(deterministic, bool):
+        raise ScenarioError(f"deterministic = {deterministic!r}: must be True or False")
     from mjx_radar.api.run_case import load_plugins
     from mjx_radar.task.method import with_planners
 
@@ -162,6 +167,7 @@ def run_study(
             resume=resume,
             precision=_precision(),
             progress=progress,
+            deterministic=deterministic,
         )
         execute.run_study(opts)
     return Study.load(out)

@@ -53,7 +53,9 @@ def add_cache_arguments(p: argparse.ArgumentParser) -> None:
         "--deterministic",
         action="store_true",
         help="deterministic GPU kernels (XLA's --xla_gpu_deterministic_ops): the same "
-        "numbers from run to run and on any number of GPUs, at some cost in speed",
+        "numbers from every compilation, run to run and on any number of GPUs (without it "
+        "XLA autotunes its kernels, and two cold compilations can differ); studies compile "
+        "faster, a single PFIM control call is slower (docs/scaling.md)",
     )
 
 
@@ -117,8 +119,9 @@ def main(argv: list[str] | None = None) -> int:
             )
             return 1
         if args.command in COMPILING and args.deterministic:  # before JAX starts its backend
-            flags = os.environ.get("XLA_FLAGS", "")
-            os.environ["XLA_FLAGS"] = f"{flags} --xla_gpu_deterministic_ops=true".strip()
+            from mjx_radar.engine import determinism
+
+            determinism.request_in_env()
         if args.command in COMPILING and args.precision == "float64":
             import jax
 

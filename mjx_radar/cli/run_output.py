@@ -69,7 +69,7 @@ def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
         res,
         source=resolve_path(args.scenario),
         precision=getattr(args, "precision", "float32"),
-        deterministic=bool(getattr(args, "deterministic", False)),
+        deterministic=bool(res.get("deterministic", False)),
     )
 
 

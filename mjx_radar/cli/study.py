@@ -138,5 +138,6 @@ def main(args) -> int:
         out=args.out,
         resume=args.resume,
         precision=args.precision,
+        deterministic=args.deterministic,
     )
     return execute.run_study(opts, lambda: _worker(args))

@@ -240,18 +240,16 @@ def remove_temporaries(chunks: list[Chunk]) -> None:
 
 def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices: str, n_dev: int):
     """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``."""
+    from mjx_radar.engine import determinism
     from mjx_radar.engine.runner import program_log
     from mjx_radar.rundir import results
-    from mjx_radar.study.metrics import lost_counts
+    from mjx_radar.study.metrics import lost_counts_by_cell
 
     frame = consolidate([c.path for c in chunks], [e["name"] for e in config["scenarios"]])
     results.write_parquet(out / "metrics.parquet", frame)
     values = frame[list(results.METRIC_COLUMNS)].to_numpy()
     bad = int((~np.isfinite(values)).sum())
-    lost = {}
-    for (sc, meth), g in frame.groupby(["scenario", "method"], observed=True):
-        table = g.pivot(index="trial", columns="step", values="lost").to_numpy()
-        lost[f"{sc}/{meth}"] = lost_counts(table)
+    lost = lost_counts_by_cell(frame)
     meta = {
         "scenarios": [s.name for s, *_ in scenarios],
         "scenario_files": {s.name: str(src) for s, src, _, _ in scenarios},
@@ -261,6 +259,7 @@ def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices:
         "seed": {s.name: seed for s, _, _, seed in scenarios},
         "chunk": config["chunk"],
         "precision": config["precision"],
+        "deterministic": bool(determinism.flag_in_env()),
         "rollouts": {s.name: s.mpc.rollout for s, *_ in scenarios},
         "gospa": {s.name: _gospa_settings(s) for s, *_ in scenarios},
         "wall_s": time.perf_counter() - times.start,

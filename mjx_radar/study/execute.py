@@ -42,6 +42,8 @@ class StudyOptions:
         resume: continue the study in ``out``.
         precision: ``"float32"`` or ``"float64"`` (x64 must already be on for the latter).
         progress: show a progress bar on stderr.
+        deterministic: deterministic GPU kernels
+            (:func:`mjx_radar.engine.determinism.apply`).
     """
 
     scenarios: list
@@ -55,6 +57,7 @@ class StudyOptions:
     resume: bool = False
     precision: str = "float32"
     progress: bool = True
+    deterministic: bool = False
 
 
 def lock_out(out: Path, worker) -> tuple[list[Path], list]:
@@ -101,6 +104,9 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
         ScenarioError, InputError: bad scenarios or options, an unusable or locked
             ``out``, settings differing from the resumed study's, a study too large.
     """
+    from mjx_radar.engine import determinism
+
+    determinism.apply(opts.deterministic)  # before anything starts JAX's backend
     from mjx_radar.engine.runner import COMPILE_LOG
     from mjx_radar.study import driver
 

@@ -117,6 +117,23 @@ def lost_counts(lost: np.ndarray) -> dict:
     }
 
 
+def lost_counts_by_cell(frame) -> dict:
+    """``{"SCENARIO/METHOD": lost_counts}`` of a long table (``scenario``, ``method``,
+    ``trial``, ``lost`` per step, every trial with the same steps): :func:`lost_counts` of
+    each cell's ``[T, K]`` table, exactly, from one grouping (not a pivot per cell)."""
+    agg = frame.groupby(["scenario", "method", "trial"], observed=True)["lost"].agg(
+        ["any", "sum", "size"]
+    )
+    cells = agg.groupby(level=[0, 1], observed=True).agg(["sum", "size"])
+    out, nan = {}, float("nan")
+    for (sc, meth), c in cells.iterrows():
+        t, n, rows = int(c[("any", "size")]), int(c[("any", "sum")]), float(c[("size", "sum")])
+        rates = (n / t if t else nan, float(c[("sum", "sum")]) / rows if rows else nan)
+        keys = ("trials", "trials_lost", "trial_rate", "step_rate")  # as lost_counts
+        out[f"{sc}/{meth}"] = dict(zip(keys, (t, n, *rates), strict=True))
+    return out
+
+
 def kept_mean(values: np.ndarray, ever_lost: np.ndarray) -> np.ndarray:
     """Per-step mean over the trials never lost.
 
