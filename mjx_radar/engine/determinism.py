@@ -6,7 +6,7 @@ fastest, so two cold compilations of one program can pick different kernels (XLA
 ``docs/determinism.md``); and some kernels (MJX's scatter-adds) use atomics, whose
 summation order varies from run to run. Measured on one H100 (docs/scaling.md,
 "Deterministic kernels"): the same 250-trial DDR-PFIM run of ``paper_3r4t``, compiled
-cold twice with the defaults, differed in 987 k of 3.3 M metric values (all 250 trials;
+cold twice with the defaults, differed in 987 k of 3.15 M metric values (all 250 trials;
 mean RMSE 2.151 vs 2.160 m), while a warm run (the cached executable) repeated its
 compilation's numbers exactly. With the flag (no autotuning, deterministic kernels) two
 cold compilations gave identical numbers and compiled in 29-33 s instead of 40-45 s;
