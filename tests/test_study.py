@@ -17,6 +17,7 @@ import pandas as pd
 import pytest
 
 import mjx_radar.cli.main as cli
+from mjx_radar.engine import determinism
 from mjx_radar.study import metrics as study_metrics
 
 REPO = Path(__file__).resolve().parent.parent
@@ -44,6 +45,8 @@ def test_study_files_and_finite(study_dir):
     meta = json.loads((study_dir / "study.json").read_text())
     assert meta["methods"] == ["stationary", "ddr-sfim"] and meta["trials"] == 4
     assert meta["non_finite"] == 0 and meta["devices"].startswith("[")
+    # not asked for deterministic kernels: recorded so, unless XLA_FLAGS holds the flag
+    assert meta["deterministic"] is (determinism.flag_in_env() is True)
     # this study's program only (stationary rides along in the SFIM one)
     assert {(p["n_radars"], p["batch"], p["kind"]) for p in meta["programs"]} <= {
         (2, 2, "sfim+none")

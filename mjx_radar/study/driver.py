@@ -238,9 +238,19 @@ def remove_temporaries(chunks: list[Chunk]) -> None:
                 part.unlink(missing_ok=True)
 
 
-def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices: str, n_dev: int):
-    """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``."""
-    from mjx_radar.engine import determinism
+def finish(
+    out,
+    scenarios,
+    config,
+    manifest,
+    chunks,
+    times: StudyTimes,
+    devices: str,
+    n_dev: int,
+    deterministic: bool = False,
+):
+    """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``
+    (``deterministic``: whether the kernels were, :func:`mjx_radar.engine.determinism.apply`)."""
     from mjx_radar.engine.runner import program_log
     from mjx_radar.rundir import results
     from mjx_radar.study.metrics import lost_counts_by_cell
@@ -259,7 +269,7 @@ def finish(out, scenarios, config, manifest, chunks, times: StudyTimes, devices:
         "seed": {s.name: seed for s, _, _, seed in scenarios},
         "chunk": config["chunk"],
         "precision": config["precision"],
-        "deterministic": bool(determinism.flag_in_env()),
+        "deterministic": deterministic,
         "rollouts": {s.name: s.mpc.rollout for s, *_ in scenarios},
         "gospa": {s.name: _gospa_settings(s) for s, *_ in scenarios},
         "wall_s": time.perf_counter() - times.start,

@@ -106,7 +106,8 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
     """
     from mjx_radar.engine import determinism
 
-    determinism.apply(opts.deterministic)  # before anything starts JAX's backend
+    # before anything starts JAX's backend; from here on: whether the kernels are
+    opts = dataclasses.replace(opts, deterministic=determinism.apply(opts.deterministic))
     from mjx_radar.engine.runner import COMPILE_LOG
     from mjx_radar.study import driver
 
@@ -187,7 +188,15 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         )
         return 0
     frame, meta = driver.finish(
-        args.out, scenarios, config, manifest or {}, chunks, times, devices, n_dev
+        args.out,
+        scenarios,
+        config,
+        manifest or {},
+        chunks,
+        times,
+        devices,
+        n_dev,
+        args.deterministic,
     )
     print(
         f"study complete: {len(frame)} rows in {args.out / 'metrics.parquet'}; wall "

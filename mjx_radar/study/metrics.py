@@ -107,13 +107,16 @@ def lost_counts(lost: np.ndarray) -> dict:
         ``{"trials": T, "trials_lost": n, "trial_rate": n / T, "step_rate": mean(lost)}``.
     """
     lost = np.asarray(lost, bool)
-    n = int(lost.any(axis=1).sum())
-    t = lost.shape[0]
+    return _counts(lost.shape[0], int(lost.any(axis=1).sum()), int(lost.sum()), lost.size)
+
+
+def _counts(trials: int, trials_lost: int, steps_lost: int, steps: int) -> dict:
+    nan = float("nan")
     return {
-        "trials": t,
-        "trials_lost": n,
-        "trial_rate": n / t if t else float("nan"),
-        "step_rate": float(lost.mean()) if lost.size else float("nan"),
+        "trials": trials,
+        "trials_lost": trials_lost,
+        "trial_rate": trials_lost / trials if trials else nan,
+        "step_rate": steps_lost / steps if steps else nan,
     }
 
 
@@ -125,13 +128,8 @@ def lost_counts_by_cell(frame) -> dict:
         ["any", "sum", "size"]
     )
     cells = agg.groupby(level=[0, 1], observed=True).agg(["sum", "size"])
-    out, nan = {}, float("nan")
-    for (sc, meth), c in cells.iterrows():
-        t, n, rows = int(c[("any", "size")]), int(c[("any", "sum")]), float(c[("size", "sum")])
-        rates = (n / t if t else nan, float(c[("sum", "sum")]) / rows if rows else nan)
-        keys = ("trials", "trials_lost", "trial_rate", "step_rate")  # as lost_counts
-        out[f"{sc}/{meth}"] = dict(zip(keys, (t, n, *rates), strict=True))
-    return out
+    cols = (("any", "size"), ("any", "sum"), ("sum", "sum"), ("size", "sum"))  # as _counts
+    return {f"{sc}/{m}": _counts(*(int(c[k]) for k in cols)) for (sc, m), c in cells.iterrows()}
 
 
 def kept_mean(values: np.ndarray, ever_lost: np.ndarray) -> np.ndarray:
