@@ -31,7 +31,7 @@ RUN_DEFAULTS = {
     "rollouts": None,
     "association": None,
     "precision": "float32",
-    "deterministic": False,
+    "deterministic": None,  # None: on where a GPU backend may start (engine.determinism)
     "cache": True,
     "cache_dir": None,
     "plugins": (),
@@ -54,7 +54,7 @@ class RunRequest:
     steps: int
     seed: int
     precision: str = "float32"
-    deterministic: bool = False
+    deterministic: bool | None = None
     cache: bool = True
     cache_dir: str | None = None
     masks: bool = False
@@ -176,9 +176,13 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         raise ScenarioError(
             f"{label('precision')} = {o['precision']!r}: must be one of float32, float64"
         )
-    for flag in ("deterministic", "cache", "masks"):
+    for flag in ("cache", "masks"):
         if not isinstance(o[flag], bool):
             raise ScenarioError(f"{label(flag)} = {o[flag]!r}: must be True or False")
+    if o["deterministic"] is not None and not isinstance(o["deterministic"], bool):
+        raise ScenarioError(
+            f"{label('deterministic')} = {o['deterministic']!r}: must be True, False or None"
+        )
     cache_dir = None if o["cache_dir"] is None else str(o["cache_dir"])
     return RunRequest(
         s,

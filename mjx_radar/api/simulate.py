@@ -32,7 +32,7 @@ def simulate(
     rollouts: str | None = None,
     association: str | None = None,
     precision: str = "float32",
-    deterministic: bool = False,
+    deterministic: bool | None = None,
     cache_dir: str | Path | None = None,
     plugins=(),
     gospa_cutoff: float | None = None,
@@ -67,10 +67,13 @@ def simulate(
         association: ``"pda"``, ``"jpda"`` or ``"gnn"``: the scenario's ``[tracker]
             association`` for this run (``run --association``; docs/tracking.md).
         precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
-        deterministic: deterministic GPU kernels (``--deterministic``; XLA's flag is set
-            before JAX starts its GPU backend, else a one-line ``InputError``): the same
-            numbers from every compilation and on any number of GPUs
-            (:mod:`mjx_radar.engine.determinism`).
+        deterministic: deterministic GPU kernels, the same numbers from every
+            compilation and on any number of GPUs (:mod:`mjx_radar.engine.determinism`).
+            ``None`` (default): on where JAX has not started its GPU backend yet (XLA's
+            flag is set first), else what the process has; ``True`` / ``False``
+            (``--deterministic`` / ``--no-deterministic``): as asked, a one-line
+            ``InputError`` where the running backend has the other setting.
+            ``run.meta["deterministic"]`` says what the run had (``True`` on CPUs).
         cache_dir: the persistent compilation cache's folder (``--cache-dir``).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
         gospa_cutoff, gospa_order: GOSPA / OSPA cutoff c [m] and order p

@@ -76,7 +76,7 @@ def run_study(
     *,
     planners=None,
     plugins=(),
-    deterministic: bool = False,
+    deterministic: bool | None = None,
 ) -> Study:
     """Runs (or resumes) a Monte Carlo study and returns it (``mjx-radar study``).
 
@@ -97,8 +97,9 @@ def run_study(
         planners: run every planning method with each of these planners
             (``study --planners``): methods ``"METHOD+PLANNER"`` (``mppi`` keeps the name).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
-        deterministic: deterministic GPU kernels (``--deterministic``, see
-            :func:`mjx_radar.simulate`).
+        deterministic: deterministic GPU kernels (``None``, the default: on where JAX has
+            not started its GPU backend yet; ``--deterministic`` / ``--no-deterministic``;
+            see :func:`mjx_radar.simulate`).
 
     Raises:
         ScenarioError: an invalid scenario or argument (nothing compiled, nothing written).
@@ -131,8 +132,8 @@ def run_study(
             isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi
         ):
             raise ScenarioError(f"{name} = {value!r}: must be an integer in [{lo}, {hi}] or None")
-    if not isinstance(deterministic, bool):
-        raise ScenarioError(f"deterministic = {deterministic!r}: must be True or False")
+    if deterministic is not None and not isinstance(deterministic, bool):
+        raise ScenarioError(f"deterministic = {deterministic!r}: must be True, False or None")
     from mjx_radar.api.run_case import load_plugins
     from mjx_radar.task.method import with_planners
 

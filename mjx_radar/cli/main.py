@@ -51,11 +51,12 @@ def add_cache_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--deterministic",
-        action="store_true",
-        help="deterministic GPU kernels (XLA's --xla_gpu_deterministic_ops): the same "
-        "numbers from every compilation, run to run and on any number of GPUs (without it "
-        "XLA autotunes its kernels, and two cold compilations can differ); studies compile "
-        "faster, a single PFIM control call is slower (docs/scaling.md)",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="deterministic GPU kernels (XLA's --xla_gpu_deterministic_ops; on by default "
+        "unless XLA_FLAGS turns it off): the same numbers from every compilation, run to "
+        "run and on any number of GPUs, and faster compiles; --no-deterministic: XLA's "
+        "autotuned kernels, whose numbers differ between cold compilations (docs/scaling.md)",
     )
 
 
@@ -118,10 +119,10 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 1
-        if args.command in COMPILING and args.deterministic:  # before JAX starts its backend
+        if args.command in COMPILING:  # before JAX starts its backend (GPUs only)
             from mjx_radar.engine import determinism
 
-            determinism.request_in_env()
+            determinism.request_in_env(args.deterministic)
         if args.command in COMPILING and args.precision == "float64":
             import jax
 

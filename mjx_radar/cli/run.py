@@ -108,7 +108,7 @@ def main(args) -> int:
         rollouts=args.rollouts,
         association=getattr(args, "association", None),
         precision=getattr(args, "precision", "float32"),
-        deterministic=bool(getattr(args, "deterministic", False)),
+        deterministic=getattr(args, "deterministic", None),
         cache=not getattr(args, "no_cache", False),
         cache_dir=getattr(args, "cache_dir", None),
         plugins=args.plugin,

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar import precision
 from mjx_radar.env import filter_ops, placement, presence, track_health
@@ -132,7 +133,7 @@ class RadarEnv:
         triangles of the targets' 6x6 covariance blocks, presence, detections."""
         m = obs.mean.shape[0] // 6
         blocks = jnp.stack([obs.cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
-        iu = jnp.triu_indices(6)
+        iu = np.triu_indices(6)  # static indices
         return jnp.concatenate(
             [
                 obs.radar_state.reshape(-1),

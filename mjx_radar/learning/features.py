@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar.task.costs import Horizon, cost_terms
 
@@ -69,7 +70,7 @@ def features(env, obs) -> jax.Array:
     var = jnp.maximum(jnp.diagonal(blocks, axis1=1, axis2=2), 1e-12)  # [M, 6]
     sig = jnp.sqrt(var)
     corr = blocks / (sig[:, :, None] * sig[:, None, :])
-    iu = jnp.triu_indices(6, k=1)
+    iu = np.triu_indices(6, k=1)  # static indices
     cov_f = jnp.concatenate([jnp.log10(sig), jnp.clip(corr[:, iu[0], iu[1]], -1, 1)], axis=1)
     return jnp.concatenate(
         [

@@ -42,8 +42,8 @@ class StudyOptions:
         resume: continue the study in ``out``.
         precision: ``"float32"`` or ``"float64"`` (x64 must already be on for the latter).
         progress: show a progress bar on stderr.
-        deterministic: deterministic GPU kernels
-            (:func:`mjx_radar.engine.determinism.apply`).
+        deterministic: deterministic GPU kernels (``None``: on where they can still be
+            set; :func:`mjx_radar.engine.determinism.apply`).
     """
 
     scenarios: list
@@ -57,7 +57,7 @@ class StudyOptions:
     resume: bool = False
     precision: str = "float32"
     progress: bool = True
-    deterministic: bool = False
+    deterministic: bool | None = None
 
 
 def lock_out(out: Path, worker) -> tuple[list[Path], list]:

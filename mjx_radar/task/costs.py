@@ -37,6 +37,7 @@ from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar.estimation import detection, fisher, measurement, pda
 from mjx_radar.task.method import information_of
@@ -129,7 +130,7 @@ def _pfim(h: Horizon, task, params) -> jax.Array:
 def radar_radar(h: Horizon, task, params) -> jax.Array:
     pos = h.radar[..., :3]
     n = pos.shape[1]
-    iu, ju = jnp.triu_indices(n, k=1)
+    iu, ju = np.triu_indices(n, k=1)  # static: no index arithmetic in the program
     d = jnp.linalg.norm(pos[:, iu] - pos[:, ju], axis=-1)  # [H, pairs]
     return params.alpha_r2r * jnp.sum(d < params.r2r, axis=-1).astype(pos.dtype)
 

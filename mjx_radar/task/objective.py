@@ -98,4 +98,8 @@ def make_objective(task):
         total = sum(terms.values())
         return total, Plan(radar_xy=traj[..., :2], terms=terms)
 
-    return cost
+    # Traced once per program, inlined where it is called: MPPI calls it three times (the
+    # aux shape, the vmapped samples, the plan of the mean); the later calls reuse the
+    # cached jaxpr (vmap batches it, no Python). The same operations reach XLA, so the
+    # same numbers (docs/scaling.md, "Tracing the objective once").
+    return jax.jit(cost, inline=True)
