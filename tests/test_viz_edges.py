@@ -19,6 +19,7 @@ from mjx_radar.world.obstacles import footprint_sdf
 cli_main = importlib.import_module("mjx_radar.cli.main")
 ROOT = Path(__file__).resolve().parents[1]
 STEPS = 8
+TRIALS = 2  # the program of test_closed_loop's and the examples' analytic runs
 
 
 @pytest.fixture(scope="module")
@@ -37,6 +38,8 @@ def run_dir(tmp_path_factory, cli):
         str(STEPS),
         "--rollouts",
         "analytic",
+        "--trials",
+        str(TRIALS),
         "--out",
         str(out),
     ]
@@ -91,7 +94,7 @@ DAMAGE = {  # name -> (damage(d), text the error line must hold)
     "corrupt_member": (_flip_middle, "trajectories.npz"),
     "npz_missing_key": (lambda d: _npz_without(d, "radar"), "'radar'"),
     "npz_bad_shape": (
-        lambda d: _npz_without(d, "radar", radar=np.zeros((1, STEPS, 2, 5))),
+        lambda d: _npz_without(d, "radar", radar=np.zeros((TRIALS, STEPS, 2, 5))),
         "'radar'",
     ),
     "garbage_json": (lambda d: (d / "run.json").write_text("{not json"), "run.json"),
@@ -141,7 +144,7 @@ def test_scenario_falls_back_to_scenario_file(run_dir, tmp_path):
     d = _copy(run_dir, tmp_path / "copy")
     (d / "scenario.toml").unlink()
     run = load_run(d)  # run.json's source_scenario is the bundled smoke.toml
-    assert run.scenario.name == "smoke" and run.trials == 1
+    assert run.scenario.name == "smoke" and run.trials == TRIALS
     assert load_trial(run).steps == STEPS
 
 
