@@ -116,7 +116,10 @@ def main() -> None:
     ap.add_argument("--warm", action="store_true", help="also rerun each case warm")
     ap.add_argument("--paper-trials", type=int, default=500, help="trials of the paper case")
     ap.add_argument(
-        "--deterministic", action="store_true", help="studies with deterministic GPU kernels"
+        "--deterministic",
+        action="store_true",
+        help="pass --deterministic to the studies (the default of trees since 2026-11-26; for "
+        "older trees, where XLA's autotuned kernels were the default)",
     )
     args = ap.parse_args()
     if args.paper_trials < 1:
