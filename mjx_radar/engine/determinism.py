@@ -12,11 +12,12 @@ cold twice with XLA's defaults, differed in 987 k of 3.15 M metric values (mean 
 The flag also compiles faster (14-41 % on five bundled worlds, one H100) and costs
 nothing measurable where the GPU is busy (a study chunk's 250 vmapped PFIM calls: 19.6-19.9
 against 19.7-20.4 ms); a single control call is bound by the host's kernel launches,
-not by the kernels (1.8 ms of GPU work in a 3.5-5.7 ms call, either way), and varies
-more from process to process than with the flag. So the entry points (``mjx-radar run``
-/ ``study``, :func:`mjx_radar.simulate`, :func:`mjx_radar.run_study`) turn it on where a
-GPU backend may start, unless asked not to (``--no-deterministic``,
-``deterministic=False``) or ``XLA_FLAGS`` already says ``false``.
+not by the kernels (1.8 ms of GPU work in a 3.5-5.7 ms call, either way), and its
+median moves by tens of percent from one process to the next with either setting. So
+the entry points (``mjx-radar run`` / ``study``, :func:`mjx_radar.simulate`,
+:func:`mjx_radar.run_study`) turn it on where a GPU backend may start, unless asked not
+to (``--no-deterministic``, ``deterministic=False``) or ``XLA_FLAGS`` already says
+``false``.
 
 XLA reads the flag once, when JAX starts its backend: :func:`apply` sets it in
 ``XLA_FLAGS`` before that (the command line even earlier, :func:`request_in_env`); once
