@@ -1,5 +1,7 @@
 """The radar-placement objective and MPPI in closed loop (issue 4 behaviour)."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -146,3 +148,31 @@ def test_pfim_objective_against_direct_recursion():
                 info += s.mpc.gamma**t * np.linalg.slogdet(floored)[1]
         # float64 with numpy inverses as the reference; jitter is O(1e-15) relative.
         np.testing.assert_allclose(-float(plan.terms["information"]), info, rtol=1e-9)
+
+
+def test_one_objective_per_task_traced_once():
+    """The objective is one jitted function per task (kept on it): called eagerly (a
+    notebook, an environment's ``objective(obs)`` per step) it compiles once, not per
+    call; in a traced program its Python runs once although MPPI calls it three times."""
+    from mjx_radar.task.planner import make_planner
+
+    raw = HOVER | {"mpc": {"horizon": 3, "rollout": "analytic"}, "mppi": {"samples": 16}}
+    task, params = build(scenario_from_dict(raw), "ddr-sfim", 0)
+    cost = objective.make_objective(task)
+    assert objective.make_objective(task) is cost and hasattr(cost, "lower")  # jitted
+    traced = []
+    term = task.terms[0]
+
+    def counted(hz, task_, params_):
+        traced.append(1)
+        return term.fn(hz, task_, params_)
+
+    counting = dataclasses.replace(task, terms=(term._replace(fn=counted), *task.terms[1:]))
+    assert objective.make_objective(counting) is not cost  # another task, its own
+    plan = make_planner(counting)
+    radar = jnp.array([[400.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    mean = jnp.array([0.0, 0.0, 50.0, 0.0, 0.0, 0.0])
+    jax.jit(lambda *a: plan(*a, params)[0].mean).lower(
+        radar, mean, jnp.eye(6), jnp.zeros((3, 2)), jax.random.PRNGKey(0)
+    )
+    assert len(traced) == 1  # MPPI's three calls (aux shape, samples, plan): one trace

@@ -82,8 +82,17 @@ def make_objective(task):
     """Returns ``cost(u[H, N*2], ctx, params) -> (cost[], Plan)`` for one sequence.
 
     Its dots are traced at :data:`mjx_radar.precision.ESTIMATION`, the rollout's at
-    :data:`~mjx_radar.precision.PLANNER`.
+    :data:`~mjx_radar.precision.PLANNER`. One jitted function per task (kept on it):
+    traced once per program it is used in, and compiled once when called eagerly.
     """
+    cost = task.__dict__.get("_objective")
+    if cost is None:
+        cost = _objective(task)
+        object.__setattr__(task, "_objective", cost)  # a frozen dataclass: not a field
+    return cost
+
+
+def _objective(task):
     sc = task.scenario
     h, n = sc.mpc.horizon, sc.n_radars
 
