@@ -8,7 +8,8 @@ seconds in the test's own process (a test's subprocesses are counted only in its
     python scripts/bench_suite.py [--out runs/suite.jsonl] [--top 25] [--summarise-only]
         [-- -m "not slow" -n 2 --dist loadfile tests/]
 
-With ``--compile-profile`` a record also lists the closed-loop programs the test compiled
+With ``--compile-profile`` a record holds its worker and start time (the summary gives each
+worker's busy seconds and span) and lists the closed-loop programs the test compiled
 or loaded (``engine.programs.COMPILE_LOG``: key, scenario, batch, kind, planner, source)
 and its compilations of 1 s or more by function name (``xla_long``); the summary ends
 with the programs by key. A test with many XLA compilations and little work calls JAX
@@ -45,6 +46,7 @@ def summarise(path: Path, top: int) -> str:
         f"{len(rows)} tests: wall {total['wall']:.0f} s summed over workers, XLA "
         f"{total['xla_n']:.0f} compilations {total['xla_s']:.0f} s, tracing "
         f"{total['trace_s']:.0f} s, lowering {total['lower_s']:.0f} s",
+        *workers(rows),
         "",
         f"{'wall s':>7} {'XLA n':>6} {'XLA s':>6}  file",
     ]
@@ -54,6 +56,22 @@ def summarise(path: Path, top: int) -> str:
     for r in sorted(rows, key=lambda r: -r["wall"])[:top]:
         out.append(f"{r['wall']:7.1f} {r.get('xla_n', 0):6.0f} {r.get('xla_s', 0):6.1f}  {r['id']}")
     return "\n".join(out + programs(rows, top))
+
+
+def workers(rows: list[dict]) -> list[str]:
+    """Per pytest worker: tests, seconds busy in tests and the span from its first test's
+    start to its last test's end (a span much longer than the busy time: imbalance)."""
+    by: dict[str, list] = collections.defaultdict(list)
+    for r in rows:
+        if "start" in r:  # records of suites profiled before the timeline was kept lack it
+            by[r.get("worker", "main")].append((r["start"], r["start"] + r["wall"]))
+    t0 = min((s for spans in by.values() for s, _ in spans), default=0.0)
+    return [
+        f"worker {w}: {len(spans)} tests, busy {sum(e - s for s, e in spans):.0f} s, "
+        f"first start +{min(s for s, _ in spans) - t0:.0f} s, last end "
+        f"+{max(e for _, e in spans) - t0:.0f} s"
+        for w, spans in sorted(by.items())
+    ]
 
 
 def programs(rows: list[dict], top: int) -> list[str]:

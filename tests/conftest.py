@@ -88,9 +88,10 @@ def pytest_runtest_protocol(item, nextitem):
         return
     _COMPILES.clear()
     n_log = len(_program_log())
-    t0 = time.perf_counter()
+    start, t0 = time.time(), time.perf_counter()
     yield
-    rec = dict(_COMPILES)
+    rec = {"worker": os.environ.get("PYTEST_XDIST_WORKER", "main"), "start": start}
+    rec.update(_COMPILES)
     if len(_program_log()) > n_log:  # the closed-loop programs this test compiled or loaded
         rec["programs"] = _program_log()[n_log:]
     with open(path, "a") as f:

@@ -35,6 +35,21 @@ def test_summary_sums_per_file_and_ranks_tests(tmp_path):
     assert lines[-1].split()[-1] == "tests/test_a.py::y"
 
 
+def test_summary_gives_each_workers_busy_time_and_span(tmp_path):
+    rows = [
+        {"id": "tests/test_a.py::x", "wall": 10.0, "worker": "gw0", "start": 100.0},
+        {"id": "tests/test_a.py::y", "wall": 5.0, "worker": "gw0", "start": 130.0},
+        {"id": "tests/test_b.py::z", "wall": 20.0, "worker": "gw1", "start": 101.0},
+    ]  # gw0 idles 20 s between its tests: span 35 s, busy 15 s
+    path = tmp_path / "p.jsonl"
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    lines = _bench().summarise(path, top=5).splitlines()
+    assert lines[1:3] == [
+        "worker gw0: 2 tests, busy 15 s, first start +0 s, last end +35 s",
+        "worker gw1: 1 tests, busy 20 s, first start +1 s, last end +21 s",
+    ]
+
+
 def test_summary_lists_the_closed_loop_programs_by_key(tmp_path):
     prog = {"key": "k1", "scenario": "smoke", "batch": 2, "kind": "sfim", "planner": "mppi"}
     rows = [
@@ -63,6 +78,6 @@ def test_records_the_compilations_of_a_test(tmp_path):
                           text=True, timeout=300)  # fmt: skip
     assert proc.returncode == 0, proc.stdout[-2000:]
     (rec,) = [json.loads(line) for line in out.read_text().splitlines()]
-    assert rec["id"] == test and rec["xla_n"] >= 1, rec
+    assert rec["id"] == test and rec["xla_n"] >= 1 and rec["worker"] == "main", rec
     assert 0 < rec["xla_s"] <= rec["wall"], rec
     assert "programs" not in rec  # no closed loop in this test

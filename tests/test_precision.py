@@ -18,7 +18,7 @@ from jax.sharding import NamedSharding
 import mjx_radar.ckf
 import mjx_radar.fisher
 from mjx_radar import precision
-from mjx_radar.engine import programs
+from mjx_radar.engine import program_trace, programs
 from mjx_radar.env import closed_loop
 from mjx_radar.estimation import linalg
 from mjx_radar.scenario.reader import load_scenario
@@ -61,7 +61,7 @@ def test_closed_loop_step_program_pins_every_dot(smoke):
         lambda t, p: closed_loop.init_carry(task, p, t)[0],
         jax.ShapeDtypeStruct((), jnp.int32), params,
     )  # fmt: skip
-    _, step = programs._traced(task, 1, False, mesh, len(p_leaves), tree, carry)
+    _, step = program_trace.flat_programs(task, 1, False, mesh, len(p_leaves), tree, carry)
     c_specs = [jax.ShapeDtypeStruct((1, *x.shape), x.dtype, sharding=split)
                for x in jax.tree.leaves(carry) if x.size > 0]  # fmt: skip
     p_specs = [jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=whole)

@@ -21,6 +21,7 @@ that passes every other warning on unchanged.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.metadata
@@ -113,6 +114,28 @@ def program_dir() -> Path | None:
     except OSError:
         return None
     return path
+
+
+@contextlib.contextmanager
+def program_lock(path: Path | None):
+    """Holds an exclusive lock on the file ``path`` while this process traces and
+    compiles one program: another process (a test worker, a study shard, a second run of
+    the same shape) or thread taking the same lock waits, then loads the program from
+    both caches instead of compiling it a second time. The lock goes with the file's
+    closing or the process's end; nothing happens without a path or without ``fcntl``."""
+    try:
+        import fcntl
+
+        lock = open(path, "ab") if path is not None else None  # noqa: SIM115
+    except (ImportError, OSError):
+        lock = None
+    try:
+        if lock is not None:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        yield
+    finally:
+        if lock is not None:
+            lock.close()
 
 
 def enabled() -> bool:

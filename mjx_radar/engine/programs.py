@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 import threading
 import time
 from pathlib import Path
@@ -77,75 +76,6 @@ def record_template(full: bool, masks: bool = False):
             steps = steps._replace(**dict.fromkeys(records.MASK_FIELDS))
         return steps, records.ControlRecord(*[0] * len(records.ControlRecord._fields))
     return {k: 0 for k in results.LOOP_COLUMNS + records.SET_KEYS}, None
-
-
-def _traced(
-    task,
-    periods: int,
-    full: bool,
-    mesh: Mesh,
-    n_params: int,
-    params_tree,
-    c_shapes,
-    planner: str = "mppi",
-    masks: bool = False,
-):
-    """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
-
-    ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
-    leaves (size 0, e.g. MJX's contact arrays of a contact-free plant) never cross the
-    program boundary: they are rebuilt inside (sharding zero-size arrays over several
-    GPUs crashed XLA's compiler).
-    """
-    from mjx_radar.env import closed_loop  # the loop (and MJX): only when tracing
-
-    carry_tree = jax.tree.structure(c_shapes)
-    shapes = jax.tree.leaves(c_shapes)
-    live = [x.size > 0 for x in shapes]
-
-    def init_flat(trial, *p):
-        params = jax.tree.unflatten(params_tree, p)
-        carry, ok = closed_loop.init_carry(task, params, trial, planner)
-        leaves = jax.tree.leaves(carry)
-        return (*[x for x, keep in zip(leaves, live, strict=True) if keep], ok)
-
-    def step_flat(*rest):
-        params = jax.tree.unflatten(params_tree, rest[:n_params])
-        given = iter(rest[n_params:])
-        leaves = [
-            next(given) if keep else jnp.zeros(s.shape, s.dtype)
-            for s, keep in zip(shapes, live, strict=True)
-        ]
-        carry = jax.tree.unflatten(carry_tree, leaves)
-        carry, steps, controls = closed_loop.advance(task, params, carry, periods, planner)
-        if not full:
-            sets = records.estimate_sets(
-                steps.target, steps.track_pos, steps.track_exist, steps.present
-            )
-            steps = {k: getattr(steps, k) for k in results.LOOP_COLUMNS} | sets
-            controls = None
-        elif not masks:  # not outputs: XLA drops their computation (the same program)
-            steps = steps._replace(**dict.fromkeys(records.MASK_FIELDS))
-        out = [x for x, keep in zip(jax.tree.leaves(carry), live, strict=True) if keep]
-        return (*out, *jax.tree.leaves((steps, controls)))
-
-    n_carry = sum(live)
-    init = jax.shard_map(
-        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params),
-        mesh=mesh,
-        in_specs=(SPLIT,) + (WHOLE,) * n_params,
-        out_specs=SPLIT,
-        check_vma=False,
-    )
-    step = jax.shard_map(
-        jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry),
-        mesh=mesh,
-        in_specs=(WHOLE,) * n_params + (SPLIT,) * n_carry,
-        out_specs=SPLIT,
-        check_vma=False,
-    )
-    donate = tuple(range(n_params, n_params + n_carry))
-    return jax.jit(init), jax.jit(step, donate_argnums=donate)
 
 
 def _variant(planner: str = "mppi") -> tuple:
@@ -229,7 +159,7 @@ def compile_programs(
             return _CACHE[mem_key], 0.0
     t0 = time.perf_counter()
     params = task_params(scenario, parse_method("stationary"))
-    p_leaves, params_tree = jax.tree.flatten(params)
+    p_leaves = jax.tree.leaves(params)
     trial_sh, rep = NamedSharding(mesh, SPLIT), NamedSharding(mesh, WHOLE)
     spec = lambda x, sh: jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=sh)  # noqa: E731
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=trial_sh)
@@ -237,39 +167,26 @@ def compile_programs(
     store = compile_cache.program_dir()
     key = _key(shape, periods, full, batch, mesh, kind, planner, masks)
     path = store / f"loop-{key}.jaxexport" if store else None
-    exported = export_cache.load(path) if path else None
-    source = "export cache" if exported else "traced"
-    if exported is None:  # trace: the task, its plants and MJX are built only here
-        from mjx_radar.env import closed_loop
-        from mjx_radar.task.task import make_task
+    # one process compiles a program for a device; the others wait, then load it (per
+    # device: a host's GPUs load one compilation side by side, CPU devices compile apart)
+    lock = store / f"loop-{key}-d{mesh.devices.flat[0].id}.lock" if store else None
+    with compile_cache.program_lock(lock):
+        waited = time.perf_counter() - t0
+        exported = export_cache.load(path) if path else None
+        source = "export cache" if exported else "traced"
+        if exported is None:  # trace: the task, its plants and MJX are built only here
+            from mjx_radar.engine import program_trace
 
-        task = make_task(shape, kind)
-        carry_shapes = jax.eval_shape(
-            lambda t, p: closed_loop.init_carry(task, p, t, planner)[0],
-            jax.ShapeDtypeStruct((), jnp.int32),
-            params,
-        )
-        c_specs = [
-            jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh)
-            for x in jax.tree.leaves(carry_shapes)
-            if x.size > 0
-        ]
-        init, step = _traced(
-            task, periods, full, mesh, len(p_leaves), params_tree, carry_shapes, planner, masks
-        )
-        exported = None
-        if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
-            exported = export_cache.export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
-        if exported is None:  # not exportable: compile the traced programs directly
-            init_l = init.lower(trials, *p_specs)
-            step_l = step.lower(*p_specs, *c_specs)
-        elif path:
-            export_cache.save(path, exported)
-    if exported is not None:
-        init_l, step_l = export_cache.lower(exported, trials, p_specs, mesh)
-    n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
-    t1 = time.perf_counter()
-    init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
+            init_l, step_l, exported = program_trace.trace(
+                shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs
+            )
+            if exported is not None and path:
+                export_cache.save(path, exported)
+        if exported is not None:
+            init_l, step_l = export_cache.lower(exported, trials, p_specs, mesh)
+        n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
+        t1 = time.perf_counter()
+        init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
     progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, masks, trial_sh, rep, source)
     t2 = time.perf_counter()
     with _LOCK:
@@ -287,7 +204,8 @@ def compile_programs(
                 "planner": planner,
                 "key": key[:12],
                 "source": source,
-                "trace_lower_s": t1 - t0,
+                "lock_wait_s": waited,  # another process compiling this program
+                "trace_lower_s": t1 - t0 - waited,
                 "xla_compile_s": t2 - t1,
             }
         )

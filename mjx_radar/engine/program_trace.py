@@ -1,0 +1,117 @@
+"""Tracing a shape's two closed-loop programs (:mod:`mjx_radar.engine.programs`).
+
+:func:`flat_programs` wraps :func:`mjx_radar.env.closed_loop.init_carry` and
+:func:`~mjx_radar.env.closed_loop.advance` into the flat (arrays only), vmapped,
+shard_mapped and jitted ``init`` and ``step``; :func:`trace` traces them for one batch
+and mesh into :mod:`jax.export` form (or lowers them where they cannot be exported).
+Imported only when a program is traced: a warm start (export cache) imports no MJX.
+"""
+
+from __future__ import annotations
+
+import os
+
+import jax
+import jax.numpy as jnp
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+from mjx_radar.engine import export_cache
+from mjx_radar.env import closed_loop, records
+from mjx_radar.rundir import results
+from mjx_radar.task.task import make_task
+
+SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
+
+
+def flat_programs(
+    task,
+    periods: int,
+    full: bool,
+    mesh: Mesh,
+    n_params: int,
+    params_tree,
+    c_shapes,
+    planner: str = "mppi",
+    masks: bool = False,
+):
+    """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
+
+    ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
+    leaves (size 0, e.g. MJX's contact arrays of a contact-free plant) never cross the
+    program boundary: they are rebuilt inside (sharding zero-size arrays over several
+    GPUs crashed XLA's compiler).
+    """
+    carry_tree = jax.tree.structure(c_shapes)
+    shapes = jax.tree.leaves(c_shapes)
+    live = [x.size > 0 for x in shapes]
+
+    def init_flat(trial, *p):
+        params = jax.tree.unflatten(params_tree, p)
+        carry, ok = closed_loop.init_carry(task, params, trial, planner)
+        leaves = jax.tree.leaves(carry)
+        return (*[x for x, keep in zip(leaves, live, strict=True) if keep], ok)
+
+    def step_flat(*rest):
+        params = jax.tree.unflatten(params_tree, rest[:n_params])
+        given = iter(rest[n_params:])
+        leaves = [
+            next(given) if keep else jnp.zeros(s.shape, s.dtype)
+            for s, keep in zip(shapes, live, strict=True)
+        ]
+        carry = jax.tree.unflatten(carry_tree, leaves)
+        carry, steps, controls = closed_loop.advance(task, params, carry, periods, planner)
+        if not full:
+            sets = records.estimate_sets(
+                steps.target, steps.track_pos, steps.track_exist, steps.present
+            )
+            steps = {k: getattr(steps, k) for k in results.LOOP_COLUMNS} | sets
+            controls = None
+        elif not masks:  # not outputs: XLA drops their computation (the same program)
+            steps = steps._replace(**dict.fromkeys(records.MASK_FIELDS))
+        out = [x for x, keep in zip(jax.tree.leaves(carry), live, strict=True) if keep]
+        return (*out, *jax.tree.leaves((steps, controls)))
+
+    n_carry = sum(live)
+    init = jax.shard_map(
+        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params),
+        mesh=mesh,
+        in_specs=(SPLIT,) + (WHOLE,) * n_params,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
+    step = jax.shard_map(
+        jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry),
+        mesh=mesh,
+        in_specs=(WHOLE,) * n_params + (SPLIT,) * n_carry,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
+    donate = tuple(range(n_params, n_params + n_carry))
+    return jax.jit(init), jax.jit(step, donate_argnums=donate)
+
+
+def trace(shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs):
+    """Traces both programs: ``(init, step, exported)`` lowered, or ``exported`` alone
+    (``init``/``step`` None) when :mod:`jax.export` can take them."""
+    task = make_task(shape, kind)
+    trial_sh = NamedSharding(mesh, SPLIT)
+    carry_shapes = jax.eval_shape(
+        lambda t, p: closed_loop.init_carry(task, p, t, planner)[0],
+        jax.ShapeDtypeStruct((), jnp.int32),
+        params,
+    )
+    c_specs = [
+        jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh)
+        for x in jax.tree.leaves(carry_shapes)
+        if x.size > 0
+    ]
+    tree = jax.tree.structure(params)
+    init, step = flat_programs(
+        task, periods, full, mesh, len(p_specs), tree, carry_shapes, planner, masks
+    )
+    if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
+        exported = export_cache.export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
+        if exported is not None:
+            return None, None, exported
+    # not exportable: compile the traced programs directly
+    return init.lower(trials, *p_specs), step.lower(*p_specs, *c_specs), None
