@@ -71,8 +71,11 @@ def test_nothing_is_set_where_no_gpu_can_start(monkeypatch):
 def test_gpu_plugin_detection_finds_installed_plugins_only(monkeypatch, tmp_path):
     """Plugins are found where JAX looks (entry points of group ``jax_plugins``, the
     ``jax_plugins`` namespace package), and only installed CUDA / ROCm ones count."""
+    import sys
     from importlib import metadata
 
+    before = determinism.gpu_possible()
+    modules = set(sys.modules)
     (tmp_path / "fake_cuda99_plugin").mkdir()
     (tmp_path / "fake_cuda99_plugin" / "__init__.py").write_text("")
     (tmp_path / "jax_plugins" / "xla_rocm99").mkdir(parents=True)
@@ -102,7 +105,13 @@ def test_gpu_plugin_detection_finds_installed_plugins_only(monkeypatch, tmp_path
             determinism._gpu_plugin_installed.cache_clear()
             assert determinism._gpu_plugin_installed() is found, (value, namespace)
     finally:
+        # the namespace package imported here keeps the temporary path in sys.modules:
+        # left there, every later run in this process would find the fake ROCm plugin,
+        # set the GPU flag in XLA_FLAGS and so change the compilation cache's keys
+        for name in set(sys.modules) - modules:
+            del sys.modules[name]
         determinism._gpu_plugin_installed.cache_clear()
+    assert determinism.gpu_possible() is before
 
 
 def _backend(monkeypatch, started: bool, platform: str = "cpu"):
