@@ -170,8 +170,9 @@ def compile_programs(
     # one process compiles a program for a device; the others wait, then load it (per
     # device: a host's GPUs load one compilation side by side, CPU devices compile apart)
     lock = store / f"loop-{key}-d{mesh.devices.flat[0].id}.lock" if store else None
+    t_lock = time.perf_counter()
     with compile_cache.program_lock(lock):
-        waited = time.perf_counter() - t0
+        waited = time.perf_counter() - t_lock
         exported = export_cache.load(path) if path else None
         source = "export cache" if exported else "traced"
         if exported is None:  # trace: the task, its plants and MJX are built only here
