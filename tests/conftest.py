@@ -90,7 +90,8 @@ def pytest_runtest_protocol(item, nextitem):
     n_log = len(_program_log())
     start, t0 = time.time(), time.perf_counter()
     yield
-    rec = {"worker": os.environ.get("PYTEST_XDIST_WORKER", "main"), "start": start}
+    worker = getattr(item.config, "workerinput", {}).get("workerid", "main")  # xdist's
+    rec = {"worker": worker, "start": start}
     rec.update(_COMPILES)
     if len(_program_log()) > n_log:  # the closed-loop programs this test compiled or loaded
         rec["programs"] = _program_log()[n_log:]
