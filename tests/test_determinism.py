@@ -75,7 +75,6 @@ def test_gpu_plugin_detection_finds_installed_plugins_only(monkeypatch, tmp_path
     from importlib import metadata
 
     before = determinism.gpu_possible()
-    modules = set(sys.modules)
     (tmp_path / "fake_cuda99_plugin").mkdir()
     (tmp_path / "fake_cuda99_plugin" / "__init__.py").write_text("")
     (tmp_path / "jax_plugins" / "xla_rocm99").mkdir(parents=True)
@@ -108,8 +107,10 @@ def test_gpu_plugin_detection_finds_installed_plugins_only(monkeypatch, tmp_path
         # the namespace package imported here keeps the temporary path in sys.modules:
         # left there, every later run in this process would find the fake ROCm plugin,
         # set the GPU flag in XLA_FLAGS and so change the compilation cache's keys
-        for name in set(sys.modules) - modules:
-            del sys.modules[name]
+        for name, module in list(sys.modules.items()):
+            where = [*getattr(module, "__path__", []), getattr(module, "__file__", None) or ""]
+            if any(str(tmp_path) in str(p) for p in where):
+                del sys.modules[name]
         determinism._gpu_plugin_installed.cache_clear()
     assert determinism.gpu_possible() is before
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import jax
 from jax.sharding import NamedSharding, PartitionSpec
 
-SPLIT = PartitionSpec("trial")  # the trial axis of the carry (as engine.programs)
+#: a program's trial axis (the carry, the trial indices) and its replicated parameters
+SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
 
 
 def export(init, step, init_args, step_args):

@@ -13,14 +13,13 @@ import os
 
 import jax
 import jax.numpy as jnp
-from jax.sharding import Mesh, NamedSharding, PartitionSpec
+from jax.sharding import Mesh, NamedSharding
 
 from mjx_radar.engine import export_cache
+from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.env import closed_loop, records
 from mjx_radar.rundir import results
 from mjx_radar.task.task import make_task
-
-SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
 
 
 def flat_programs(

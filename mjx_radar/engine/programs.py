@@ -31,10 +31,11 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.sharding import Mesh, NamedSharding, PartitionSpec
+from jax.sharding import Mesh, NamedSharding
 
 from mjx_radar import precision
 from mjx_radar.engine import compile_cache, export_cache
+from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.engine.live_programs import LiveCache
 from mjx_radar.engine.threads import parallel
 from mjx_radar.env import records
@@ -43,8 +44,6 @@ from mjx_radar.rundir import results
 from mjx_radar.task import costs
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params
-
-SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
