@@ -117,7 +117,11 @@ def test_export_cache_round_trip(tiny, first_run, export_dir, monkeypatch):
     # The traced program was exported beside the cache; a process that has not compiled
     # it (here: an emptied in-memory cache) loads it without tracing, same numbers.
     # (two programs: kind "sfim" and, from the test above, the stationary kind "none")
+    # (without the executables XLA may have written beside it: engine.executable_cache;
+    # their round trip is tests/test_program_lock.py's)
     assert len(list(export_dir.glob("loop-*.jaxexport"))) == 2
+    for exe in export_dir.glob("exe-*.bin"):
+        exe.unlink()
     monkeypatch.setattr(programs, "_CACHE", {})
     n0 = len(programs.COMPILE_LOG)
     b = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False)

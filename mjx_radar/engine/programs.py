@@ -23,6 +23,7 @@ Python tracing of the MJX step, the objective and the scans altogether.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import threading
 import time
@@ -34,7 +35,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding
 
 from mjx_radar import precision
-from mjx_radar.engine import compile_cache, export_cache
+from mjx_radar.engine import compile_cache, executable_cache, export_cache
 from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.engine.live_programs import LiveCache
 from mjx_radar.engine.threads import parallel
@@ -58,7 +59,7 @@ class Programs:
     masks: bool
     trial_sharding: NamedSharding
     replicated: NamedSharding
-    source: str  # "traced" | "export cache"
+    source: str  # "traced" | "traced directly" | "export cache" | "executable cache"
 
 
 def device_mesh(devices=None) -> Mesh:
@@ -119,6 +120,25 @@ _LOCK = threading.Lock()
 COMPILE_LOG: list[dict] = []
 
 
+def _lower(path, trace_args, lower_args):
+    """``(init, step, source)`` lowered from the export cache or, failing that, traced
+    (:func:`mjx_radar.engine.program_trace.trace` of ``trace_args``) and exported to
+    ``path``; ``source`` "traced directly" when JAX cannot export them.
+    ``lower_args``: ``(trials, p_specs, mesh)``, the programs' input specs."""
+    exported = export_cache.load(path) if path else None
+    source = "export cache" if exported else "traced"
+    if exported is None:  # trace: the task, its plants and MJX are built only here
+        from mjx_radar.engine import program_trace
+
+        trials, p_specs, _ = lower_args
+        init_l, step_l, exported = program_trace.trace(*trace_args, trials, p_specs)
+        if exported is None:
+            return init_l, step_l, "traced directly"
+        if path:
+            export_cache.save(path, exported)
+    return *export_cache.lower(exported, *lower_args), source
+
+
 def compile_programs(
     scenario,
     batch: int,
@@ -169,24 +189,25 @@ def compile_programs(
     # one process compiles a program for a device; the others wait, then load it (per
     # device: a host's GPUs load one compilation side by side, CPU devices compile apart)
     lock = store / f"loop-{key}-d{mesh.devices.flat[0].id}.lock" if store else None
+    devices = list(mesh.devices.flat)
+    exe = executable_cache.path(store, key, devices[0])
     t_lock = time.perf_counter()
     with compile_cache.program_lock(lock):
         waited = time.perf_counter() - t_lock
-        exported = export_cache.load(path) if path else None
-        source = "export cache" if exported else "traced"
-        if exported is None:  # trace: the task, its plants and MJX are built only here
-            from mjx_radar.engine import program_trace
-
-            init_l, step_l, exported = program_trace.trace(
-                shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs
-            )
-            if exported is not None and path:
-                export_cache.save(path, exported)
-        if exported is not None:
-            init_l, step_l = export_cache.lower(exported, trials, p_specs, mesh)
-        n_carry = len(init_l.out_info) - 1  # init returns (*carry, ok)
         t1 = time.perf_counter()
-        init_c, step_c = parallel([init_l.compile, step_l.compile])  # XLA releases the GIL
+        compiled = executable_cache.load(exe, devices)  # no lowering at all
+        source = "executable cache"
+        if compiled is None:
+            trace_args = (shape, kind, planner, params, batch, periods, full, mesh, masks)
+            init_l, step_l, source = _lower(path, trace_args, (trials, p_specs, mesh))
+            t1 = time.perf_counter()
+            compile_one = executable_cache.compile_lowered
+            both = parallel([functools.partial(compile_one, x) for x in (init_l, step_l)])
+            compiled = tuple(c for c, _ in both)  # compiled side by side: XLA frees the GIL
+            if all(fresh for _, fresh in both):
+                executable_cache.save(exe, compiled)
+    init_c, step_c = compiled
+    n_carry = init_c.out_tree.num_leaves - 1  # init returns (*carry, ok)
     progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, masks, trial_sh, rep, source)
     t2 = time.perf_counter()
     with _LOCK:

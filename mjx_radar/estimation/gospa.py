@@ -95,15 +95,15 @@ def assign(cost: np.ndarray) -> np.ndarray:
     Returns:
         ``[B, n]`` int: the column of each row in an optimal permutation.
     """
-    from scipy.optimize import linear_sum_assignment
-
     b, n = cost.shape[0], cost.shape[-1]
     perm = np.broadcast_to(np.arange(n), (b, n)).copy()
     diag = np.take_along_axis(cost, perm[:, :, None], axis=2)[..., 0]
     todo = np.flatnonzero(np.any(diag > cost.min(axis=2), axis=1))  # identity not optimal
     if todo.size and n <= ENUMERATE_MAX:
         perm[todo] = _enumerate(cost[todo])
-    else:
+    elif todo.size:  # imported only here: scipy.optimize takes ~0.5 s to import
+        from scipy.optimize import linear_sum_assignment
+
         for i in todo:
             perm[i] = linear_sum_assignment(cost[i])[1]
     return perm
