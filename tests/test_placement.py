@@ -204,3 +204,30 @@ def test_each_radar_takes_its_first_admissible_candidate():
         return len(jaxpr.eqns)
 
     assert eqns(32) == eqns(6)
+
+
+def test_cached_check_loads_its_program_and_says_the_same(tmp_path, monkeypatch):
+    """engine.placement_cache: the check's program kept on disk (a warm process neither
+    traces nor lowers it) gives the same verdicts and messages as the traced one."""
+    from mjx_radar.engine import compile_cache, executable_cache, placement_cache
+
+    monkeypatch.setattr(compile_cache, "_DIR", [tmp_path])  # a private program folder
+    bad = _scenario(placement_half_width=20.0)
+
+    def check_both():
+        placement_cache._program.cache_clear()  # as a new process: nothing in memory
+        with pytest.raises(ValueError) as cached:
+            placement_cache.check_placeable(bad, bad.seed, 4)
+        with pytest.raises(ValueError) as traced:
+            placement.check_placeable(bad, bad.seed, 4)
+        assert str(cached.value) == str(traced.value)
+        placement_cache.check_placeable(_scenario(), 7, 16)  # feasible: silent
+
+    check_both()  # XLA compiles the flat programs (no other test does): both written
+    assert len(list((tmp_path / "programs").glob("place-*.bin"))) == 2  # 4 -> 8, and 16
+
+    def no_compile(lowered):
+        raise AssertionError("compiled although the executables are on disk")
+
+    monkeypatch.setattr(executable_cache, "compile_lowered", no_compile)
+    check_both()

@@ -239,7 +239,7 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
         InputError: the radars cannot be placed or the run does not fit in memory.
     """
     from mjx_radar.engine import resources, runner
-    from mjx_radar.env.placement import check_placeable
+    from mjx_radar.engine.placement_cache import check_placeable
 
     deterministic = process_options(req)
     with precision_scope(req):

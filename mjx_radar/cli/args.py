@@ -61,7 +61,7 @@ def seed(text: str) -> int:
 
 
 def check_placement(scenario, seed: int, trials: int) -> None:
-    from mjx_radar.env.placement import check_placeable
+    from mjx_radar.engine.placement_cache import check_placeable
 
     try:
         check_placeable(scenario, seed, trials)

@@ -87,11 +87,11 @@ def compile_key(device) -> str:
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:16]
 
 
-def path(store: Path | None, key: str, device) -> Path | None:
+def path(store: Path | None, key: str, device, prefix: str = "exe") -> Path | None:
     """The file of a program key's executables for ``device`` (None without a store)."""
     if store is None:
         return None
-    return store / f"exe-{key}-d{device.id}-{compile_key(device)}.bin"
+    return store / f"{prefix}-{key}-d{device.id}-{compile_key(device)}.bin"
 
 
 def save(file: Path | None, compiled) -> None:

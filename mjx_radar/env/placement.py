@@ -106,11 +106,14 @@ def initial_conditions(scenario: Scenario, params, streams) -> Init:
     return Init(radars, targets, targets.reshape(-1) + err, cov, ok)
 
 
-def check_placeable(scenario: Scenario, seed: int, trials) -> None:
+def check_placeable(scenario: Scenario, seed: int, trials, placeable=None) -> None:
     """Raises ValueError naming the placement fields if some trial cannot place its radars.
 
     ``trials``: a count (trials ``0..trials-1``) or the trial indices themselves (only
-    those are drawn: ``[10**6]`` is one trial, not a million).
+    those are drawn: ``[10**6]`` is one trial, not a million). ``placeable``: how the
+    check's program is had, ``placeable(shape) -> f(params, ids) -> ok [len(ids)]``
+    (default :func:`placeable_program`, traced in this process; the engine passes one that
+    keeps the compiled program on disk, :mod:`mjx_radar.engine.placement_cache`).
     """
 
     from mjx_radar.task.method import METHODS
@@ -122,7 +125,8 @@ def check_placeable(scenario: Scenario, seed: int, trials) -> None:
         return
     size = max(8, 1 << int(len(ids) - 1).bit_length())  # padded: few distinct programs
     padded = np.concatenate([ids, np.full(size - len(ids), ids[0])])
-    oks = np.asarray(_placeable(shape_key(scenario))(params, jnp.asarray(padded)))[: len(ids)]
+    program = (placeable or placeable_program)(shape_key(scenario))
+    oks = np.asarray(program(params, jnp.asarray(padded)))[: len(ids)]
     if not oks.all():
         bad = int(ids[np.argmin(oks)])
         if scenario.radar_init:  # fixed starts: the box plays no part
@@ -140,7 +144,7 @@ def check_placeable(scenario: Scenario, seed: int, trials) -> None:
 
 
 @functools.lru_cache(maxsize=32)
-def _placeable(shape: Scenario):
+def placeable_program(shape: Scenario):
     """``jit(vmap)`` of the trials' placement success for one compiled shape, built once
     per process: the numbers (``params``) are arguments, so every scenario of the shape
     and every seed reuse one traced program (it was traced anew on every run)."""

@@ -145,7 +145,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
 
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining, joining)
-    from mjx_radar.env.placement import check_placeable
+    from mjx_radar.engine.placement_cache import check_placeable
 
     for s, _, _, sd in scenarios:
         try:

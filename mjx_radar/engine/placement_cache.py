@@ -1,0 +1,69 @@
+"""The placement check's program kept on disk beside the loop's.
+
+Every ``run``, ``simulate`` and study checks before compiling anything that each trial
+can place its radars (:func:`mjx_radar.env.placement.check_placeable`). That check is a
+small program of its own (rejection sampling of the radars, vmapped over the trials),
+and a warm process used to trace, lower and look it up in JAX's cache every time: about
+half a second of a warm ``mjx-radar run`` on the CPU. Here it is compiled once per shape
+and trial count (padded to a power of two) and kept as an executable
+(:mod:`mjx_radar.engine.executable_cache`, ``place-*.bin`` in ``<cache>/programs``).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.engine import compile_cache, executable_cache
+from mjx_radar.env import placement
+
+
+def check_placeable(scenario, seed: int, trials) -> None:
+    """:func:`mjx_radar.env.placement.check_placeable` with the program cached on disk.
+
+    Raises:
+        ValueError: a trial cannot place its radars (the message names the fields).
+    """
+    placement.check_placeable(scenario, seed, trials, placeable=_program)
+
+
+@functools.lru_cache(maxsize=32)
+def _program(shape):
+    """``f(params, ids) -> ok [len(ids)]`` for one shape: compiled per trial count,
+    loaded from the executable cache when XLA compiled it before."""
+    jitted = placement.placeable_program(shape)
+    compiled: dict = {}
+
+    def run(params, ids):
+        leaves, tree = jax.tree.flatten(params)
+        sig = (ids.shape, str(tree), tuple((jnp.shape(x), jnp.result_type(x)) for x in leaves))
+        if sig not in compiled:
+            compiled[sig] = _load_or_compile(shape, jitted, tree, ids, leaves, sig)
+        return compiled[sig](ids, *leaves)[0]
+
+    return run
+
+
+def _load_or_compile(shape, jitted, tree, ids, leaves, sig):
+    """The flat program ``(ids, *leaves) -> (ok,)``: from the executable cache, or
+    compiled here (and written there when XLA compiled it)."""
+    device = jax.devices()[0]
+    store = compile_cache.program_dir()
+    parts = [repr(shape), sig, bool(jax.config.jax_enable_x64), compile_cache.code_fingerprint()]
+    key = hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
+    file = executable_cache.path(store, key, device, prefix="place")
+    loaded = executable_cache.load(file, [device])
+    if loaded is not None:
+        return loaded[0]
+
+    def flat(ids, *leaves):
+        return (jitted(jax.tree.unflatten(tree, leaves), ids),)
+
+    specs = [jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x)) for x in (ids, *leaves)]
+    program, fresh = executable_cache.compile_lowered(jax.jit(flat).lower(*specs))
+    if fresh:
+        executable_cache.save(file, (program,))
+    return program
