@@ -53,7 +53,13 @@ FLOORS = [
     "facade",  # the package root: __init__, __main__, public alias modules
 ]
 # root modules of the base floor; the other root modules are the facade
-ROOT_FLOORS = {"errors": "base", "precision": "base", "version": "base", "registry": "base"}
+ROOT_FLOORS = {
+    "errors": "base",
+    "precision": "base",
+    "version": "base",
+    "registry": "base",
+    "batching": "base",
+}
 
 
 def module_name(path: Path, root: Path) -> str:

@@ -45,6 +45,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
+from mjx_radar.batching import batched_like
 from mjx_radar.control.shrinkage import ESTIMATORS
 from mjx_radar.scenario.schema import MPPIConfig
 
@@ -175,6 +176,7 @@ def optimize(
         aux0,
     )
     keys = jax.random.split(key, cfg.iterations)
+    init = batched_like(init, (keys, init))  # the placeholders: one batching of the body
     (m, _, _, u, costs, w, aux), _ = jax.lax.scan(step, init, keys)
     return MPPIResult(mean=m.reshape(h, d), samples=u, costs=costs, weights=w, aux=aux)
 

@@ -26,6 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from mjx_radar.batching import batched_like
 from mjx_radar.estimation import linalg, linalg_small
 
 __all__ = ["INFO_FLOOR", "sfim", "sfim_ccr", "pfim_step", "data_information", "logdet"]
@@ -198,6 +199,7 @@ def pfim_logdets(J0, A, W_unit, sigma_w2, jd, floor: float = INFO_FLOOR, unroll:
             linalg_small.psd_cholesky_entries(floored)
         )
 
+    chol0 = batched_like(chol0, (jd, chol0))  # J0 shared by the samples: one batching
     _, out = jax.lax.scan(step, chol0, tuple(jd), unroll=unroll)
     return out
 

@@ -42,6 +42,7 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
+from mjx_radar.batching import batched_like
 from mjx_radar.estimation import linalg_small
 
 __all__ = ["symmetrize", "psd_cholesky", "psd_solve", "psd_inv", "logdet_psd"]
@@ -144,7 +145,7 @@ def _cholesky_floored(A, floor):
         col = jnp.where(idx > j, v / ljj, 0.0) + jnp.where(idx == j, ljj, 0.0)
         return lax.dynamic_update_index_in_dim(L, col[..., :, None], j, axis=L.ndim - 1)
 
-    return _loop(n, body, jnp.zeros_like(A))
+    return _loop(n, body, batched_like(jnp.zeros_like(A), A))  # (one batching, mjx_radar.batching)
 
 
 def psd_cholesky(A):
@@ -176,7 +177,7 @@ def _solve_lower(L, B):
         y_i = (_row(B, i) - jnp.einsum("...n,...nk->...k", l_row, Y)) / l_ii
         return lax.dynamic_update_index_in_dim(Y, y_i, i, axis=Y.ndim - 2)
 
-    return _loop(L.shape[-1], body, jnp.zeros_like(B))
+    return _loop(L.shape[-1], body, batched_like(jnp.zeros_like(B), (L, B)))
 
 
 def _solve_upper_t(L, Y):
@@ -190,7 +191,7 @@ def _solve_upper_t(L, Y):
         x_i = (_row(Y, i) - jnp.einsum("...n,...nk->...k", l_col, X)) / l_ii
         return lax.dynamic_update_index_in_dim(X, x_i, i, axis=X.ndim - 2)
 
-    return _loop(n, body, jnp.zeros_like(Y))
+    return _loop(n, body, batched_like(jnp.zeros_like(Y), (L, Y)))
 
 
 def psd_solve(A, B):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from mjx_radar.batching import batched_like
 from mjx_radar.physics import fused_step
 from mjx_radar.physics.plant import (
     Plant,
@@ -65,6 +66,7 @@ def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Ar
         d = step(plant, d, u)
         return d, radar_state(plant, d)
 
+    data = batched_like(data, (controls, state))  # a start shared by the samples
     return jax.lax.scan(body, data, controls, unroll=unroll)[1]
 
 
@@ -84,7 +86,8 @@ def _fused_rollout(plant: Plant, state: jax.Array, controls: jax.Array, unroll: 
         )
         return (q, qd, act), planar_state(q, act)
 
-    return jax.lax.scan(body, (q, jnp.zeros_like(q), act), controls, unroll=unroll)[1]
+    init = batched_like((q, jnp.zeros_like(q), act), (controls, state))  # mjx_radar.batching
+    return jax.lax.scan(body, init, controls, unroll=unroll)[1]
 
 
 def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Array) -> jax.Array:
