@@ -196,7 +196,7 @@ def compile_programs(
         waited = time.perf_counter() - t_lock
         t1 = time.perf_counter()
         compiled = executable_cache.load(exe, devices)  # no lowering at all
-        source = "executable cache"
+        source, save_s = "executable cache", 0.0
         if compiled is None:
             trace_args = (shape, kind, planner, params, batch, periods, full, mesh, masks)
             init_l, step_l, source = _lower(path, trace_args, (trials, p_specs, mesh))
@@ -205,7 +205,9 @@ def compile_programs(
             both = parallel([functools.partial(compile_one, x) for x in (init_l, step_l)])
             compiled = tuple(c for c, _ in both)  # compiled side by side: XLA frees the GIL
             if all(fresh for _, fresh in both):
+                t_save = time.perf_counter()
                 executable_cache.save(exe, compiled)
+                save_s = time.perf_counter() - t_save
     init_c, step_c = compiled
     n_carry = init_c.out_tree.num_leaves - 1  # init returns (*carry, ok)
     progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, masks, trial_sh, rep, source)
@@ -227,7 +229,8 @@ def compile_programs(
                 "source": source,
                 "lock_wait_s": waited,  # another process compiling this program
                 "trace_lower_s": t1 - t0 - waited,
-                "xla_compile_s": t2 - t1,
+                "xla_compile_s": t2 - t1 - save_s,
+                "exe_save_s": save_s,  # writing the executables (engine.executable_cache)
             }
         )
     return progs, t2 - t0
