@@ -7,8 +7,8 @@ again. That happens wherever a loop starts from something shared by the batch an
 mixes in something that is not: a zero initial factor filled from a batched matrix, a
 radar state shared by all MPPI samples rolled out under each sample's controls, MPPI's
 placeholders for the iteration's samples. Loops nest (filter steps, MPPI iterations,
-rollouts, the PFIM recursion), so these second batchings were about a sixth of tracing
-the paper study's program (docs/scaling.md, tenth session). :func:`batched_like` marks
+rollouts, the PFIM recursion); marking them cut the first trace of the paper study's
+program by about 5-10 % (docs/scaling.md, tenth session). :func:`batched_like` marks
 such a carry batched from the start, with its values unchanged.
 """
 
