@@ -18,8 +18,8 @@ processor's instruction-set flags. Anything unreadable, stale or foreign is igno
 writing is best effort. The same trust as XLA's persistent cache: only a directory of
 the user's own is read.
 
-Only executables XLA compiled in this process are written (:func:`compile_lowered`
-says which): on the CPU, an executable that JAX loaded from its persistent cache
+Only executables XLA compiled in this process are written (:func:`compile_and_save`;
+:func:`compile_lowered` says which): on the CPU, an executable that JAX loaded from its persistent cache
 serialises without its generated code (jaxlib 0.10: the copy loads, then fails with
 "Function ... not found" when it runs), so such a pair keeps JAX's way to the cache.
 """
@@ -31,9 +31,12 @@ import hashlib
 import os
 import platform
 import threading
+import time
 from pathlib import Path
 
 import jax
+
+from mjx_radar.engine.threads import parallel
 
 _MAGIC = b"mjx-radar-exe-1\n"
 _CACHE_HIT = "/jax/compilation_cache/cache_hits"
@@ -59,6 +62,18 @@ def compile_lowered(lowered):
     _SEEN.hit = False
     compiled = lowered.compile()
     return compiled, not _SEEN.hit
+
+
+def compile_and_save(file: Path | None, lowered) -> tuple[tuple, float]:
+    """``(compiled, seconds writing)``: the ``lowered`` programs compiled side by side (XLA
+    frees the GIL) and written to ``file`` when XLA compiled every one of them here."""
+    both = parallel([functools.partial(compile_lowered, x) for x in lowered])
+    compiled = tuple(c for c, _ in both)
+    if not all(fresh for _, fresh in both):
+        return compiled, 0.0
+    t0 = time.perf_counter()
+    save(file, compiled)
+    return compiled, time.perf_counter() - t0
 
 
 @functools.cache

@@ -63,7 +63,5 @@ def _load_or_compile(shape, jitted, tree, ids, leaves, sig):
         return (jitted(jax.tree.unflatten(tree, leaves), ids),)
 
     specs = [jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x)) for x in (ids, *leaves)]
-    program, fresh = executable_cache.compile_lowered(jax.jit(flat).lower(*specs))
-    if fresh:
-        executable_cache.save(file, (program,))
+    (program,), _ = executable_cache.compile_and_save(file, (jax.jit(flat).lower(*specs),))
     return program

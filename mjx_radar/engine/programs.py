@@ -23,7 +23,6 @@ Python tracing of the MJX step, the objective and the scans altogether.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import threading
 import time
@@ -38,7 +37,6 @@ from mjx_radar import precision
 from mjx_radar.engine import compile_cache, executable_cache, export_cache
 from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.engine.live_programs import LiveCache
-from mjx_radar.engine.threads import parallel
 from mjx_radar.env import records
 from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
@@ -201,13 +199,7 @@ def compile_programs(
             trace_args = (shape, kind, planner, params, batch, periods, full, mesh, masks)
             init_l, step_l, source = _lower(path, trace_args, (trials, p_specs, mesh))
             t1 = time.perf_counter()
-            compile_one = executable_cache.compile_lowered
-            both = parallel([functools.partial(compile_one, x) for x in (init_l, step_l)])
-            compiled = tuple(c for c, _ in both)  # compiled side by side: XLA frees the GIL
-            if all(fresh for _, fresh in both):
-                t_save = time.perf_counter()
-                executable_cache.save(exe, compiled)
-                save_s = time.perf_counter() - t_save
+            compiled, save_s = executable_cache.compile_and_save(exe, (init_l, step_l))
     init_c, step_c = compiled
     n_carry = init_c.out_tree.num_leaves - 1  # init returns (*carry, ok)
     progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, masks, trial_sh, rep, source)
