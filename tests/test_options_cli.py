@@ -39,14 +39,31 @@ def test_range_azimuth_with_per_target_filter_runs(tmp_path):
     assert "range-azimuth" in copied and "per-target" in copied
 
 
-def test_precision_float64_subprocess(tmp_path):
+def test_precision_float64_api_equals_cli(tmp_path):
+    """``simulate(precision="float64")`` puts x64 mode on for this call only, yet the
+    programs are traced in worker threads (JAX's mode is per thread: they traced float32
+    and refused the float64 arguments): the API's numbers are the CLI's, which sets the
+    mode for its whole process. The CLI run loads the API's program from the cache."""
+    import jax
+
+    from mjx_radar import simulate
+
+    res = simulate(
+        "smoke", "ddr-sfim", trials=2, steps=8, rollouts="analytic", precision="float64",
+        progress=False,
+    )  # fmt: skip
+    assert not jax.config.jax_enable_x64  # the mode was the call's only
+    assert res.meta["precision"] == "float64" and res.metrics["nees"].dtype == np.float64
     out = tmp_path / "f64"
     cmd = [sys.executable, "-m", "mjx_radar", "run", "scenarios/smoke.toml", *RUN]
-    cmd += ["--out", str(out), "--precision", "float64", "--no-cache"]
+    cmd += ["--out", str(out), "--precision", "float64"]
     proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-2000:]
     meta = json.loads((out / "run.json").read_text())
     assert meta["precision"] == "float64"
     # the default: deterministic where a GPU backend may start; a CPU's kernels always are
     assert meta["deterministic"] is True
-    assert np.isfinite(_frame(out)[["rmse_pos", "crlb_pos"]]).all().all()
+    cli_frame = _frame(out)
+    assert np.isfinite(cli_frame[["rmse_pos", "crlb_pos"]]).all().all()
+    for col in ("rmse_pos", "nees", "crlb_pos"):
+        np.testing.assert_array_equal(cli_frame[col].to_numpy(), res.metrics[col].to_numpy())

@@ -1,8 +1,11 @@
-"""Threads that compile: a stack large enough for XLA, and calls run side by side."""
+"""Threads that compile: a stack large enough for XLA, the caller's x64 mode, and calls
+run side by side."""
 
 from __future__ import annotations
 
 import threading
+
+import jax
 
 #: stack size of threads that compile (XLA's compiler recurses deeply on large programs;
 #: the default 8 MiB thread stack overflowed compiling a 2-GPU program)
@@ -10,10 +13,22 @@ COMPILE_THREAD_STACK = 512 * 1024 * 1024
 
 
 def compile_thread(target, name: str = "compile"):
-    """A daemon thread with a stack large enough for XLA compilation."""
+    """A daemon thread with a stack large enough for XLA compilation, tracing in the
+    creating thread's x64 mode.
+
+    JAX's ``jax.enable_x64`` context holds only in the thread that entered it, so a
+    program traced in a new thread under ``simulate(..., precision="float64")`` was
+    float32 and its float64 arguments were refused.
+    """
+    x64 = bool(jax.config.jax_enable_x64)
+
+    def run():
+        with jax.enable_x64(x64):
+            target()
+
     old = threading.stack_size(COMPILE_THREAD_STACK)
     try:
-        return threading.Thread(target=target, name=name, daemon=True)
+        return threading.Thread(target=run, name=name, daemon=True)
     finally:
         threading.stack_size(old)
 
