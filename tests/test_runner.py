@@ -1,7 +1,11 @@
 """Batched trials on the host (engine.runner, engine.programs)."""
 
 import dataclasses
+import functools
+import re
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -128,6 +132,64 @@ def test_export_cache_round_trip(tiny, first_run, export_dir, monkeypatch):
     assert b["compile_s"] > 0 and programs.COMPILE_LOG[n0]["source"] == "export cache"
     for k in results.METRIC_COLUMNS:
         np.testing.assert_array_equal(b[k], first_run[0][k], err_msg=k)
+
+
+def test_programs_started_in_the_background_are_the_ones_run(tiny, first_run, monkeypatch):
+    # A run starts loading its programs before its checks (runner.start_programs) and
+    # hands them to run_trials, which then neither compiles nor loads them again;
+    # programs started for other arguments are not taken (this one is never started).
+    from mjx_radar.engine.device_programs import PendingPrograms
+
+    monkeypatch.setattr(programs, "_CACHE", {})
+    n0 = len(programs.COMPILE_LOG)
+    pending = runner.start_programs(tiny, "ddr-sfim", TRIALS, STEPS, full=False)
+    again = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=pending)
+    assert len(programs.COMPILE_LOG) == n0 + 1 and again["compile_s"] > 0
+    assert programs.COMPILE_LOG[n0]["source"] in ("export cache", "executable cache")
+    foreign = PendingPrograms(request=("another shape",))
+    cached = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=foreign)
+    assert len(programs.COMPILE_LOG) == n0 + 1  # this process's program, not the foreign one
+    for res in (again, cached):
+        for k in results.METRIC_COLUMNS:
+            np.testing.assert_array_equal(res[k], first_run[0][k], err_msg=k)
+    with pytest.raises(ValueError, match="steps: 6 must be a multiple of 4"):
+        runner.start_programs(tiny, "ddr-sfim", TRIALS, 6)  # checked as run_trials checks
+
+
+def _callsite_depth(mlir: str) -> int:
+    """Deepest chain of call-site locations in a StableHLO module's text (the frames of
+    the Python traceback an operation carries as its location)."""
+    defs = dict(re.findall(r"^(#loc\d+) = (.*)$", mlir, re.M))
+
+    @functools.cache
+    def depth(ref):
+        text = defs.get(ref, "")
+        inner = max((depth(r) for r in re.findall(r"#loc\d+", text)), default=0)
+        return inner + text.startswith("loc(callsite(")
+
+    return max(map(depth, defs), default=0)
+
+
+def test_exported_programs_carry_one_source_line_per_operation(export_dir):
+    # Whole Python tracebacks as locations (JAX's default, up to 100 frames; 10-14 deep
+    # in these programs) become XLA metadata that a GPU executable turns into profiler
+    # annotations on every load; program_trace.short_locations keeps one frame per
+    # operation (what is left are the call sites of inlined nested programs: 3).
+    from mjx_radar.engine import export_cache, program_trace
+
+    for path in export_dir.glob("loop-*.jaxexport"):
+        for exported in export_cache.load(path):
+            assert _callsite_depth(exported.mlir_module()) <= 4
+
+    def deep(x, n=8):  # every operation under 8 frames of this function
+        return jnp.sin(x) if n == 0 else deep(x, n - 1) + 1.0
+
+    def lowered(f):
+        return jax.export.export(jax.jit(f))(jax.ShapeDtypeStruct((3,), "float32")).mlir_module()
+
+    assert _callsite_depth(lowered(lambda x: deep(x))) >= 8  # the control: JAX's default
+    with program_trace.short_locations():
+        assert _callsite_depth(lowered(lambda x: deep(x) * 2.0)) <= 1
 
 
 def test_steps_not_a_multiple_of_the_control_period(tiny):

@@ -231,9 +231,26 @@ def precision_scope(req: RunRequest):
     return contextlib.nullcontext()
 
 
-def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool = True) -> dict:
+def start_programs(req: RunRequest, live=None):
+    """The run's programs, compiled or loaded in a background thread from now on
+    (:func:`mjx_radar.engine.runner.start_programs`) while the caller checks placement
+    and imports the writers; pass them to :func:`execute`."""
+    from mjx_radar.engine import runner
+
+    process_options(req)  # the cache and kernel flags before anything compiles
+    with precision_scope(req):  # the background thread traces in the run's x64 mode
+        periods = None if live is None else live.runner_options()["periods"]
+        args = (req.scenario, req.method, req.trials, req.steps)
+        return runner.start_programs(*args, periods=periods, masks=req.masks)
+
+
+def execute(
+    req: RunRequest, progress=None, phase=None, live=None, checks: bool = True, programs=None
+) -> dict:
     """Checks memory and placement (unless ``checks`` is False: the caller did), then
-    runs the trials (:func:`runner.run_trials`).
+    runs the trials (:func:`runner.run_trials`). The programs (``programs``, from
+    :func:`start_programs`, or started here after the memory check) are compiled or
+    loaded in the background beside the placement check.
 
     Raises:
         InputError: the radars cannot be placed or the run does not fit in memory.
@@ -245,6 +262,8 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
     with precision_scope(req):
         if checks:
             resources.check(req.scenario, len(req.trials), req.steps)
+        programs = programs or start_programs(req, live)
+        if checks:
             try:
                 check_placeable(req.scenario, req.seed, req.trials)
             except ValueError as err:
@@ -259,6 +278,7 @@ def execute(req: RunRequest, progress=None, phase=None, live=None, checks: bool 
             progress=progress,
             phase=phase,
             masks=req.masks,
+            programs=programs,
             **view,
         )
         return res | {"deterministic": deterministic}

@@ -144,11 +144,12 @@ def main(args) -> int:
     live = None
     try:
         live = _live_view(args, s, trials, steps)
+        programs = run_case.start_programs(req, live)  # loading beside the placement check
         simulate(lambda: check_placement(s, seed_, args.trials))  # compiles too: interruptible
         if args.force:
             (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
         print(est.compile_line(), file=sys.stderr, flush=True)
-        res = simulate(lambda: _run(req, live))
+        res = simulate(lambda: _run(req, live, programs))
     except KeyboardInterrupt:
         drop()
         print("\ninterrupted: no results written", file=sys.stderr, flush=True)
@@ -179,11 +180,11 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt
 
 
-def _run(req, live=None):
+def _run(req, live=None, programs=None):
     from tqdm import tqdm
 
     from mjx_radar.api import run_case
     from mjx_radar.api.simulate import bar_phase
 
     with tqdm(total=req.steps, unit="step", desc="closed loop", file=sys.stderr) as bar:
-        return run_case.execute(req, bar.update, bar_phase(bar), live, checks=False)
+        return run_case.execute(req, bar.update, bar_phase(bar), live, False, programs)

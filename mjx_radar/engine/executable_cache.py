@@ -19,8 +19,8 @@ writing is best effort. The same trust as XLA's persistent cache: only a directo
 the user's own is read.
 
 Only executables XLA compiled in this process are written (:func:`compile_and_save`;
-:func:`compile_lowered` says which): on the CPU, an executable that JAX loaded from its persistent cache
-serialises without its generated code (jaxlib 0.10: the copy loads, then fails with
+:func:`compile_lowered` says which): on the CPU, an executable that JAX loaded from its
+persistent cache serialises without its generated code (jaxlib 0.10: the copy loads, then fails with
 "Function ... not found" when it runs), so such a pair keeps JAX's way to the cache.
 """
 

@@ -9,6 +9,7 @@ Imported only when a program is traced: a warm start (export cache) imports no M
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 import jax
@@ -89,9 +90,31 @@ def flat_programs(
     return jax.jit(init), jax.jit(step, donate_argnums=donate)
 
 
+def short_locations():
+    """A context in which JAX gives each lowered operation one source line, not its whole
+    Python traceback (up to 100 frames: vmaps, scans and closures nest deeply here).
+
+    The tracebacks travel as metadata into XLA's program, and XLA's GPU executable turns
+    every instruction's into a profiler annotation (merging and printing the stacks)
+    each time it is built or loaded from a cache: most of the 2 s an H100 took to load a
+    paper shape's step program. The metadata is not code: the executable computes the same.
+    """
+    from jax._src import config  # the option has no public context manager
+
+    state = getattr(config, "include_full_tracebacks_in_locations", None)
+    return state(False) if state is not None else contextlib.nullcontext()
+
+
 def trace(shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs):
     """Traces both programs: ``(init, step, exported)`` lowered, or ``exported`` alone
     (``init``/``step`` None) when :mod:`jax.export` can take them."""
+    with short_locations():
+        return _trace(
+            shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs
+        )
+
+
+def _trace(shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs):
     task = make_task(shape, kind)
     trial_sh = NamedSharding(mesh, SPLIT)
     carry_shapes = jax.eval_shape(

@@ -27,7 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh
 
-from mjx_radar.engine import compile_cache
+from mjx_radar.engine import device_programs as pending_programs
+from mjx_radar.engine.device_programs import PendingPrograms, device_programs, run_devices
 from mjx_radar.engine.program_jobs import program_jobs, program_map, programs_needed
 from mjx_radar.engine.programs import (
     COMPILE_LOG,
@@ -50,6 +51,7 @@ __all__ = [
     "programs_needed",
     "run_trials",
     "set_metrics",
+    "start_programs",
 ]
 
 
@@ -109,6 +111,7 @@ def run_trials(
     masks: bool = False,
     program: tuple[str, str] | None = None,
     sets: bool = True,
+    programs: PendingPrograms | None = None,
 ) -> dict:
     """Runs the closed loop for a batch of trials.
 
@@ -137,6 +140,9 @@ def run_trials(
         sets: compute the set metrics (GOSPA, OSPA, continuity) on the host here; False:
             leave the sets in the result for :func:`set_metrics` (a study computes them
             in a background thread while the devices run its next chunks).
+        programs: the programs of :func:`start_programs` for these arguments (started
+            before the caller's checks, so that loading them overlaps with those);
+            ignored if they are for other arguments.
 
     Returns:
         dict of numpy arrays: the metrics (:data:`mjx_radar.rundir.results.METRIC_COLUMNS`)
@@ -147,31 +153,20 @@ def run_trials(
         ``control_hz`` (control periods per second of the batch).
     """
     every = scenario.timing.control_every
-    if steps % every:
-        raise ValueError(f"steps: {steps} must be a multiple of {every}")
-    periods = periods or segment_periods(scenario, steps)
-    method = parse_method(method)
-    program = program or (method.kind, method.planner)
-    if not runs(program, method):
-        raise ValueError(f"program {program}: does not run the method {method.name}")
+    method, args = _program_args(
+        scenario, method, trials, steps, full, periods, mesh, masks, program
+    )
     params = task_params(scenario, method, seed)
     trials = np.asarray(trials, np.int32)
-    devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
-    if trials.shape[0] % len(devices):
-        raise ValueError(f"{trials.shape[0]} trials are not a multiple of {len(devices)} devices")
+    periods, devices = args[2], args[4]
     if phase:
         phase("compiling")
     t0 = time.perf_counter()
-    progs = device_programs(
-        scenario,
-        trials.shape[0] // len(devices),
-        periods,
-        full,
-        devices,
-        *program,
-        masks,
-    )
-    compile_s = 0.0 if all(s == 0.0 for _, s in progs) else time.perf_counter() - t0
+    if programs is not None and programs.request == pending_programs.request(*args):
+        progs, compile_s = programs.result()
+    else:
+        progs, compile_s = device_programs(*args), time.perf_counter() - t0
+    compile_s = 0.0 if all(s == 0.0 for _, s in progs) else compile_s
     if phase:
         phase("simulating")
     t0 = time.perf_counter()
@@ -220,37 +215,38 @@ def run_trials(
     return res
 
 
-def device_programs(
-    scenario,
-    batch: int,
-    periods: int,
-    full: bool,
-    devices,
-    kind: str = "all",
-    planner: str = "mppi",
+def _program_args(scenario, method, trials, steps, full, periods, mesh, masks, program):
+    """``(method, device_programs arguments)`` of a run, checked (ValueError)."""
+    every = scenario.timing.control_every
+    if steps % every:
+        raise ValueError(f"steps: {steps} must be a multiple of {every}")
+    method = parse_method(method)
+    program = program or (method.kind, method.planner)
+    if not runs(program, method):
+        raise ValueError(f"program {program}: does not run the method {method.name}")
+    devices = run_devices(mesh)
+    pending_programs.check_batch(np.asarray(trials), devices)
+    batch = np.asarray(trials).shape[0] // len(devices)
+    periods = periods or segment_periods(scenario, steps)
+    return method, (scenario, batch, periods, full, devices, *program, masks)
+
+
+def start_programs(
+    scenario: Scenario,
+    method,
+    trials,
+    steps: int,
+    full: bool = True,
+    periods: int | None = None,
+    mesh: Mesh | None = None,
     masks: bool = False,
-) -> list:
-    """``[(programs, seconds)]``: the single-device program of each device, each for
-    ``batch`` trials. Every device runs the same per-device program, so a trial's
-    numbers never depend on the number of devices.
-
-    On GPUs with the persistent compilation cache on, the first device compiles alone
-    and the others then load XLA's result from the cache in parallel threads (JAX's
-    GPU cache key holds the device kind, not the device id): one compilation for a
-    host's GPUs, where compiling the same program once per GPU in parallel had made
-    2 H200s compile longer than one (57 s vs 42 s). Elsewhere (CPU devices, whose key
-    holds the device, or no cache) every device compiles, in parallel threads.
-    """
-
-    def one(d):
-        mesh = device_mesh([d])
-        return compile_programs(scenario, batch, periods, full, mesh, kind, planner, masks)
-
-    devices = list(devices)
-    if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:
-        return parallel([lambda d=d: one(d) for d in devices])
-    first = parallel([lambda: one(devices[0])])
-    return first + parallel([lambda d=d: one(d) for d in devices[1:]])
+    program: tuple[str, str] | None = None,
+) -> PendingPrograms:
+    """Starts compiling or loading the programs :func:`run_trials` will need for these
+    arguments (the same meaning) in a background thread; pass the result to it as
+    ``programs``. Raises ValueError as it would."""
+    _, args = _program_args(scenario, method, trials, steps, full, periods, mesh, masks, program)
+    return pending_programs.start(*args)
 
 
 def set_metrics(scenario: Scenario, res: dict, full: bool = False) -> dict:

@@ -1,0 +1,116 @@
+"""The programs of a run's devices: compiled or loaded now, or in the background.
+
+:func:`device_programs` gives every device of a run the same single-device program
+(:func:`mjx_radar.engine.programs.compile_programs`). :func:`start_programs` does the
+same in a background thread and returns a :class:`PendingPrograms` that
+:func:`mjx_radar.engine.runner.run_trials` takes instead of asking again.
+
+Why in the background: a warm run's programs come from the executable cache, and XLA
+deserialises and loads them without holding the GIL (2.4 s on an H100 for a paper
+shape, 0.4 s on the CPU for smoke). Meanwhile the run's own checks (the memory model,
+the placement check, which on a GPU also waits for the device's first transfer) and
+the imports of the result writer go on in the caller's thread. A cold run traces its
+loop while the placement check's small program compiles.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import jax
+import numpy as np
+
+from mjx_radar.engine import compile_cache
+from mjx_radar.engine.programs import compile_programs, device_mesh
+from mjx_radar.engine.threads import compile_thread, parallel
+from mjx_radar.task.params import shape_key
+
+
+def device_programs(
+    scenario,
+    batch: int,
+    periods: int,
+    full: bool,
+    devices,
+    kind: str = "all",
+    planner: str = "mppi",
+    masks: bool = False,
+) -> list:
+    """``[(programs, seconds)]``: the single-device program of each device, each for
+    ``batch`` trials. Every device runs the same per-device program, so a trial's
+    numbers never depend on the number of devices.
+
+    On GPUs with the persistent compilation cache on, the first device compiles alone
+    and the others then load XLA's result from the cache in parallel threads (JAX's
+    GPU cache key holds the device kind, not the device id): one compilation for a
+    host's GPUs, where compiling the same program once per GPU in parallel had made
+    2 H200s compile longer than one (57 s vs 42 s). Elsewhere (CPU devices, whose key
+    holds the device, or no cache) every device compiles, in parallel threads.
+    """
+
+    def one(d):
+        mesh = device_mesh([d])
+        return compile_programs(scenario, batch, periods, full, mesh, kind, planner, masks)
+
+    devices = list(devices)
+    if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:
+        return parallel([lambda d=d: one(d) for d in devices])
+    first = parallel([lambda: one(devices[0])])
+    return first + parallel([lambda d=d: one(d) for d in devices[1:]])
+
+
+def request(scenario, batch, periods, full, devices, kind, planner, masks) -> tuple:
+    """What identifies the programs :func:`device_programs` gives for these arguments."""
+    return (shape_key(scenario), batch, periods, full, tuple(devices), kind, planner, masks)
+
+
+@dataclasses.dataclass(eq=False)
+class PendingPrograms:
+    """Programs being compiled or loaded in a background thread (:func:`start_programs`).
+
+    Attributes:
+        request: what they are (:func:`request`); a run asking for others ignores them.
+    """
+
+    request: tuple
+    _box: dict = dataclasses.field(default_factory=dict)
+    _thread: object = None
+
+    def result(self) -> tuple[list, float]:
+        """``(device programs, seconds they took)``, waiting for them (in short slices,
+        so Ctrl-C is honoured); an error of the background thread is raised here."""
+        while self._thread.is_alive():
+            self._thread.join(0.2)
+        if "error" in self._box:
+            raise self._box["error"]
+        return self._box["value"]
+
+
+def start(scenario, batch, periods, full, devices, kind, planner, masks) -> PendingPrograms:
+    """:func:`device_programs` of these arguments, started in a background thread."""
+    args = (scenario, batch, periods, full, devices, kind, planner, masks)
+    pending = PendingPrograms(request(*args))
+
+    def work():
+        t0 = time.perf_counter()
+        try:
+            progs = device_programs(*args)
+            pending._box["value"] = (progs, time.perf_counter() - t0)
+        except BaseException as err:  # noqa: BLE001 -- re-raised by result()
+            pending._box["error"] = err
+
+    pending._thread = compile_thread(work, name="programs")
+    pending._thread.start()
+    return pending
+
+
+def run_devices(mesh) -> list:
+    """The devices a run uses: the mesh's, or the default device."""
+    return list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
+
+
+def check_batch(trials: np.ndarray, devices) -> None:
+    """Raises ValueError unless the trials split evenly over the devices."""
+    if trials.shape[0] % len(devices):
+        raise ValueError(f"{trials.shape[0]} trials are not a multiple of {len(devices)} devices")
