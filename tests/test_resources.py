@@ -206,3 +206,18 @@ def test_float64_doubles_the_estimate(monkeypatch):
         assert resources.float_bytes() == 8
         f64 = resources.device_terms(s, 4, "cpu")
     assert all(f64[k] == pytest.approx(2 * f32[k], rel=1e-6) for k in f32)
+
+
+def test_run_takes_gpu_memory_on_demand_unless_the_user_chose(monkeypatch, capsys):
+    # `mjx-radar run` asks JAX not to reserve 75 % of a GPU at the first transfer (1 s
+    # of a warm run on an H100), before anything starts JAX's backend; a user's own
+    # setting stays. (A scenario that does not exist: the command stops after the setting.)
+    import mjx_radar.cli.main as cli
+
+    monkeypatch.delenv("XLA_PYTHON_CLIENT_PREALLOCATE", raising=False)
+    assert cli.main(["run", "no_such_scenario"]) == 2
+    assert os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] == "false"
+    assert "no_such_scenario" in capsys.readouterr().err
+    monkeypatch.setenv("XLA_PYTHON_CLIENT_PREALLOCATE", "true")
+    resources.allocate_gpu_memory_on_demand()
+    assert os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] == "true"

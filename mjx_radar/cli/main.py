@@ -123,6 +123,10 @@ def main(argv: list[str] | None = None) -> int:
             from mjx_radar.engine import determinism
 
             determinism.request_in_env(args.deterministic)
+        if args.command == "run":  # before JAX starts its backend (GPUs only)
+            from mjx_radar.engine import resources
+
+            resources.allocate_gpu_memory_on_demand()
         if args.command in COMPILING and args.precision == "float64":
             import jax
 
