@@ -69,6 +69,25 @@ def test_a_persistent_cache_hit_is_not_fresh():
     assert not again
 
 
+def test_cache_hits_are_written_off_the_cpu_only(tmp_path, monkeypatch):
+    """An executable JAX's persistent cache answered is written on GPUs (it serialises
+    whole there: written, loaded and run again on an H100 with the same metrics), never on
+    the CPU (it would lack its code); XLA's own compilations everywhere. Without this a
+    program whose code fingerprint changed but whose HLO did not (a package upgrade) never
+    got its executable file on a GPU host."""
+    hit = executable_cache.compile_lowered(_program(0.75))[0]
+    monkeypatch.setattr(executable_cache, "compile_lowered", lambda lowered: (hit, False))
+    assert executable_cache._platform((hit,)) == "cpu"
+    for platform, written in (("cpu", False), ("gpu", True)):
+        monkeypatch.setattr(executable_cache, "_platform", lambda compiled, p=platform: p)
+        file = tmp_path / f"exe-{platform}.bin"
+        (out,), seconds = executable_cache.compile_and_save(file, (_program(0.75),))
+        assert out is hit and file.exists() == written and (seconds > 0) == written
+    monkeypatch.setattr(executable_cache, "compile_lowered", lambda lowered: (hit, True))
+    executable_cache.compile_and_save(tmp_path / "fresh.bin", (_program(0.75),))
+    assert (tmp_path / "fresh.bin").exists()  # fresh: written on the CPU too
+
+
 def test_the_key_holds_the_xla_flags(monkeypatch):
     dev = jax.local_devices()[0]
     base = executable_cache.compile_key(dev)

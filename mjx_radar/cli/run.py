@@ -145,6 +145,7 @@ def main(args) -> int:
     try:
         live = _live_view(args, s, trials, steps)
         programs = run_case.start_programs(req, live)  # loading beside the placement check
+        threading.Thread(target=_import_writers, name="writers", daemon=True).start()
         simulate(lambda: check_placement(s, seed_, args.trials))  # compiles too: interruptible
         if args.force:
             (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
@@ -174,6 +175,13 @@ def _live_view(args, s, trials, steps):
     from mjx_radar.viz.live import start
 
     return start(s, trials, steps, args.view_port)
+
+
+def _import_writers() -> None:
+    """pandas and pyarrow (0.3-0.5 s of imports), which only the result files need,
+    imported while the run loads its programs and simulates (both mostly outside the GIL)."""
+    import pandas  # noqa: F401
+    import pyarrow.parquet  # noqa: F401
 
 
 def _terminate(signum, frame):

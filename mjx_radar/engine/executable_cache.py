@@ -18,10 +18,14 @@ processor's instruction-set flags. Anything unreadable, stale or foreign is igno
 writing is best effort. The same trust as XLA's persistent cache: only a directory of
 the user's own is read.
 
-Only executables XLA compiled in this process are written (:func:`compile_and_save`;
-:func:`compile_lowered` says which): on the CPU, an executable that JAX loaded from its
-persistent cache serialises without its generated code (jaxlib 0.10: the copy loads, then fails with
-"Function ... not found" when it runs), so such a pair keeps JAX's way to the cache.
+On the CPU only executables XLA compiled in this process are written
+(:func:`compile_and_save`; :func:`compile_lowered` says which): an executable that JAX
+loaded from its persistent cache serialises without its generated code there (jaxlib
+0.10: the copy loads, then fails with "Function ... not found" when it runs), so such a
+pair keeps JAX's way to the cache. On GPUs it serialises whole and is written too
+(loaded and run again on an H100 with the same metrics), so a program whose HLO JAX's
+cache already held (a package upgrade that changed no program; a host's second GPU)
+still gets its file.
 """
 
 from __future__ import annotations
@@ -66,14 +70,23 @@ def compile_lowered(lowered):
 
 def compile_and_save(file: Path | None, lowered) -> tuple[tuple, float]:
     """``(compiled, seconds writing)``: the ``lowered`` programs compiled side by side (XLA
-    frees the GIL) and written to ``file`` when XLA compiled every one of them here."""
+    frees the GIL) and written to ``file``; on the CPU only when XLA compiled every one of
+    them here (module docstring)."""
     both = parallel([functools.partial(compile_lowered, x) for x in lowered])
     compiled = tuple(c for c, _ in both)
-    if not all(fresh for _, fresh in both):
+    if not all(fresh for _, fresh in both) and _platform(compiled) == "cpu":
         return compiled, 0.0
     t0 = time.perf_counter()
     save(file, compiled)
     return compiled, time.perf_counter() - t0
+
+
+def _platform(compiled) -> str:
+    """The platform the compiled programs run on."""
+    try:
+        return next(iter(compiled[0].input_shardings[0][0].device_set)).platform
+    except Exception:  # noqa: BLE001 -- unknown: treat as the CPU (write nothing doubtful)
+        return "cpu"
 
 
 @functools.cache

@@ -41,11 +41,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from mjx_radar.io.atomic import atomic_write  # also used as results.atomic_write
+
+if TYPE_CHECKING:  # pandas is imported when a table is made (0.3-0.5 s: not on a run's start)
+    import pandas as pd
 
 LOOP_COLUMNS = (  # computed in the closed loop, per step
     "rmse_pos",
@@ -102,6 +105,8 @@ def metrics_frame(
         time_s: [K] time of each step [s].
         metrics: name -> [T, K] array for each of :data:`METRIC_COLUMNS`.
     """
+    import pandas as pd
+
     t, k = len(trials), len(time_s)
     frame = pd.DataFrame(
         {
