@@ -46,6 +46,6 @@ def program_jobs(jobs) -> list[tuple]:
 def programs_needed(jobs, n_devices: int) -> int:
     """How many compiled programs ``jobs`` hold alive on ``n_devices`` devices: one per
     shape, program kind and planner *per device*
-    (:func:`~mjx_radar.engine.runner.device_programs`), the count a study keeps alive
+    (:func:`~mjx_radar.engine.device_programs.device_programs`), the count a study keeps alive
     (:func:`mjx_radar.engine.live_programs.keep_alive`)."""
     return len(program_jobs(jobs)) * n_devices
