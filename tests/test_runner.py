@@ -146,7 +146,7 @@ def test_programs_started_in_the_background_are_the_ones_run(tiny, first_run, mo
     again = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=pending)
     assert len(programs.COMPILE_LOG) == n0 + 1 and again["compile_s"] > 0
     assert programs.COMPILE_LOG[n0]["source"] in ("export cache", "executable cache")
-    foreign = PendingPrograms(request=("another shape",))
+    foreign = PendingPrograms(request=("another shape",), started=None)  # never started
     cached = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=foreign)
     assert len(programs.COMPILE_LOG) == n0 + 1  # this process's program, not the foreign one
     for res in (again, cached):

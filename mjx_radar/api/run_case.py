@@ -234,10 +234,10 @@ def precision_scope(req: RunRequest):
 def start_programs(req: RunRequest, live=None):
     """The run's programs, compiled or loaded in a background thread from now on
     (:func:`mjx_radar.engine.runner.start_programs`) while the caller checks placement
-    and imports the writers; pass them to :func:`execute`."""
+    and imports the writers; pass them to :func:`execute`. Call it after the process-wide
+    settings (:func:`process_options`, or the command line's own)."""
     from mjx_radar.engine import runner
 
-    process_options(req)  # the cache and kernel flags before anything compiles
     with precision_scope(req):  # the background thread traces in the run's x64 mode
         periods = None if live is None else live.runner_options()["periods"]
         args = (req.scenario, req.method, req.trials, req.steps)

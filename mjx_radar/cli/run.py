@@ -74,23 +74,9 @@ def simulate(fn):
     ``KeyboardInterrupt`` is raised here even while the worker sits in a long XLA
     compilation that would not return to Python for minutes.
     """
-    box: dict = {}
+    from mjx_radar.engine.threads import Started
 
-    def work():
-        try:
-            box["value"] = fn()
-        except BaseException as err:  # re-raised in the main thread
-            box["error"] = err
-
-    from mjx_radar.engine.threads import compile_thread
-
-    worker = compile_thread(work, name="closed-loop")
-    worker.start()
-    while worker.is_alive():
-        worker.join(0.1)
-    if "error" in box:
-        raise box["error"]
-    return box["value"]
+    return Started(fn, name="closed-loop").result(poll=0.1)
 
 
 def main(args) -> int:

@@ -1,7 +1,7 @@
 """The programs of a run's devices: compiled or loaded now, or in the background.
 
 :func:`device_programs` gives every device of a run the same single-device program
-(:func:`mjx_radar.engine.programs.compile_programs`). :func:`start_programs` does the
+(:func:`mjx_radar.engine.programs.compile_programs`). :func:`start` does the
 same in a background thread and returns a :class:`PendingPrograms` that
 :func:`mjx_radar.engine.runner.run_trials` takes instead of asking again.
 
@@ -18,12 +18,9 @@ from __future__ import annotations
 import dataclasses
 import time
 
-import jax
-import numpy as np
-
 from mjx_radar.engine import compile_cache
 from mjx_radar.engine.programs import compile_programs, device_mesh
-from mjx_radar.engine.threads import compile_thread, parallel
+from mjx_radar.engine.threads import Started, parallel
 from mjx_radar.task.params import shape_key
 
 
@@ -65,52 +62,30 @@ def request(scenario, batch, periods, full, devices, kind, planner, masks) -> tu
     return (shape_key(scenario), batch, periods, full, tuple(devices), kind, planner, masks)
 
 
-@dataclasses.dataclass(eq=False)
+@dataclasses.dataclass(frozen=True, eq=False)
 class PendingPrograms:
-    """Programs being compiled or loaded in a background thread (:func:`start_programs`).
+    """Programs being compiled or loaded in a background thread (:func:`start`).
 
     Attributes:
         request: what they are (:func:`request`); a run asking for others ignores them.
+        started: the thread; ``started.result()`` is ``(device programs, seconds they
+            took)``, waiting for them (an error of the thread is raised there).
     """
 
     request: tuple
-    _box: dict = dataclasses.field(default_factory=dict)
-    _thread: object = None
+    started: Started
 
     def result(self) -> tuple[list, float]:
-        """``(device programs, seconds they took)``, waiting for them (in short slices,
-        so Ctrl-C is honoured); an error of the background thread is raised here."""
-        while self._thread.is_alive():
-            self._thread.join(0.2)
-        if "error" in self._box:
-            raise self._box["error"]
-        return self._box["value"]
+        """``(device programs, seconds they took)``, once they are there."""
+        return self.started.result()
 
 
 def start(scenario, batch, periods, full, devices, kind, planner, masks) -> PendingPrograms:
     """:func:`device_programs` of these arguments, started in a background thread."""
     args = (scenario, batch, periods, full, devices, kind, planner, masks)
-    pending = PendingPrograms(request(*args))
 
-    def work():
+    def timed():
         t0 = time.perf_counter()
-        try:
-            progs = device_programs(*args)
-            pending._box["value"] = (progs, time.perf_counter() - t0)
-        except BaseException as err:  # noqa: BLE001 -- re-raised by result()
-            pending._box["error"] = err
+        return device_programs(*args), time.perf_counter() - t0
 
-    pending._thread = compile_thread(work, name="programs")
-    pending._thread.start()
-    return pending
-
-
-def run_devices(mesh) -> list:
-    """The devices a run uses: the mesh's, or the default device."""
-    return list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
-
-
-def check_batch(trials: np.ndarray, devices) -> None:
-    """Raises ValueError unless the trials split evenly over the devices."""
-    if trials.shape[0] % len(devices):
-        raise ValueError(f"{trials.shape[0]} trials are not a multiple of {len(devices)} devices")
+    return PendingPrograms(request(*args), Started(timed, name="programs"))

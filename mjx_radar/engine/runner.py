@@ -28,7 +28,7 @@ import numpy as np
 from jax.sharding import Mesh
 
 from mjx_radar.engine import device_programs as pending_programs
-from mjx_radar.engine.device_programs import PendingPrograms, device_programs, run_devices
+from mjx_radar.engine.device_programs import PendingPrograms, device_programs
 from mjx_radar.engine.program_jobs import program_jobs, program_map, programs_needed
 from mjx_radar.engine.programs import (
     COMPILE_LOG,
@@ -224,9 +224,11 @@ def _program_args(scenario, method, trials, steps, full, periods, mesh, masks, p
     program = program or (method.kind, method.planner)
     if not runs(program, method):
         raise ValueError(f"program {program}: does not run the method {method.name}")
-    devices = run_devices(mesh)
-    pending_programs.check_batch(np.asarray(trials), devices)
-    batch = np.asarray(trials).shape[0] // len(devices)
+    devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
+    n = np.shape(trials)[0]
+    if n % len(devices):
+        raise ValueError(f"{n} trials are not a multiple of {len(devices)} devices")
+    batch = n // len(devices)
     periods = periods or segment_periods(scenario, steps)
     return method, (scenario, batch, periods, full, devices, *program, masks)
 

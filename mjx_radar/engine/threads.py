@@ -33,6 +33,34 @@ def compile_thread(target, name: str = "compile"):
         threading.stack_size(old)
 
 
+class Started:
+    """``fn()`` running in a :func:`compile_thread` from now on; :meth:`result` waits for it.
+
+    The caller waits in short slices, so Ctrl-C is honoured at once even while the
+    thread sits in an XLA compilation that does not return to Python for minutes.
+    """
+
+    def __init__(self, fn, name: str = "compile"):
+        self._box: dict = {}
+
+        def work():
+            try:
+                self._box["value"] = fn()
+            except BaseException as err:  # noqa: BLE001 -- re-raised by result()
+                self._box["error"] = err
+
+        self._thread = compile_thread(work, name)
+        self._thread.start()
+
+    def result(self, poll: float = 0.2):
+        """``fn()``'s value, once it returned; its error is raised here."""
+        while self._thread.is_alive():
+            self._thread.join(poll)
+        if "error" in self._box:
+            raise self._box["error"]
+        return self._box["value"]
+
+
 def parallel(fns) -> list:
     """``[f() for f in fns]``, each call in its own big-stack thread.
 
