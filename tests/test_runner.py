@@ -203,3 +203,24 @@ def test_fewer_mppi_samples_than_kept_samples_runs(tiny):
     s = dataclasses.replace(tiny, mppi=dataclasses.replace(tiny.mppi, samples=16))
     res = runner.run_trials(s, "ddr-sfim", 0, TRIALS, STEPS, full=True)
     assert res["sample_cost"].shape == (2, STEPS // 4, 16)
+
+
+def test_a_single_trial_run_is_the_plain_loop(tiny):
+    """A device running one trial runs the loop itself, not a ``vmap`` of size one
+    (``program_trace.flat_programs(single=True)``): the runner's trial equals
+    ``jax.jit(closed_loop.simulate)`` of that trial bit for bit. A vmap of size one rounds
+    otherwise in float32 (measured: estimates 3e-4 m apart after 40 steps of stationary
+    radars, radars 2.1 m apart with MPPI), so a vmapped program fails this comparison."""
+    from mjx_radar.env import closed_loop
+    from mjx_radar.task.method import parse_method
+    from mjx_radar.task.params import shape_key, task_params
+    from mjx_radar.task.task import make_task
+
+    steps = 40
+    res = runner.run_trials(tiny, "stationary", 0, np.array([1]), steps, full=True)
+    assert programs.COMPILE_LOG[-1]["batch"] == 1
+    task = make_task(shape_key(tiny), "none")
+    params = task_params(tiny, parse_method("stationary"))
+    want = jax.jit(lambda: closed_loop.simulate(task, params, 1, steps, "hold"))()
+    for k in ("radar", "mean", "cov_diag", "target", "nees"):
+        np.testing.assert_array_equal(res[k][0], np.asarray(getattr(want.steps, k)), err_msg=k)

@@ -5,6 +5,15 @@
 shard_mapped and jitted ``init`` and ``step``; :func:`trace` traces them for one batch
 and mesh into :mod:`jax.export` form (or lowers them where they cannot be exported).
 Imported only when a program is traced: a warm start (export cache) imports no MJX.
+
+A device that runs one trial (``mjx-radar run``'s default, a study's ``--chunk 1``) gets
+the loop itself with a leading axis of one, not a ``vmap`` of size one: JAX traces a
+vmapped loop's bodies once and batches them a second time, and XLA then compiles batch
+dimensions of size one. The single-trial program traces in about a quarter less time
+and compiles about a tenth faster (docs/scaling.md). Like every batch size's program it
+has its own float32 round-off: a trial's numbers depend on the per-device batch size,
+never on its batch mates (docs/scaling.md, "Why the numbers do not depend on the device
+count").
 """
 
 from __future__ import annotations
@@ -33,13 +42,16 @@ def flat_programs(
     c_shapes,
     planner: str = "mppi",
     masks: bool = False,
+    single: bool = False,
 ):
     """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
 
     ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
     leaves (size 0, e.g. MJX's contact arrays of a contact-free plant) never cross the
     program boundary: they are rebuilt inside (sharding zero-size arrays over several
-    GPUs crashed XLA's compiler).
+    GPUs crashed XLA's compiler). ``single``: each device runs one trial, and the
+    per-device programs are the unbatched loop with a leading axis of one (module
+    docstring); else a ``vmap`` over the device's trials.
     """
     carry_tree = jax.tree.structure(c_shapes)
     shapes = jax.tree.leaves(c_shapes)
@@ -72,15 +84,27 @@ def flat_programs(
         return (*out, *jax.tree.leaves((steps, controls)))
 
     n_carry = sum(live)
+    if single:  # the loop itself: no vmap of size one (module docstring)
+
+        def init_device(trial, *p):
+            return tuple(x[None] for x in init_flat(trial[0], *p))
+
+        def step_device(*rest):
+            carry = [x[0] for x in rest[n_params:]]
+            return tuple(x[None] for x in step_flat(*rest[:n_params], *carry))
+
+    else:
+        init_device = jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params)
+        step_device = jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry)
     init = jax.shard_map(
-        jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params),
+        init_device,
         mesh=mesh,
         in_specs=(SPLIT,) + (WHOLE,) * n_params,
         out_specs=SPLIT,
         check_vma=False,
     )
     step = jax.shard_map(
-        jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry),
+        step_device,
         mesh=mesh,
         in_specs=(WHOLE,) * n_params + (SPLIT,) * n_carry,
         out_specs=SPLIT,
@@ -128,8 +152,9 @@ def _trace(shape, kind, planner, params, batch, periods, full, mesh, masks, tria
         if x.size > 0
     ]
     tree = jax.tree.structure(params)
+    single = batch // mesh.size == 1  # one trial per device
     init, step = flat_programs(
-        task, periods, full, mesh, len(p_specs), tree, carry_shapes, planner, masks
+        task, periods, full, mesh, len(p_specs), tree, carry_shapes, planner, masks, single
     )
     if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
         exported = export_cache.export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
