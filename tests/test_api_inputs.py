@@ -215,3 +215,16 @@ def test_cli_run_refusal_leaves_no_out(tmp_path, capsys):
     assert not out.exists()
     lines = capsys.readouterr().err.strip().splitlines()
     assert "no target is present" in lines[0] and "Traceback" not in "".join(lines)
+
+
+def test_radars_that_cannot_be_placed_are_refused_in_one_line(tmp_path, smoke):
+    """``simulate`` and ``run_study`` refuse a box too small for the radars' spacing as
+    the user's error (``engine.placement_cache``), before anything is written."""
+    cramped = smoke.replace(placement_half_width=20.0)
+    with pytest.raises(InputError, match=r"placement_half_width") as err:
+        mjx_radar.simulate(cramped, trials=1, steps=8, progress=False)
+    assert "\n" not in str(err.value)
+    out = tmp_path / "study"
+    with pytest.raises(InputError, match=r"placement_half_width"):
+        mjx_radar.run_study(cramped, methods=["stationary"], trials=1, steps=8, out=out)
+    assert not out.exists()

@@ -11,6 +11,7 @@ import pytest
 
 from mjx_radar.env import placement
 from mjx_radar.env.streams import trial_streams
+from mjx_radar.errors import InputError
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task.method import METHODS
 from mjx_radar.task.params import shape_key, task_params
@@ -216,7 +217,7 @@ def test_cached_check_loads_its_program_and_says_the_same(tmp_path, monkeypatch)
 
     def check_both():
         placement_cache._program.cache_clear()  # as a new process: nothing in memory
-        with pytest.raises(ValueError) as cached:
+        with pytest.raises(InputError) as cached:  # the user's error: one line, exit 2
             placement_cache.check_placeable(bad, bad.seed, 4)
         with pytest.raises(ValueError) as traced:
             placement.check_placeable(bad, bad.seed, 4)

@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.errors import InputError
 from mjx_radar.io.checks import ScenarioError
 
 #: every option of a run and its default, for the command line and the API alike
@@ -264,10 +263,7 @@ def execute(
             resources.check(req.scenario, len(req.trials), req.steps)
         programs = programs or start_programs(req, live)
         if checks:
-            try:
-                check_placeable(req.scenario, req.seed, req.trials)
-            except ValueError as err:
-                raise InputError(str(err)) from None
+            check_placeable(req.scenario, req.seed, req.trials)
         view = {} if live is None else live.runner_options()
         res = runner.run_trials(
             req.scenario,

@@ -148,5 +148,19 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
+def entry() -> None:
+    """The ``mjx-radar`` command: :func:`main`, then exit without waiting for a program
+    still compiling in the background (a run refused after its programs had started,
+    e.g. radars that cannot be placed: XLA cannot be stopped, and the process would sit
+    until it finished). :func:`main` itself returns (tests call it in-process)."""
+    code = main()
+    threads = sys.modules.get("mjx_radar.engine.threads")  # imported if anything compiled
+    if threads is not None and threads.busy():
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -19,15 +19,20 @@ import jax.numpy as jnp
 
 from mjx_radar.engine import compile_cache, executable_cache
 from mjx_radar.env import placement
+from mjx_radar.errors import InputError
 
 
 def check_placeable(scenario, seed: int, trials) -> None:
-    """:func:`mjx_radar.env.placement.check_placeable` with the program cached on disk.
+    """:func:`mjx_radar.env.placement.check_placeable` with the program cached on disk,
+    its refusal as the user's error (``run``, ``simulate``, ``study`` and ``validate``).
 
     Raises:
-        ValueError: a trial cannot place its radars (the message names the fields).
+        InputError: a trial cannot place its radars (one line naming the fields).
     """
-    placement.check_placeable(scenario, seed, trials, placeable=_program)
+    try:
+        placement.check_placeable(scenario, seed, trials, placeable=_program)
+    except ValueError as err:
+        raise InputError(str(err)) from None
 
 
 @functools.lru_cache(maxsize=32)

@@ -4,8 +4,11 @@ run side by side."""
 from __future__ import annotations
 
 import threading
+import weakref
 
 import jax
+
+_LIVE: weakref.WeakSet = weakref.WeakSet()  # the threads compile_thread made
 
 #: stack size of threads that compile (XLA's compiler recurses deeply on large programs;
 #: the default 8 MiB thread stack overflowed compiling a 2-GPU program)
@@ -13,12 +16,19 @@ COMPILE_THREAD_STACK = 512 * 1024 * 1024
 
 
 def compile_thread(target, name: str = "compile"):
-    """A daemon thread with a stack large enough for XLA compilation, tracing in the
-    creating thread's x64 mode.
+    """A thread with a stack large enough for XLA compilation, tracing in the creating
+    thread's x64 mode.
 
     JAX's ``jax.enable_x64`` context holds only in the thread that entered it, so a
     program traced in a new thread under ``simulate(..., precision="float64")`` was
     float32 and its float64 arguments were refused.
+
+    Not a daemon: an interpreter that ends while such a thread is inside XLA waits for
+    the compilation to finish (XLA cannot be stopped). A daemon thread there aborted the
+    process at exit ("terminate called ...", exit 134): e.g. after ``simulate`` refused
+    radars that cannot be placed while its program compiled in the background. The
+    ``mjx-radar`` command does not wait (:func:`busy`; ``cli.main.entry``, and
+    ``os._exit`` on Ctrl-C).
     """
     x64 = bool(jax.config.jax_enable_x64)
 
@@ -28,9 +38,17 @@ def compile_thread(target, name: str = "compile"):
 
     old = threading.stack_size(COMPILE_THREAD_STACK)
     try:
-        return threading.Thread(target=run, name=name, daemon=True)
+        thread = threading.Thread(target=run, name=name, daemon=False)
     finally:
         threading.stack_size(old)
+    _LIVE.add(thread)
+    return thread
+
+
+def busy() -> bool:
+    """Whether a :func:`compile_thread` is still running (e.g. a program compiling in the
+    background for a run that was refused meanwhile)."""
+    return any(t.is_alive() for t in list(_LIVE))
 
 
 class Started:

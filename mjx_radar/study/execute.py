@@ -148,10 +148,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     from mjx_radar.engine.placement_cache import check_placeable
 
     for s, _, _, sd in scenarios:
-        try:
-            check_placeable(s, sd, args.trials)
-        except ValueError as err:
-            raise InputError(str(err)) from None
+        check_placeable(s, sd, args.trials)
     mesh = runner.device_mesh()
     n_dev, devices = mesh.size, str(list(mesh.devices.flat))
     for s, _, n_steps, _ in scenarios:  # refuse what cannot fit before writing anything
