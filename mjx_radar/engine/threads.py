@@ -70,36 +70,27 @@ class Started:
         self._thread = compile_thread(work, name)
         self._thread.start()
 
-    def result(self, poll: float = 0.2):
-        """``fn()``'s value, once it returned; its error is raised here."""
+    def wait(self, poll: float = 0.2) -> None:
+        """Returns once ``fn()`` returned or raised."""
         while self._thread.is_alive():
             self._thread.join(poll)
+
+    def result(self, poll: float = 0.2):
+        """``fn()``'s value, once it returned; its error is raised here."""
+        self.wait(poll)
         if "error" in self._box:
             raise self._box["error"]
         return self._box["value"]
 
 
 def parallel(fns) -> list:
-    """``[f() for f in fns]``, each call in its own big-stack thread.
+    """``[f() for f in fns]``, each call in its own big-stack thread (:class:`Started`).
 
-    The caller joins with a timeout, so Ctrl-C is honoured at once even during an XLA
-    compilation; the first error of a call is raised in the caller's thread.
+    Every call is waited for, in short slices, so Ctrl-C is honoured at once even during
+    an XLA compilation; then the error of the first call that failed (in the order
+    given) is raised in the caller's thread.
     """
-    out: list = [None] * len(fns)
-    errors: list[BaseException] = []
-
-    def run(i, f):
-        try:
-            out[i] = f()
-        except BaseException as err:  # noqa: BLE001 -- re-raised in the caller's thread
-            errors.append(err)
-
-    threads = [compile_thread(lambda i=i, f=f: run(i, f)) for i, f in enumerate(fns)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        while th.is_alive():
-            th.join(0.2)
-    if errors:
-        raise errors[0]
-    return out
+    started = [Started(f) for f in fns]
+    for s in started:
+        s.wait()
+    return [s.result() for s in started]
