@@ -7,7 +7,7 @@ warm-up; the last line per combination is ``mppi_call_s=<median>``.
 
     python scripts/bench_mppi.py [--scenario paper_3r4t] [--methods ddr-sfim,ddr-pfim]
         [--unroll 1,15] [--calls 20] [--step fused,mjx] [--batch B]
-        [--matmul-precision pinned|default] [--planner-precision LEVEL]
+        [--matmul-precision pinned|default] [--planner-precision LEVEL] [--gc on|off|freeze]
 
 ``--batch B`` times B independent calls vmapped together (a study chunk's throughput).
 
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import gc
 import time
 
 import jax
@@ -69,12 +70,38 @@ def bench(s, method: str, calls: int, batch: int = 0) -> float:
         with jax.profiler.trace(f"{PROFILE_DIR}/{method}", create_perfetto_trace=True):
             for i in range(3):
                 _, u = jax.block_until_ready(control(*args_, u, keys(i + 1000)))
-    times = []
+    times, gc_in_call = [], []
+    collections: list[float] = []  # seconds of each garbage collection (gc.callbacks)
+    started = [0.0]
+
+    def on_gc(phase, info):
+        if phase == "start":
+            started[0] = time.perf_counter()
+        else:
+            collections.append(time.perf_counter() - started[0])
+
+    if GC == "freeze":  # everything alive now (JAX, the program) never scanned again
+        gc.collect()
+        gc.freeze()
+    elif GC == "off":
+        gc.disable()
+    gc.callbacks.append(on_gc)
     for i in range(calls):
+        n_before = len(collections)
         t0 = time.perf_counter()
         _, u = jax.block_until_ready(control(*args_, u, keys(i + 1)))
         times.append(time.perf_counter() - t0)
+        gc_in_call.append(sum(collections[n_before:]))
+    gc.callbacks.remove(on_gc)
+    gc.enable()
+    gc.unfreeze()
     t = np.array(times)
+    slow = np.argsort(t)[::-1][:3]
+    worst = ", ".join(f"{t[j] * 1e3:.2f} ms (gc {gc_in_call[j] * 1e3:.2f} ms)" for j in slow)
+    print(
+        f"gc={GC}: {len(collections)} collections during the calls, "
+        f"{sum(collections) * 1e3:.1f} ms in all; slowest calls {worst}"
+    )
     unroll = physics.ROLLOUT_UNROLL
     print(
         f"{s.name} {method} rollouts={s.mpc.rollout} step={_step_kind()} unroll={unroll} "
@@ -89,6 +116,9 @@ def bench(s, method: str, calls: int, batch: int = 0) -> float:
 
 
 PROFILE_DIR = ""
+#: the garbage collector during the timed calls: "on" (Python's default), "off", or
+#: "freeze" (gc.freeze() after the warm-up: the objects alive then are never scanned)
+GC = "on"
 
 
 def _step_kind() -> str:
@@ -120,7 +150,16 @@ def main() -> None:
     )
     ap.add_argument("--matmul-precision", choices=("pinned", "default"), default="pinned")
     ap.add_argument("--planner-precision", default=None, help="e.g. high, default")
+    ap.add_argument(
+        "--gc",
+        choices=("on", "off", "freeze"),
+        default="on",
+        help="Python's garbage collector during the timed calls (off, or freeze the objects "
+        "alive after the warm-up); each run reports the collections that fell into a call",
+    )
     args = ap.parse_args()
+    global GC
+    GC = args.gc
     if args.matmul_precision == "default":
         precision.ESTIMATION = precision.PLANNER = "default"
     if args.planner_precision:

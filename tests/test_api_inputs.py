@@ -3,6 +3,7 @@ anything compiles, or correct acceptance; nothing left in ``out`` after a refusa
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 import mjx_radar
 from mjx_radar.api.run_case import request
+from mjx_radar.engine import threads
 from mjx_radar.env.placement import check_placeable
 from mjx_radar.errors import InputError
 from mjx_radar.scenario.reader import load_scenario
@@ -228,3 +230,7 @@ def test_radars_that_cannot_be_placed_are_refused_in_one_line(tmp_path, smoke):
     with pytest.raises(InputError, match=r"placement_half_width"):
         mjx_radar.run_study(cramped, methods=["stationary"], trials=1, steps=8, out=out)
     assert not out.exists()
+    # the programs started before the check compile on (the box is a runtime number: a
+    # corrected scenario loads them); they finish here, not inside the next test
+    while threads.busy():
+        time.sleep(0.1)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import time
 
-from mjx_radar.engine import compile_cache
+from mjx_radar.engine import compile_cache, trace_queue
 from mjx_radar.engine.programs import compile_programs, device_mesh
 from mjx_radar.engine.threads import Started, parallel
 from mjx_radar.task.params import shape_key
@@ -88,4 +88,9 @@ def start(scenario, batch, periods, full, devices, kind, planner, masks) -> Pend
         t0 = time.perf_counter()
         return device_programs(*args), time.perf_counter() - t0
 
-    return PendingPrograms(request(*args), Started(timed, name="programs"))
+    drawn = trace_queue.QUEUE.drawn
+    started = Started(timed, name="programs")
+    # its place in the tracing order is taken now (engine.trace_queue), not at the
+    # thread's leisure: programs started one after the other trace in that order
+    trace_queue.QUEUE.wait_drawn(drawn + 1, alive=started.running)
+    return PendingPrograms(request(*args), started)

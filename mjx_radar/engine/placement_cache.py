@@ -17,7 +17,7 @@ import hashlib
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.engine import compile_cache, executable_cache
+from mjx_radar.engine import compile_cache, executable_cache, trace_queue
 from mjx_radar.env import placement
 from mjx_radar.errors import InputError
 
@@ -26,9 +26,14 @@ def check_placeable(scenario, seed: int, trials) -> None:
     """:func:`mjx_radar.env.placement.check_placeable` with the program cached on disk,
     its refusal as the user's error (``run``, ``simulate``, ``study`` and ``validate``).
 
+    It first waits until no loop program is being traced in this process (a run's
+    programs start before the check, :mod:`mjx_radar.engine.trace_queue`): tracing holds
+    the GIL, so the check's own small program is traced while XLA compiles theirs.
+
     Raises:
         InputError: a trial cannot place its radars (one line naming the fields).
     """
+    trace_queue.QUEUE.wait_idle()
     try:
         placement.check_placeable(scenario, seed, trials, placeable=_program)
     except ValueError as err:

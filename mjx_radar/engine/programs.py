@@ -22,6 +22,7 @@ Python tracing of the MJX step, the objective and the scans altogether.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import threading
@@ -34,7 +35,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding
 
 from mjx_radar import precision
-from mjx_radar.engine import compile_cache, executable_cache, export_cache
+from mjx_radar.engine import compile_cache, executable_cache, export_cache, trace_queue
 from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.engine.live_programs import LiveCache
 from mjx_radar.env import records
@@ -118,23 +119,27 @@ _LOCK = threading.Lock()
 COMPILE_LOG: list[dict] = []
 
 
-def _lower(path, trace_args, lower_args):
-    """``(init, step, source)`` lowered from the export cache or, failing that, traced
-    (:func:`mjx_radar.engine.program_trace.trace` of ``trace_args``) and exported to
+def _lower(path, trace_args, lower_args, ticket: int):
+    """``(init, step, source, seconds queued)`` lowered from the export cache or, failing
+    that, traced (:func:`mjx_radar.engine.program_trace.trace` of ``trace_args``, in
+    ``ticket``'s turn of :data:`mjx_radar.engine.trace_queue.QUEUE`) and exported to
     ``path``; ``source`` "traced directly" when JAX cannot export them.
     ``lower_args``: ``(trials, p_specs, mesh)``, the programs' input specs."""
     exported = export_cache.load(path) if path else None
-    source = "export cache" if exported else "traced"
+    source, queued = ("export cache" if exported else "traced"), 0.0
     if exported is None:  # trace: the task, its plants and MJX are built only here
         from mjx_radar.engine import program_trace
 
         trials, p_specs, _ = lower_args
-        init_l, step_l, exported = program_trace.trace(*trace_args, trials, p_specs)
+        t0 = time.perf_counter()
+        with trace_queue.QUEUE.turn(ticket):
+            queued = time.perf_counter() - t0
+            init_l, step_l, exported = program_trace.trace(*trace_args, trials, p_specs)
         if exported is None:
-            return init_l, step_l, "traced directly"
+            return init_l, step_l, "traced directly", queued
         if path:
             export_cache.save(path, exported)
-    return *export_cache.lower(exported, *lower_args), source
+    return *export_cache.lower(exported, *lower_args), source, queued
 
 
 def compile_programs(
@@ -162,8 +167,17 @@ def compile_programs(
         masks: with ``full``, also return the per-pair line-of-sight and detection masks
             (``visible`` / ``detected`` ``[N, M]`` per step).
 
-    Seconds are 0 when this process compiled them before.
+    Seconds are 0 when this process compiled them before. Programs asked for side by
+    side are traced one at a time, in the order asked (:mod:`mjx_radar.engine.trace_queue`).
     """
+    ticket = trace_queue.QUEUE.draw()
+    try:
+        return _compile(scenario, batch, periods, full, mesh, kind, planner, masks, ticket)
+    finally:
+        trace_queue.QUEUE.finish(ticket)
+
+
+def _compile(scenario, batch, periods, full, mesh, kind, planner, masks, ticket):
     mesh = mesh if mesh is not None else device_mesh(jax.local_devices()[:1])
     if batch % mesh.size:
         raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
@@ -190,16 +204,22 @@ def compile_programs(
     devices = list(mesh.devices.flat)
     exe = executable_cache.path(store, key, devices[0])
     t_lock = time.perf_counter()
-    with compile_cache.program_lock(lock):
+    with contextlib.ExitStack() as held:
+        held.enter_context(compile_cache.program_lock(lock))
         waited = time.perf_counter() - t_lock
         t1 = time.perf_counter()
+        if any(f is not None and f.exists() for f in (exe, path)):
+            trace_queue.QUEUE.finish(ticket)  # loaded, not traced: nobody waits for it
         compiled = executable_cache.load(exe, devices)  # no lowering at all
-        source, save_s = "executable cache", 0.0
+        source, queued = "executable cache", 0.0
         if compiled is None:
             trace_args = (shape, kind, planner, params, batch, periods, full, mesh, masks)
-            init_l, step_l, source = _lower(path, trace_args, (trials, p_specs, mesh))
+            lower_args = (trials, p_specs, mesh)
+            init_l, step_l, source, queued = _lower(path, trace_args, lower_args, ticket)
             t1 = time.perf_counter()
-            compiled, save_s = executable_cache.compile_and_save(exe, (init_l, step_l))
+            compiled, worth = executable_cache.compile_all((init_l, step_l))
+            if worth:  # written in the background, the lock released after it
+                executable_cache.save_later(exe, compiled, held.pop_all())
     init_c, step_c = compiled
     n_carry = init_c.out_tree.num_leaves - 1  # init returns (*carry, ok)
     progs = Programs(init_c, step_c, len(p_leaves), n_carry, full, masks, trial_sh, rep, source)
@@ -220,9 +240,9 @@ def compile_programs(
                 "key": key[:12],
                 "source": source,
                 "lock_wait_s": waited,  # another process compiling this program
-                "trace_lower_s": t1 - t0 - waited,
-                "xla_compile_s": t2 - t1 - save_s,
-                "exe_save_s": save_s,  # writing the executables (engine.executable_cache)
+                "trace_wait_s": queued,  # this process tracing another program
+                "trace_lower_s": t1 - t0 - waited - queued,
+                "xla_compile_s": t2 - t1,
             }
         )
     return progs, t2 - t0

@@ -70,6 +70,10 @@ class Started:
         self._thread = compile_thread(work, name)
         self._thread.start()
 
+    def running(self) -> bool:
+        """Whether ``fn()`` is still running."""
+        return self._thread.is_alive()
+
     def wait(self, poll: float = 0.2) -> None:
         """Returns once ``fn()`` returned or raised."""
         while self._thread.is_alive():

@@ -60,7 +60,8 @@ class Worker:
 
 @dataclass
 class StudyTimes:
-    compile_s: float = 0.0
+    compile_s: float = 0.0  # the rounds waited for programs (study.schedule)
+    compile_wall_s: float = 0.0  # from the programs' start until the last was ready
     sim_s: float = 0.0
     chunks_run: int = 0
     start: float = field(default_factory=time.perf_counter)
@@ -147,11 +148,15 @@ def run_round(
     times: StudyTimes,
     program: tuple[str, str] | None = None,
     writer=None,
+    programs=None,
 ):
     """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files;
     ``program``: the ``(kind, planner)`` the chunks' method runs with (None: its own);
     ``writer``: a :class:`~mjx_radar.study.chunks.Background` that computes the set
-    metrics and writes the files while the devices run the next round (None: here)."""
+    metrics and writes the files while the devices run the next round (None: here);
+    ``programs``: the round's programs, started by the study
+    (:func:`mjx_radar.study.schedule.start`, which counts the time waited for them;
+    None: compiled here, counted in ``times.compile_s``)."""
     from mjx_radar.engine import runner
     from mjx_radar.rundir import results
 
@@ -171,8 +176,10 @@ def run_round(
         mesh=mesh,
         program=program,
         sets=False,
+        programs=programs,
     )
-    times.compile_s += res["compile_s"]
+    if programs is None:
+        times.compile_s += res["compile_s"]
     times.sim_s += res["sim_s"]
 
     def write():
@@ -274,6 +281,7 @@ def finish(
         "gospa": {s.name: _gospa_settings(s) for s, *_ in scenarios},
         "wall_s": time.perf_counter() - times.start,
         "compile_s": times.compile_s,
+        "compile_wall_s": times.compile_wall_s,
         "sim_s": times.sim_s,
         "programs": program_log(times.first_program),
         "devices": devices,

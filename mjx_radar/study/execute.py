@@ -4,10 +4,11 @@
 
 Order of work: the scenarios are loaded and validated, the worker is set up (a
 ``jax.distributed`` process, a ``--shard``, or the only one), ``--out`` is locked
-(:func:`lock_out`), the study directory is checked against a resumed study's settings,
-placement and memory are checked for every scenario, and only then is anything
-compiled; chunks run in rounds of one per device, each written when done, and the
-worker that finds every chunk present consolidates.
+(:func:`lock_out`), the study directory is checked against a resumed study's settings
+and memory for every scenario; then the programs start compiling in the background
+(:mod:`mjx_radar.study.schedule`) while placement is checked, and only then is anything
+written; chunks run in rounds of one per device, each as soon as its program is ready
+and written when done, and the worker that finds every chunk present consolidates.
 
 One study per directory at a time (:mod:`mjx_radar.io.lock`): a plain study (or a
 resume) holds the directory's lock exclusively, so a second one is refused in one line
@@ -140,36 +141,44 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
 def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
 
     from mjx_radar.engine import live_programs, resources, runner
+    from mjx_radar.engine.placement_cache import check_placeable
     from mjx_radar.study import chunks as chunks_of
-    from mjx_radar.study import driver
+    from mjx_radar.study import driver, schedule
 
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining, joining)
-    from mjx_radar.engine.placement_cache import check_placeable
-
-    for s, _, _, sd in scenarios:
-        check_placeable(s, sd, args.trials)
     mesh = runner.device_mesh()
     n_dev, devices = mesh.size, str(list(mesh.devices.flat))
     for s, _, n_steps, _ in scenarios:  # refuse what cannot fit before writing anything
         resources.check(s, args.chunk * n_dev, n_steps, n_dev, full=False, batch_option="--chunk")
-    if worker.index == 0 or worker.kind == "shard":
-        manifest = driver.start_manifest(args.out, scenarios, config, manifest)
     chunks = chunks_of.all_chunks(scenarios, args.methods, args.trials, args.chunk, args.out)
-    driver.remove_temporaries(worker.mine(chunks))  # of this worker's killed writes
     todo = [c for c in worker.mine(chunks) if not c.path.exists()]
-    print(
-        f"study: {len(scenarios)} scenario(s) x {len(args.methods)} method(s) x {args.trials} "
-        f"trials, chunks of {args.chunk}; worker {worker.index + 1}/{worker.count}: "
-        f"{len(todo)} chunk(s) to run on {n_dev} device(s): {devices}",
-        file=sys.stderr,
-    )
     # One program per shape, kind and planner on each device: counting (scenario, method)
     # pairs instead kept 15 of the paper study's 36 programs alive on 4 GPUs, and the
     # evicted ones were loaded again round after round (61 loads instead of 27).
-    programs = runner.programs_needed([(c.scenario, c.method) for c in todo], n_dev)
-    with live_programs.keep_alive(programs):  # compiled once, none loaded again
-        _compile_and_run(args, todo, n_dev, mesh, times)
+    with live_programs.keep_alive(
+        runner.programs_needed([(c.scenario, c.method) for c in todo], n_dev)
+    ):
+        # compiling from here on (study.schedule), beside the placement check
+        started = schedule.start(todo, args.chunk * n_dev, mesh)
+        for s, _, _, sd in scenarios:
+            check_placeable(s, sd, args.trials)
+        if worker.index == 0 or worker.kind == "shard":
+            manifest = driver.start_manifest(args.out, scenarios, config, manifest)
+        driver.remove_temporaries(worker.mine(chunks))  # of this worker's killed writes
+        print(
+            f"study: {len(scenarios)} scenario(s) x {len(args.methods)} method(s) x "
+            f"{args.trials} trials, chunks of {args.chunk}; worker {worker.index + 1}/"
+            f"{worker.count}: {len(todo)} chunk(s) to run on {n_dev} device(s): {devices}",
+            file=sys.stderr,
+        )
+        if len(started):
+            print(
+                f"study: compiling {len(started)} program(s) for {n_dev} device(s); each "
+                "scenario's chunks start as soon as its program is ready",
+                file=sys.stderr,
+            )
+        schedule.run_rounds(args, todo, n_dev, mesh, times, started)
     if worker.kind == "distributed":
         # Every process waits: JAX's shutdown barrier gives up after 300 s, so a process
         # that left early would abort the others. Process 0 then consolidates.
@@ -197,56 +206,10 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     )
     print(
         f"study complete: {len(frame)} rows in {args.out / 'metrics.parquet'}; wall "
-        f"{meta['wall_s']:.1f} s (compile {meta['compile_s']:.1f} s, simulation "
-        f"{meta['sim_s']:.1f} s)"
+        f"{meta['wall_s']:.1f} s (compile held the devices back {meta['compile_s']:.1f} s "
+        f"of its {meta['compile_wall_s']:.1f} s; simulation {meta['sim_s']:.1f} s)"
     )
     return 0
-
-
-def _compile_and_run(args: StudyOptions, todo, n_dev: int, mesh, times) -> None:
-    """Compiles the chunks' programs at once, then runs the chunks round by round."""
-    from tqdm import tqdm
-
-    from mjx_radar.engine import runner
-    from mjx_radar.study import chunks as chunks_of
-    from mjx_radar.study import driver
-    from mjx_radar.task.params import shape_key
-
-    if todo:
-        steps0 = todo[0].steps
-        shapes = [(c.scenario, c.method) for c in todo if c.steps == steps0]
-        print(f"study: compiling for {n_dev} device(s) ...", file=sys.stderr)
-        wall = runner.precompile(shapes, args.chunk * n_dev, steps0, mesh=mesh)
-        times.compile_s += wall
-        print(f"study: compiled in {wall:.1f} s", file=sys.stderr)
-    # the methods of a shape share one program (the union of their kinds)
-    programs = runner.program_map([(c.scenario, c.method) for c in todo])
-    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
-    with (
-        tqdm(
-            total=total,
-            unit="trial-step",
-            desc="study",
-            file=sys.stderr,
-            dynamic_ncols=True,
-            disable=not todo or not args.progress,
-        ) as bar,
-        chunks_of.Background() as writer,  # host metrics and files beside the next round
-    ):
-        for group in chunks_of.rounds(todo, n_dev):
-            bar.set_postfix_str(f"{group[0].scenario.name} {group[0].method}")
-            done = sum(c.last - c.first + 1 for c in group)
-            program = programs[(shape_key(group[0].scenario), group[0].method)]
-            driver.run_round(
-                group,
-                args.chunk,
-                n_dev,
-                mesh,
-                lambda k, n=done: bar.update(k * n),
-                times,
-                program,
-                writer,
-            )
 
 
 def wait_for(chunks, timeout_s: float = 7 * 24 * 3600.0) -> None:
