@@ -166,14 +166,14 @@ def test_study_keeps_planner_method_names(tmp_path):
     the paper's methods, in order of appearance (they were NaN categories before)."""
     import pandas as pd
 
-    from mjx_radar.study.driver import consolidate
+    from mjx_radar.study.consolidate import read_chunks
 
     paths = []
     for i, m in enumerate(["ddr-sfim+ps", "stationary", "ddr-sfim", "ddr-sfim+cem"]):
         p = tmp_path / f"c{i}.parquet"
         pd.DataFrame({"scenario": ["s"], "method": [m], "trial": [0], "step": [1]}).to_parquet(p)
         paths.append(p)
-    frame = consolidate(paths, ["s"])
+    frame = read_chunks(paths, ["s"])
     assert list(frame["method"].cat.categories) == [
         "stationary", "ddr-sfim", "ddr-sfim+ps", "ddr-sfim+cem"
     ]  # fmt: skip

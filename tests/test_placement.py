@@ -232,3 +232,21 @@ def test_cached_check_loads_its_program_and_says_the_same(tmp_path, monkeypatch)
 
     monkeypatch.setattr(executable_cache, "compile_lowered", no_compile)
     check_both()
+
+
+def test_cached_check_runs_on_this_process_device(tmp_path, monkeypatch):
+    """Under ``jax.distributed`` ``jax.devices()[0]`` is process 0's device: the check's
+    program must be loaded and run on this process's own (a distributed study's process 1
+    loaded it onto process 0's device and could not read the verdict)."""
+    from mjx_radar.engine import compile_cache, placement_cache
+
+    monkeypatch.setattr(compile_cache, "_DIR", [tmp_path])
+
+    def foreign(*_, **__):
+        raise AssertionError("jax.devices()[0]: process 0's device under jax.distributed")
+
+    for _ in range(2):  # compiled (or loaded from JAX's cache), then loaded if written
+        placement_cache._program.cache_clear()
+        with monkeypatch.context() as m:
+            m.setattr(jax, "devices", foreign)
+            placement_cache.check_placeable(_scenario(), 7, 16)

@@ -50,7 +50,7 @@ def study(monkeypatch, tmp_path):
     monkeypatch.setattr(runner, "start_programs", start_programs)
     rounds = []
 
-    def run_round(group, chunk, n_dev, mesh, progress, times, program, writer, programs):
+    def run_round(group, chunk, n_dev, mesh, progress, times, program, writer, programs, stream):
         second_ready = len(started) > 1 and started[1].ready.is_set()
         rounds.append((group[0].scenario.name, group[0].method, second_ready))
         assert programs.ready.is_set()  # never before its own program

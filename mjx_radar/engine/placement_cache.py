@@ -60,7 +60,9 @@ def _program(shape):
 def _load_or_compile(shape, jitted, tree, ids, leaves, sig):
     """The flat program ``(ids, *leaves) -> (ok,)``: from the executable cache, or
     compiled here (and written there when XLA compiled it)."""
-    device = jax.devices()[0]
+    # this process's device: under jax.distributed, jax.devices()[0] belongs to process 0
+    # (another process loaded the check's program onto it and could not read the result)
+    device = jax.local_devices()[0]
     store = compile_cache.program_dir()
     parts = [repr(shape), sig, bool(jax.config.jax_enable_x64), compile_cache.code_fingerprint()]
     key = hashlib.sha256(repr(parts).encode()).hexdigest()[:32]

@@ -35,7 +35,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mjx_radar.errors import InputError
 from mjx_radar.registry import PLANNERS
@@ -149,6 +148,7 @@ def run_round(
     program: tuple[str, str] | None = None,
     writer=None,
     programs=None,
+    stream=None,
 ):
     """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files;
     ``program``: the ``(kind, planner)`` the chunks' method runs with (None: its own);
@@ -156,7 +156,8 @@ def run_round(
     metrics and writes the files while the devices run the next round (None: here);
     ``programs``: the round's programs, started by the study
     (:func:`mjx_radar.study.schedule.start`, which counts the time waited for them;
-    None: compiled here, counted in ``times.compile_s``)."""
+    None: compiled here, counted in ``times.compile_s``); ``stream``: a
+    :class:`~mjx_radar.study.consolidate.Stream` that also gets each chunk's table."""
     from mjx_radar.engine import runner
     from mjx_radar.rundir import results
 
@@ -192,25 +193,14 @@ def run_round(
             ids_c = np.arange(c.first, c.last + 1)
             frame = results.metrics_frame(c.scenario.name, c.method, ids_c, time_s, metrics)
             results.write_parquet(c.path, frame)
+            if stream is not None:
+                stream.add(c.path, frame)
             times.chunks_run += 1
 
     if writer is None:
         write()
     else:
         writer.submit(write)
-
-
-def consolidate(paths: list[Path], scenario_order: list[str]) -> pd.DataFrame:
-    """Concatenates chunk files (in the given order) into one long-format table."""
-    frames = [pd.read_parquet(p) for p in paths]
-    # "METHOD+PLANNER" names too; categories per chunk before concatenating (the string
-    # columns of millions of rows took most of a paper study's consolidation)
-    seen = list(dict.fromkeys(m for f in frames for m in f["method"].astype(str).unique()))
-    methods = [m for m in METHODS if m in seen] + [m for m in seen if m not in METHODS]
-    for f in frames:
-        f["scenario"] = pd.Categorical(f["scenario"].astype(str), categories=scenario_order)
-        f["method"] = pd.Categorical(f["method"].astype(str), categories=methods)
-    return pd.concat(frames, ignore_index=True)
 
 
 def _gospa_settings(scenario) -> dict:
@@ -255,18 +245,23 @@ def finish(
     devices: str,
     n_dev: int,
     deterministic: bool = False,
+    stream=None,
 ):
     """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``
-    (``deterministic``: whether the kernels were, :func:`mjx_radar.engine.determinism.apply`)."""
+    (``deterministic``: whether the kernels were, :func:`mjx_radar.engine.determinism.apply`);
+    ``stream``: the :class:`~mjx_radar.study.consolidate.Stream` that wrote it while the
+    chunks ran (the chunk files are read back if it is None or incomplete). Returns
+    ``(rows, study.json's contents)``."""
     from mjx_radar.engine.runner import program_log
     from mjx_radar.rundir import results
-    from mjx_radar.study.metrics import lost_counts_by_cell
+    from mjx_radar.study import consolidate
 
-    frame = consolidate([c.path for c in chunks], [e["name"] for e in config["scenarios"]])
-    results.write_parquet(out / "metrics.parquet", frame)
-    values = frame[list(results.METRIC_COLUMNS)].to_numpy()
-    bad = int((~np.isfinite(values)).sum())
-    lost = lost_counts_by_cell(frame)
+    summary = stream.finish() if stream is not None else None
+    if summary is None:
+        order = [e["name"] for e in config["scenarios"]]
+        frame = consolidate.read_chunks([c.path for c in chunks], order)
+        results.write_parquet(out / "metrics.parquet", frame)
+        summary = consolidate.summarise(frame)
     meta = {
         "scenarios": [s.name for s, *_ in scenarios],
         "scenario_files": {s.name: str(src) for s, src, _, _ in scenarios},
@@ -288,8 +283,8 @@ def finish(
         "n_devices": n_dev,
         "command": shlex.join(sys.argv),
         "commands": manifest.get("commands", []),
-        "non_finite": bad,
-        "lost": lost,
+        "non_finite": summary.non_finite,
+        "lost": summary.lost,
     }
     results.write_json(out / "study.json", meta)
-    return frame, meta
+    return summary.rows, meta

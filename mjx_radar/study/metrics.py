@@ -44,6 +44,11 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from mjx_radar.study.lost import (  # noqa: F401 -- importable from here as before
+    lost_by_trial,
+    lost_counts,
+    lost_counts_by_cell,
+)
 from mjx_radar.task.method import METHODS
 
 HDI_PROB = 0.9
@@ -95,41 +100,6 @@ def ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     v = v[~np.isnan(v)]
     x = np.unique(v)
     return x, np.searchsorted(v, x, side="right") / max(len(v), 1)
-
-
-def lost_counts(lost: np.ndarray) -> dict:
-    """Lost-track counts of one scenario and method (for run.json / study.json).
-
-    Args:
-        lost: [T, K] bool per trial and step.
-
-    Returns:
-        ``{"trials": T, "trials_lost": n, "trial_rate": n / T, "step_rate": mean(lost)}``.
-    """
-    lost = np.asarray(lost, bool)
-    return _counts(lost.shape[0], int(lost.any(axis=1).sum()), int(lost.sum()), lost.size)
-
-
-def _counts(trials: int, trials_lost: int, steps_lost: int, steps: int) -> dict:
-    nan = float("nan")
-    return {
-        "trials": trials,
-        "trials_lost": trials_lost,
-        "trial_rate": trials_lost / trials if trials else nan,
-        "step_rate": steps_lost / steps if steps else nan,
-    }
-
-
-def lost_counts_by_cell(frame) -> dict:
-    """``{"SCENARIO/METHOD": lost_counts}`` of a long table (``scenario``, ``method``,
-    ``trial``, ``lost`` per step, every trial with the same steps): :func:`lost_counts` of
-    each cell's ``[T, K]`` table, exactly, from one grouping (not a pivot per cell)."""
-    agg = frame.groupby(["scenario", "method", "trial"], observed=True)["lost"].agg(
-        ["any", "sum", "size"]
-    )
-    cells = agg.groupby(level=[0, 1], observed=True).agg(["sum", "size"])
-    cols = (("any", "size"), ("any", "sum"), ("sum", "sum"), ("size", "sum"))  # as _counts
-    return {f"{sc}/{m}": _counts(*(int(c[k]) for k in cols)) for (sc, m), c in cells.iterrows()}
 
 
 def kept_mean(values: np.ndarray, ever_lost: np.ndarray) -> np.ndarray:

@@ -66,12 +66,13 @@ def start(todo, batch: int, mesh) -> StudyPrograms:
     return StudyPrograms(pending, programs, t0)
 
 
-def run_rounds(args, todo, n_dev: int, mesh, times, started: StudyPrograms) -> None:
+def run_rounds(args, todo, n_dev: int, mesh, times, started: StudyPrograms, stream=None) -> None:
     """Runs the chunks ``todo`` in rounds of one per device (study order), each round as
     soon as its program (of ``started``) is ready, the chunk files written in the
     background (:class:`mjx_radar.study.chunks.Background`). Adds the seconds compilation
     held the devices back to ``times.compile_s`` (from the programs' start to the first
-    round, then what later rounds waited) and sets ``times.compile_wall_s``."""
+    round, then what later rounds waited) and sets ``times.compile_wall_s``. ``stream``:
+    a :class:`~mjx_radar.study.consolidate.Stream` that gets each chunk's table."""
     from tqdm import tqdm
 
     from mjx_radar.study import chunks as chunks_of
@@ -99,7 +100,7 @@ def run_rounds(args, todo, n_dev: int, mesh, times, started: StudyPrograms) -> N
             done = sum(c.last - c.first + 1 for c in group)
             progress = lambda k, n=done: bar.update(k * n)  # noqa: E731
             driver.run_round(
-                group, args.chunk, n_dev, mesh, progress, times, key[1], writer, programs
+                group, args.chunk, n_dev, mesh, progress, times, key[1], writer, programs, stream
             )
     # each program's seconds from its start (all started together) to ready
     times.compile_wall_s = max((p.result()[1] for p in started.pending.values()), default=0.0)
