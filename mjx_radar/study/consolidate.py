@@ -85,7 +85,8 @@ class Stream:
 
     Args:
         path: the study's ``metrics.parquet`` (written as ``.metrics.parquet.stream.part``
-            beside it, moved into place by :meth:`finish`).
+            beside it, replacing a killed study's, and moved into place by :meth:`finish`;
+            :func:`remove_partial` removes one a resumed study will not overwrite).
         chunk_paths: every chunk file of the study, in study order.
         scenarios: the scenario names in study order; ``methods``: the study's methods.
 
@@ -100,7 +101,6 @@ class Stream:
         self._tmp = _partial(self.path.parent)
         self._writer, self._next, self._dropped = None, 0, False
         self._rows, self._bad, self._by_trial = 0, 0, []
-        remove_partial(self.path.parent)  # of a killed study
 
     def add(self, chunk_path: Path, frame: pd.DataFrame) -> None:
         """Appends one chunk's table (its file is already written; ``frame`` is changed)."""
