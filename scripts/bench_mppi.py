@@ -97,7 +97,7 @@ def bench(s, method: str, calls: int, batch: int = 0) -> float:
     gc.unfreeze()
     t = np.array(times)
     slow = np.argsort(t)[::-1][:3]
-    worst = ", ".join(f"{t[j] * 1e3:.2f} ms (gc {gc_in_call[j] * 1e3:.2f} ms)" for j in slow)
+    worst = ", ".join(f"#{j}: {t[j] * 1e3:.2f} ms (gc {gc_in_call[j] * 1e3:.2f} ms)" for j in slow)
     print(
         f"gc={GC}: {len(collections)} collections during the calls, "
         f"{sum(collections) * 1e3:.1f} ms in all; slowest calls {worst}"

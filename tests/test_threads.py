@@ -44,19 +44,17 @@ def test_process_ending_while_xla_compiles_exits_cleanly():
     assert "terminate called" not in proc.stderr
 
 
-def test_refused_run_leaves_without_compiling_its_program(tmp_path):
-    """Radars that cannot be placed are refused (exit 2, one line) while the run's
-    program compiles in the background (started first, so that a warm run loads it
-    beside the check); the command exits without waiting for it: no executable written."""
+def _refused(tmp_path, command: list[str]):
+    """``mjx-radar COMMAND cramped.toml ...`` (smoke with a box too small for its radars):
+    ``(process, cache directory, out)``, the process checked for one line and exit 2."""
     text = (REPO / "scenarios" / "smoke.toml").read_text()
     head, _, tail = text.partition("\n[")
     bad = tmp_path / "cramped.toml"
     bad.write_text(f"{head}\nplacement_half_width = 20.0\n[{tail}")
-    cache = tmp_path / "cache"
+    cache, out = tmp_path / "cache", tmp_path / "out"
     env = {**os.environ, "MJX_RADAR_CACHE_DIR": str(cache), "JAX_PLATFORMS": "cpu"}
-    out = tmp_path / "run"
     proc = subprocess.run(
-        [sys.executable, "-m", "mjx_radar", "run", str(bad), "--out", str(out)],
+        [sys.executable, "-m", "mjx_radar", command[0], str(bad), "--out", str(out)] + command[1:],
         capture_output=True,
         text=True,
         env=env,
@@ -67,6 +65,24 @@ def test_refused_run_leaves_without_compiling_its_program(tmp_path):
     assert proc.returncode == 2, proc.stderr[-2000:]
     assert err[-1].startswith("error: placement_half_width = 20.0: cannot place")
     assert "Traceback" not in proc.stderr and "terminate called" not in proc.stderr
-    assert list((cache / "programs").glob("loop-*.lock"))  # its program had started
-    assert not list((cache / "programs").glob("exe-*.bin"))  # and was left unfinished
     assert not out.exists()
+    return proc, cache / "programs"
+
+
+def test_refused_run_exits_2_in_one_line_and_keeps_its_program(tmp_path):
+    """Radars that cannot be placed are refused by the run's own initial conditions
+    before the first step (exit 2, one line, no run directory); the program compiled for
+    it stays in the cache (the box is a runtime number: the corrected scenario loads it)."""
+    _, programs = _refused(tmp_path, ["run", "--method", "stationary", "--steps", "8"])
+    assert len(list(programs.glob("exe-*.bin"))) == 1  # the loop's
+    assert not list(programs.glob("place-*.bin"))  # no program of its own for the check
+
+
+def test_refused_study_leaves_without_compiling_its_program(tmp_path):
+    """A study checks placement for every shape before its first round, while its
+    programs compile in the background; refused, the command exits without waiting for
+    them: no executable written."""
+    command = ["study", "--methods", "stationary", "--trials", "1", "--steps", "8"]
+    _, programs = _refused(tmp_path, command)
+    assert list(programs.glob("loop-*.lock"))  # its program had started
+    assert not list(programs.glob("exe-*.bin"))  # and was left unfinished

@@ -1,10 +1,10 @@
 """:class:`Run`: the result of the closed loop from a Python script.
 
 ``mjx_radar.simulate`` (:mod:`mjx_radar.api.simulate`) validates the scenario by the
-rules of a TOML file, checks that the radars can be placed and that the run fits in
-memory, and runs the same compiled program as ``mjx-radar run``
-(:func:`mjx_radar.engine.runner.run_trials`), so a fixed seed gives the same numbers
-from either. A :class:`Run` holds the result:
+rules of a TOML file, checks that the run fits in memory, and runs the same compiled
+program as ``mjx-radar run`` (:func:`mjx_radar.engine.runner.run_trials`, which refuses
+radars that cannot be placed before the first step), so a fixed seed gives the same
+numbers from either. A :class:`Run` holds the result:
 
 - ``metrics``: a pandas DataFrame with the columns of ``metrics.parquet``
   (one row per trial and step);

@@ -3,8 +3,9 @@
 Both take the same options with the same defaults (:data:`RUN_DEFAULTS`), checked by
 the same code (:func:`request`: one line naming the option and its allowed range, a
 ``ScenarioError``, before anything is compiled), and run through the same
-:func:`execute` (compilation cache, precision, placement and memory checks, the
-runner). The command line adds only what belongs to a terminal (``--out``, ``--force``,
+:func:`execute` (compilation cache, precision, memory check, then the runner, whose
+trials' initial conditions refuse radars that cannot be placed before the first step).
+The command line adds only what belongs to a terminal (``--out``, ``--force``,
 ``--video``, ``--keep-diverged``, Ctrl-C); the API returns a :class:`~mjx_radar.api.run.Run`.
 """
 
@@ -232,8 +233,8 @@ def precision_scope(req: RunRequest):
 
 def start_programs(req: RunRequest, live=None):
     """The run's programs, compiled or loaded in a background thread from now on
-    (:func:`mjx_radar.engine.runner.start_programs`) while the caller checks placement
-    and imports the writers; pass them to :func:`execute`. Call it after the process-wide
+    (:func:`mjx_radar.engine.runner.start_programs`) while the caller imports the
+    writers; pass them to :func:`execute`. Call it after the process-wide
     settings (:func:`process_options`, or the command line's own)."""
     from mjx_radar.engine import runner
 
@@ -246,24 +247,22 @@ def start_programs(req: RunRequest, live=None):
 def execute(
     req: RunRequest, progress=None, phase=None, live=None, checks: bool = True, programs=None
 ) -> dict:
-    """Checks memory and placement (unless ``checks`` is False: the caller did), then
-    runs the trials (:func:`runner.run_trials`). The programs (``programs``, from
-    :func:`start_programs`, or started here after the memory check) are compiled or
-    loaded in the background beside the placement check.
+    """Checks memory (unless ``checks`` is False: the caller did), then runs the trials
+    (:func:`runner.run_trials`, which refuses radars that cannot be placed before the
+    first step, from the trials' own initial conditions). The programs (``programs``,
+    from :func:`start_programs`, or started here after the memory check) are compiled
+    or loaded in the background.
 
     Raises:
         InputError: the radars cannot be placed or the run does not fit in memory.
     """
     from mjx_radar.engine import resources, runner
-    from mjx_radar.engine.placement_cache import check_placeable
 
     deterministic = process_options(req)
     with precision_scope(req):
         if checks:
             resources.check(req.scenario, len(req.trials), req.steps)
         programs = programs or start_programs(req, live)
-        if checks:
-            check_placeable(req.scenario, req.seed, req.trials)
         view = {} if live is None else live.runner_options()
         res = runner.run_trials(
             req.scenario,

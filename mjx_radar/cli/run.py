@@ -4,8 +4,11 @@ Before anything is compiled the command checks, each failure one line and exit 2
 the scenario and options, that ``--out`` can be created and written (a probe file),
 that no other process is writing there (it holds ``--out``'s lock until it is done:
 :mod:`mjx_radar.io.lock`; ``--force`` does not override a live writer), that it does
-not hold a complete run (unless ``--force``), that the radars can be placed, and
-that the run fits in memory (:mod:`mjx_radar.engine.resources`).
+not hold a complete run (unless ``--force``), and that the run fits in memory
+(:mod:`mjx_radar.engine.resources`). That the radars can be placed is checked by the
+run's own initial conditions before its first step (:func:`mjx_radar.engine.runner.run_trials`:
+one line, exit 2, nothing written; the compiled program stays in the cache for the
+corrected scenario); ``mjx-radar validate`` checks it without compiling the loop.
 The simulation runs in a worker thread so Ctrl-C is honoured at once, even in the
 middle of a long compilation: one line, exit 130, no result file. Results are
 written atomically, ``run.json`` last; an interrupted write removes what it wrote.
@@ -27,7 +30,6 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.cli.args import check_placement
 from mjx_radar.cli.run_args import add_arguments  # noqa: F401 (the sub-command's options)
 from mjx_radar.cli.run_output import finish
 from mjx_radar.errors import EXIT_INTERRUPTED, InputError
@@ -130,9 +132,8 @@ def main(args) -> int:
     live = None
     try:
         live = _live_view(args, s, trials, steps)
-        programs = run_case.start_programs(req, live)  # loading beside the placement check
+        programs = run_case.start_programs(req, live)
         threading.Thread(target=_import_writers, name="writers", daemon=True).start()
-        simulate(lambda: check_placement(s, seed_, args.trials))  # compiles too: interruptible
         if args.force:
             (out / "run.json").unlink(missing_ok=True)  # the old run is incomplete from now on
         print(est.compile_line(), file=sys.stderr, flush=True)

@@ -7,10 +7,8 @@ same in a background thread and returns a :class:`PendingPrograms` that
 
 Why in the background: a warm run's programs come from the executable cache, and XLA
 deserialises and loads them without holding the GIL (2.4 s on an H100 for a paper
-shape, 0.4 s on the CPU for smoke). Meanwhile the run's own checks (the memory model,
-the placement check, which on a GPU also waits for the device's first transfer) and
-the imports of the result writer go on in the caller's thread. A cold run traces its
-loop while the placement check's small program compiles.
+shape, 0.4 s on the CPU for smoke). Meanwhile the caller goes on: a run imports its
+result writer, a study checks placement for all its shapes and starts its other programs.
 """
 
 from __future__ import annotations

@@ -1,7 +1,11 @@
 """The placement check's program kept on disk beside the loop's.
 
-Every ``run``, ``simulate`` and study checks before compiling anything that each trial
-can place its radars (:func:`mjx_radar.env.placement.check_placeable`). That check is a
+A study (every shape, before its first round) and ``mjx-radar validate`` check that each
+trial can place its radars (:func:`mjx_radar.env.placement.check_placeable`; a single run
+refuses from its trials' own initial conditions instead, before the first step, and
+compiles no program for the check: :func:`mjx_radar.engine.runner.run_trials`, 1.0-1.6 s
+of a cold quick start on two cores where the check's compilation competed with the
+loop's). That check is a
 small program of its own (rejection sampling of the radars, vmapped over the trials),
 and a warm process used to trace, lower and look it up in JAX's cache every time: about
 half a second of a warm ``mjx-radar run`` on the CPU. Here it is compiled once per shape
@@ -24,9 +28,9 @@ from mjx_radar.errors import InputError
 
 def check_placeable(scenario, seed: int, trials) -> None:
     """:func:`mjx_radar.env.placement.check_placeable` with the program cached on disk,
-    its refusal as the user's error (``run``, ``simulate``, ``study`` and ``validate``).
+    its refusal as the user's error (``study``, ``run_study`` and ``validate``).
 
-    It first waits until no loop program is being traced in this process (a run's
+    It first waits until no loop program is being traced in this process (a study's
     programs start before the check, :mod:`mjx_radar.engine.trace_queue`): tracing holds
     the GIL, so the check's own small program is traced while XLA compiles theirs.
 

@@ -121,25 +121,26 @@ COMPILE_LOG: list[dict] = []
 
 def _lower(path, trace_args, lower_args, ticket: int):
     """``(init, step, source, seconds queued)`` lowered from the export cache or, failing
-    that, traced (:func:`mjx_radar.engine.program_trace.trace` of ``trace_args``, in
-    ``ticket``'s turn of :data:`mjx_radar.engine.trace_queue.QUEUE`) and exported to
-    ``path``; ``source`` "traced directly" when JAX cannot export them.
+    that, traced (:func:`mjx_radar.engine.program_trace.trace` of ``trace_args``) and
+    lowered in ``ticket``'s turn of :data:`mjx_radar.engine.trace_queue.QUEUE`, then
+    exported to ``path``; ``source`` "traced directly" when JAX cannot export them.
     ``lower_args``: ``(trials, p_specs, mesh)``, the programs' input specs."""
     exported = export_cache.load(path) if path else None
-    source, queued = ("export cache" if exported else "traced"), 0.0
-    if exported is None:  # trace: the task, its plants and MJX are built only here
-        from mjx_radar.engine import program_trace
+    if exported is not None:
+        return *export_cache.lower(exported, *lower_args), "export cache", 0.0
+    from mjx_radar.engine import program_trace  # the task, its plants and MJX: only here
 
-        trials, p_specs, _ = lower_args
-        t0 = time.perf_counter()
-        with trace_queue.QUEUE.turn(ticket):
-            queued = time.perf_counter() - t0
-            init_l, step_l, exported = program_trace.trace(*trace_args, trials, p_specs)
+    trials, p_specs, _ = lower_args
+    t0 = time.perf_counter()
+    with trace_queue.QUEUE.turn(ticket):  # lowering is Python too: the turn holds it
+        queued = time.perf_counter() - t0
+        init_l, step_l, exported = program_trace.trace(*trace_args, trials, p_specs)
         if exported is None:
             return init_l, step_l, "traced directly", queued
-        if path:
-            export_cache.save(path, exported)
-    return *export_cache.lower(exported, *lower_args), source, queued
+        init_l, step_l = export_cache.lower(exported, *lower_args)
+    if path:
+        export_cache.save(path, exported)
+    return init_l, step_l, "traced", queued
 
 
 def compile_programs(

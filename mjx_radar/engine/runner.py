@@ -37,6 +37,8 @@ from mjx_radar.engine.programs import (
     record_template,
 )
 from mjx_radar.engine.threads import parallel
+from mjx_radar.env.placement import placement_error
+from mjx_radar.errors import InputError
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.task.method import parse_method, runs
 from mjx_radar.task.params import task_params
@@ -151,6 +153,10 @@ def run_trials(
         ``placement_ok`` [T], ``compile_s`` (ahead-of-time compilation, 0 if this process
         compiled it before), ``sim_s`` (the simulation), ``wall_s`` (both) and
         ``control_hz`` (control periods per second of the batch).
+
+    Raises:
+        InputError: a trial cannot place its radars (the initial conditions' own
+            ``placement_ok``, read before the first step; one line naming the fields).
     """
     every = scenario.timing.control_every
     method, args = _program_args(
@@ -178,6 +184,9 @@ def run_trials(
         ids = jax.device_put(jnp.asarray(ids), prog.trial_sharding)
         *carry, ok = prog.init(ids, *p)
         workers.append([prog, p, ids, carry, ok])
+    placed = np.concatenate([np.asarray(w[4]) for w in workers])
+    if not placed.all():  # refused before any step: nothing written
+        raise InputError(placement_error(scenario, int(trials[np.argmin(placed)])))
     template = record_template(full, masks)
     chunks = []
 
@@ -206,7 +215,7 @@ def run_trials(
     if full:
         for k in controls_t._fields:
             res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
-    res["placement_ok"] = np.concatenate([np.asarray(w[4]) for w in workers])
+    res["placement_ok"] = placed
     sim_s = time.perf_counter() - t0
     if sets:
         res |= set_metrics(scenario, res, full)

@@ -13,8 +13,8 @@ starts (:meth:`TraceQueue.draw`), waits for its turn only if it has to trace
 (:meth:`TraceQueue.finish`), as soon as it knows it will not trace (its program is in the
 caches). A thread that starts programs in the background waits until the new thread has
 drawn its ticket (:func:`mjx_radar.engine.device_programs.start`), so the order is the
-order the programs were started in; a run checks placement (a small program traced in
-the caller's thread) once the queue is idle, while XLA compiles the loop
+order the programs were started in; a study checks placement (a small program traced
+in the caller's thread) once the queue is idle, while XLA compiles the loops
 (:func:`mjx_radar.engine.placement_cache.check_placeable`). The order is a hint, never
 a condition of correctness: a turn that does not come within :data:`TURN_TIMEOUT_S`
 (another process holding a program's file lock that this queue's earlier ticket waits

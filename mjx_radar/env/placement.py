@@ -128,19 +128,25 @@ def check_placeable(scenario: Scenario, seed: int, trials, placeable=None) -> No
     program = (placeable or placeable_program)(shape_key(scenario))
     oks = np.asarray(program(params, jnp.asarray(padded)))[: len(ids)]
     if not oks.all():
-        bad = int(ids[np.argmin(oks)])
-        if scenario.radar_init:  # fixed starts: the box plays no part
-            raise ValueError(
-                f"radars: the fixed starts (on the ground: terrain height + antenna height) are "
-                f"not >= mpc.r2r = {scenario.mpc.r2r} m apart and >= mpc.r2t = "
-                f"{scenario.mpc.r2t} m from every target; move them or lower the keep-outs"
-            )
-        raise ValueError(
-            f"placement_half_width = {scenario.placement_half_width}: cannot place "
-            f"{scenario.n_radars} radars >= mpc.r2r = {scenario.mpc.r2r} m apart and >= "
-            f"mpc.r2t = {scenario.mpc.r2t} m from every target (trial {bad}); widen the box "
-            "or lower the keep-out distances"
+        raise ValueError(placement_error(scenario, int(ids[np.argmin(oks)])))
+
+
+def placement_error(scenario: Scenario, trial: int) -> str:
+    """The one line that refuses a scenario whose ``trial`` cannot place its radars,
+    naming the fields to change (:func:`check_placeable`; the runner's own check of the
+    trials' ``placement_ok``, :func:`mjx_radar.engine.runner.run_trials`)."""
+    if scenario.radar_init:  # fixed starts: the box plays no part
+        return (
+            f"radars: the fixed starts (on the ground: terrain height + antenna height) are "
+            f"not >= mpc.r2r = {scenario.mpc.r2r} m apart and >= mpc.r2t = "
+            f"{scenario.mpc.r2t} m from every target; move them or lower the keep-outs"
         )
+    return (
+        f"placement_half_width = {scenario.placement_half_width}: cannot place "
+        f"{scenario.n_radars} radars >= mpc.r2r = {scenario.mpc.r2r} m apart and >= "
+        f"mpc.r2t = {scenario.mpc.r2t} m from every target (trial {trial}); widen the box "
+        "or lower the keep-out distances"
+    )
 
 
 @functools.lru_cache(maxsize=32)
