@@ -209,33 +209,3 @@ def test_two_devices_match_one(study_dir, tmp_path):
     one = one[(one["method"] == "stationary") & (one["trial"] < 3)].reset_index(drop=True)
     for col in ("rmse_pos", "rmse_state", "nees", "crlb_pos"):
         np.testing.assert_allclose(two[col].to_numpy(), one[col].to_numpy(), rtol=1e-3)
-
-
-def test_background_finishes_every_round_in_order_and_raises_its_errors():
-    import threading
-    import time
-
-    from mjx_radar.study.chunks import Background
-
-    done, running, most = [], [0], [0]
-    lock = threading.Lock()
-
-    def round_(i):
-        with lock:
-            running[0] += 1
-        time.sleep(0.02)
-        done.append(i)
-        with lock:
-            running[0] -= 1
-
-    with Background(depth=2) as bg:
-        for i in range(6):
-            bg.submit(lambda i=i: round_(i))
-            most[0] = max(most[0], len(bg._pending))
-    assert done == list(range(6)) and most[0] <= 2  # all written, at most 2 waiting
-
-    def fail():
-        raise OSError("disk full")
-
-    with pytest.raises(OSError, match="disk full"), Background() as bg:
-        bg.submit(fail)

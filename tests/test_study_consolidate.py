@@ -55,15 +55,31 @@ def test_the_streamed_table_is_the_table_read_back(tmp_path):
     assert not list(tmp_path.glob(".*.part"))
 
 
-@pytest.mark.parametrize("how", ["out of order", "incomplete"])
+@pytest.mark.parametrize("how", ["given twice", "incomplete"])
 def test_a_stream_that_missed_a_chunk_writes_nothing(tmp_path, how):
     """The study then reads its chunk files back (driver.finish)."""
     chunks = _chunks(tmp_path, np.random.default_rng(1))
     paths = [p for p, _ in chunks]
     stream = consolidate.Stream(tmp_path / "metrics.parquet", paths, SCENARIOS, METHODS)
-    given = chunks[1:] if how == "out of order" else chunks[:-1]
+    given = chunks + chunks[-1:] if how == "given twice" else chunks[:-1]
     for path, frame in given:
         stream.add(path, frame)
     assert stream.finish() is None
     assert not (tmp_path / "metrics.parquet").exists()
     assert not list(tmp_path.glob(".*.part"))
+
+
+def test_chunks_added_out_of_order_from_threads_are_written_in_study_order(tmp_path):
+    """A study's host threads finish chunks in any order (study.host_work)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    chunks = _chunks(tmp_path, np.random.default_rng(2))
+    paths = [p for p, _ in chunks]
+    stream = consolidate.Stream(tmp_path / "metrics.parquet", paths, SCENARIOS, METHODS)
+    order = np.random.default_rng(3).permutation(len(chunks))
+    with ThreadPoolExecutor(3) as pool:
+        list(pool.map(lambda i: stream.add(*chunks[i]), order))
+    summary = stream.finish()
+    back = consolidate.read_chunks(paths, SCENARIOS)
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "metrics.parquet"), back)
+    assert summary == consolidate.summarise(back)

@@ -23,11 +23,11 @@ import time
 from collections.abc import Callable
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh
 
 from mjx_radar.engine import device_programs as pending_programs
+from mjx_radar.engine.device_lane import DeviceBatch, run_batches, segment_periods
 from mjx_radar.engine.device_programs import PendingPrograms, device_programs
 from mjx_radar.engine.program_jobs import program_jobs, program_map, programs_needed
 from mjx_radar.engine.programs import (
@@ -52,6 +52,7 @@ __all__ = [
     "program_map",
     "programs_needed",
     "run_trials",
+    "segment_periods",
     "set_metrics",
     "start_programs",
 ]
@@ -89,15 +90,6 @@ def program_log(since: int = 0) -> list[dict]:
     ]
 
 
-def segment_periods(scenario: Scenario, steps: int, target_segments: int = 20) -> int:
-    """Largest divisor of the number of control periods giving >= ``target_segments`` segments."""
-    total = steps // scenario.timing.control_every
-    for p in range(max(1, total // target_segments), 0, -1):
-        if total % p == 0:
-            return p
-    return 1
-
-
 def run_trials(
     scenario: Scenario,
     method,
@@ -133,7 +125,8 @@ def run_trials(
             done and the segment's records, already on the host: ``(StepRecord,
             ControlRecord)`` of numpy arrays ``[T, steps or control steps of the
             segment, ...]`` (if ``full``; else the metrics dict and ``None``). The next
-            segment waits for it: keep it cheap (e.g. :meth:`mjx_radar.viz.live.LiveView.update`).
+            segment already runs meanwhile (engine.device_lane); keep it cheap (e.g.
+            :meth:`mjx_radar.viz.live.LiveView.update`).
         masks: with ``full``, also the per-pair masks ``visible`` and ``detected``
             ``[T, K, N, M]`` (a program of its own; off: they are not computed).
         program: ``(kind, planner)`` of the program to run the method with: one that
@@ -176,36 +169,27 @@ def run_trials(
     if phase:
         phase("simulating")
     t0 = time.perf_counter()
-    # One worker per device: the same single-device program on each device's slice of
-    # the trials (dispatch is asynchronous, so the devices run concurrently).
-    workers = []
-    for (prog, _), ids in zip(progs, np.split(trials, len(devices)), strict=True):
-        p = [jax.device_put(x, prog.replicated) for x in jax.tree.leaves(params)]
-        ids = jax.device_put(jnp.asarray(ids), prog.trial_sharding)
-        *carry, ok = prog.init(ids, *p)
-        workers.append([prog, p, ids, carry, ok])
-    placed = np.concatenate([np.asarray(w[4]) for w in workers])
+    # The same single-device program on each device's slice of the trials, each device
+    # driven from its own thread, its segments read one segment late (engine.device_lane).
+    leaves = jax.tree.leaves(params)
+    slices = np.split(trials, len(devices))
+    batches = [DeviceBatch(prog, leaves, ids) for (prog, _), ids in zip(progs, slices, strict=True)]
+    placed = np.concatenate([b.placed() for b in batches])
     if not placed.all():  # refused before any step: nothing written
         raise InputError(placement_error(scenario, int(trials[np.argmin(placed)])))
     template = record_template(full, masks)
+    structure = jax.tree.structure(template)
     chunks = []
 
-    def advance(w):  # one segment on one device; returns its records on the host
-        prog, p, _, carry, _ = w
-        out = prog.step(*p, *carry)
-        w[3] = list(out[: prog.n_carry])
-        return jax.device_get(out[prog.n_carry :])
-
-    for start in range(0, steps // every, periods):
-        # A GPU program with loops is driven by its host thread: one thread per device
-        # makes the devices run concurrently.
-        parts = parallel([lambda w=w: advance(w) for w in workers])
+    def segment(k, parts):  # segment k's records of every device, in order
         records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
-        chunks.append(jax.tree.unflatten(jax.tree.structure(template), records))
+        chunks.append(jax.tree.unflatten(structure, records))
         if progress is not None:
             progress(periods * every)
         if on_segment is not None:
-            on_segment((start + periods) * every, chunks[-1])
+            on_segment((k + 1) * periods * every, chunks[-1])
+
+    run_batches(batches, len(range(0, steps // every, periods)), segment)
     res: dict = {}
     steps_t, controls_t = template
     for k in steps_t._fields if full else steps_t:

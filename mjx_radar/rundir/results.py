@@ -108,18 +108,17 @@ def metrics_frame(
     import pandas as pd
 
     t, k = len(trials), len(time_s)
-    frame = pd.DataFrame(
-        {
-            "scenario": pd.Categorical([scenario] * (t * k)),
-            "method": pd.Categorical([method] * (t * k)),
-            "trial": np.repeat(np.asarray(trials, np.int32), k),
-            "step": np.tile(np.arange(1, k + 1, dtype=np.int32), t),
-            "time_s": np.tile(np.asarray(time_s, np.float64), t),
-        }
-    )
+    one = np.zeros(t * k, np.int8)  # the codes of a one-category column (not t·k strings)
+    columns = {
+        "scenario": pd.Categorical.from_codes(one, [scenario]),
+        "method": pd.Categorical.from_codes(one, [method]),
+        "trial": np.repeat(np.asarray(trials, np.int32), k),
+        "step": np.tile(np.arange(1, k + 1, dtype=np.int32), t),
+        "time_s": np.tile(np.asarray(time_s, np.float64), t),
+    }
     for name in METRIC_COLUMNS:
-        frame[name] = np.asarray(metrics[name], np.float64).reshape(-1)
-    return frame
+        columns[name] = np.asarray(metrics[name], np.float64).reshape(-1)
+    return pd.DataFrame(columns)
 
 
 def write_parquet(path: Path, frame: pd.DataFrame) -> None:

@@ -34,8 +34,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from mjx_radar.errors import InputError
 from mjx_radar.registry import PLANNERS
 from mjx_radar.study.chunks import Chunk
@@ -138,71 +136,6 @@ def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> d
     return manifest
 
 
-def run_round(
-    group: list[Chunk],
-    chunk: int,
-    n_dev: int,
-    mesh,
-    progress,
-    times: StudyTimes,
-    program: tuple[str, str] | None = None,
-    writer=None,
-    programs=None,
-    stream=None,
-):
-    """Runs up to ``n_dev`` chunks in one call (one per device) and writes their files;
-    ``program``: the ``(kind, planner)`` the chunks' method runs with (None: its own);
-    ``writer``: a :class:`~mjx_radar.study.chunks.Background` that computes the set
-    metrics and writes the files while the devices run the next round (None: here);
-    ``programs``: the round's programs, started by the study
-    (:func:`mjx_radar.study.schedule.start`, which counts the time waited for them;
-    None: compiled here, counted in ``times.compile_s``); ``stream``: a
-    :class:`~mjx_radar.study.consolidate.Stream` that also gets each chunk's table."""
-    from mjx_radar.engine import runner
-    from mjx_radar.rundir import results
-
-    c0 = group[0]
-    ids = []
-    for c in group + [group[-1]] * (n_dev - len(group)):  # idle devices repeat a chunk
-        block = np.arange(c.first, c.last + 1)
-        ids.append(np.concatenate([block, np.full(chunk - len(block), c.last)]))
-    res = runner.run_trials(
-        c0.scenario,
-        c0.method,
-        c0.seed,
-        np.concatenate(ids),
-        c0.steps,
-        full=False,
-        progress=progress,
-        mesh=mesh,
-        program=program,
-        sets=False,
-        programs=programs,
-    )
-    if programs is None:
-        times.compile_s += res["compile_s"]
-    times.sim_s += res["sim_s"]
-
-    def write():
-        res.update(runner.set_metrics(c0.scenario, res))
-        time_s = c0.scenario.timing.dt_filter * np.arange(1, c0.steps + 1)
-        for i, c in enumerate(group):
-            n = c.last - c.first + 1
-            rows = slice(i * chunk, i * chunk + n)
-            metrics = {k: res[k][rows] for k in results.METRIC_COLUMNS}
-            ids_c = np.arange(c.first, c.last + 1)
-            frame = results.metrics_frame(c.scenario.name, c.method, ids_c, time_s, metrics)
-            results.write_parquet(c.path, frame)
-            if stream is not None:
-                stream.add(c.path, frame)
-            times.chunks_run += 1
-
-    if writer is None:
-        write()
-    else:
-        writer.submit(write)
-
-
 def _gospa_settings(scenario) -> dict:
     """The GOSPA / OSPA cutoff and order a scenario's columns were computed with."""
     return {"cutoff": scenario.metrics.gospa_cutoff, "order": scenario.metrics.gospa_order}
@@ -246,6 +179,7 @@ def finish(
     n_dev: int,
     deterministic: bool = False,
     stream=None,
+    host: dict | None = None,
 ):
     """Consolidates every chunk into ``metrics.parquet`` and writes ``study.json``
     (``deterministic``: whether the kernels were, :func:`mjx_radar.engine.determinism.apply`);
@@ -256,6 +190,7 @@ def finish(
     from mjx_radar.rundir import results
     from mjx_radar.study import consolidate
 
+    t_finish = time.perf_counter()
     summary = stream.finish() if stream is not None else None
     if summary is None:
         order = [e["name"] for e in config["scenarios"]]
@@ -286,5 +221,8 @@ def finish(
         "non_finite": summary.non_finite,
         "lost": summary.lost,
     }
+    if host is not None:
+        meta["host"] = host
+        meta["host"]["consolidate_s"] = round(time.perf_counter() - t_finish, 3)
     results.write_json(out / "study.json", meta)
     return summary.rows, meta

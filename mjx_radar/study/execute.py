@@ -4,11 +4,12 @@
 
 Order of work: the scenarios are loaded and validated, the worker is set up (a
 ``jax.distributed`` process, a ``--shard``, or the only one), ``--out`` is locked
-(:func:`lock_out`), the study directory is checked against a resumed study's settings
-and memory for every scenario; then the programs start compiling in the background
+(:func:`lock_out`), the study directory is checked against a resumed study's settings and
+memory for every scenario; then the programs start compiling in the background
 (:mod:`mjx_radar.study.schedule`) while placement is checked, and only then is anything
-written; chunks run in rounds of one per device, each as soon as its program is ready
-and written when done, and the worker that finds every chunk present consolidates.
+written; each device runs the next chunk as soon as it is free and the chunk's program is
+ready (:mod:`mjx_radar.study.lanes`), the host writing the chunks meanwhile, and the worker
+that finds every chunk present consolidates.
 
 One study per directory at a time (:mod:`mjx_radar.io.lock`): a plain study (or a
 resume) holds the directory's lock exclusively, so a second one is refused in one line
@@ -143,7 +144,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     from mjx_radar.engine import live_programs, resources, runner
     from mjx_radar.engine.placement_cache import check_placeable
     from mjx_radar.study import chunks as chunks_of
-    from mjx_radar.study import consolidate, driver, schedule
+    from mjx_radar.study import consolidate, driver, lanes, schedule
 
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining, joining)
@@ -186,7 +187,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
                 file=sys.stderr,
             )
         try:
-            schedule.run_rounds(args, todo, n_dev, mesh, times, started, stream)
+            host = lanes.run_lanes(args, todo, mesh, times, started, stream)
         except BaseException:
             if stream is not None:
                 stream.drop()  # the chunk files written so far stay for --resume
@@ -216,11 +217,12 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         n_dev,
         args.deterministic,
         stream,
+        host,
     )
     print(
         f"study complete: {rows} rows in {args.out / 'metrics.parquet'}; wall "
         f"{meta['wall_s']:.1f} s (compile {meta['compile_s']:.1f} s before and between the "
-        f"rounds, the last program ready after {meta['compile_wall_s']:.1f} s; simulation "
+        f"chunks, the last program ready after {meta['compile_wall_s']:.1f} s; simulation "
         f"{meta['sim_s']:.1f} s)"
     )
     return 0

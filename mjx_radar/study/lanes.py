@@ -1,0 +1,190 @@
+"""A study's chunks run in lanes, one per device, each taking the next chunk as it frees up.
+
+Each device has a lane: a thread that takes the next chunk of the study (in study
+order) as soon as its previous one is done, waits for that chunk's program if it is
+still compiling (:mod:`mjx_radar.study.schedule`), runs it to the end on its device
+(:func:`mjx_radar.engine.device_lane.run_on_device`: every segment dispatched before
+the one before it is read) and hands its arrays to the host pool
+(:class:`mjx_radar.study.host_work.HostPool`), which computes the set metrics and
+writes the files while the lane runs its next chunk. No lane waits for another: the
+devices are never held in lockstep, chunks of different scenarios and methods run side
+by side, and the host never sits between a device and its next chunk.
+
+Numbers: every device runs the same single-device program for its scenario shape on a
+chunk of ``chunk`` trials (the last one padded), so a trial's numbers do not depend on
+which device ran it, on the number of devices, nor on the order chunks finish in.
+
+Times (``study.json``): ``sim_s`` is the time at least one device was running a chunk;
+``compile_s`` the time from the programs' start until the end of the last chunk when no
+device ran one (waiting for programs); ``timeline`` one entry per chunk (device,
+seconds from the programs' start to its start and end, seconds waited for its program
+and for a free host slot).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+
+__all__ = ["host_workers", "run_lanes"]
+
+
+def host_workers(n_dev: int) -> int:
+    """Host threads for ``n_dev`` devices: one more than the devices, at most half the
+    host's cores (at least one)."""
+    return max(1, min(n_dev + 1, (os.cpu_count() or 2) // 2))
+
+
+class _Queue:
+    """The chunks still to run, handed out in study order to whichever lane asks."""
+
+    def __init__(self, todo):
+        self._todo, self._next, self._lock = list(todo), 0, threading.Lock()
+        self.stop = threading.Event()
+
+    def take(self):
+        with self._lock:
+            if self.stop.is_set() or self._next >= len(self._todo):
+                return None
+            self._next += 1
+            return self._todo[self._next - 1]
+
+
+def _covered(intervals: list[tuple[float, float]]) -> float:
+    """Length of the union of ``[start, end]`` intervals."""
+    total, end = 0.0, -np.inf
+    for a, b in sorted(intervals):
+        if b > end:
+            total += b - max(a, end)
+            end = b
+    return total
+
+
+def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
+    """Runs the chunks ``todo`` on the devices of ``mesh``, one lane per device.
+
+    Args:
+        args: the study's options (``chunk``, ``progress``).
+        todo: the chunks to run, in study order.
+        mesh: the devices (each runs its own single-device programs).
+        times: the study's :class:`~mjx_radar.study.driver.StudyTimes`: ``compile_s``,
+            ``compile_wall_s``, ``sim_s`` and ``chunks_run`` are added to.
+        started: the programs in the making (:func:`mjx_radar.study.schedule.start`).
+        stream: the study's :class:`~mjx_radar.study.consolidate.Stream`, or None.
+
+    Returns:
+        ``study.json``'s ``host`` section: the host threads, their summed seconds per
+        part, the seconds lanes waited for them, the seconds after the last chunk's
+        simulation until its files were written, and the per-chunk ``timeline``.
+    """
+    from tqdm import tqdm
+
+    from mjx_radar.engine.device_lane import run_on_device
+    from mjx_radar.study.host_work import ChunkJob, HostPool
+    from mjx_radar.study.schedule import program_key
+
+    devices = list(mesh.devices.flat)
+    queue, t0 = _Queue(todo), started.t0
+    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
+    bar = tqdm(
+        total=total,
+        unit="trial-step",
+        desc="study",
+        file=sys.stderr,
+        dynamic_ncols=True,
+        disable=not todo or not args.progress,
+    )
+    bar_lock = threading.Lock()
+    timeline: list[dict] = []
+    errors: list[BaseException] = []
+
+    def lane(d: int, pool: HostPool) -> None:
+        while (c := queue.take()) is not None:
+            n = c.last - c.first + 1
+            key = program_key(c, started.programs)
+            t_ask = time.perf_counter()
+            progs, _ = started.pending[key].result()
+            t_run = time.perf_counter()
+
+            def progress(k, n=n):
+                with bar_lock:
+                    bar.update(k * n)
+                    bar.set_postfix_str(f"{c.scenario.name} {c.method}", refresh=False)
+
+            block = np.arange(c.first, c.last + 1)
+            ids = np.concatenate([block, np.full(args.chunk - n, c.last)])
+            res = run_on_device(progs[d][0], c.scenario, c.method, c.seed, ids, c.steps, progress)
+            t_end = time.perf_counter()
+            s = c.scenario
+            cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
+            job = ChunkJob(c.path, s.name, c.method, c.first, c.last, *cfg)
+            loop = {k: v for k, v in res.items() if k in _loop_columns()}
+            sets = {k: v for k, v in res.items() if k not in loop}
+            pool.submit(job, loop, sets)
+            timeline.append(
+                {
+                    "device": d,
+                    "chunk": c.path.name,
+                    "start_s": t_run - t0,
+                    "end_s": t_end - t0,
+                    "program_wait_s": t_run - t_ask,
+                    "host_wait_s": time.perf_counter() - t_end,
+                }
+            )
+
+    def guarded(d, pool):
+        try:
+            lane(d, pool)
+        except BaseException as err:  # noqa: BLE001 -- raised in the caller's thread
+            errors.append(err)
+            queue.stop.set()
+
+    from mjx_radar.engine.threads import Started
+
+    with bar, HostPool(host_workers(len(devices)), stream) as pool:
+        lanes = [
+            Started(lambda d=d: guarded(d, pool), name=f"lane-{d}") for d in range(len(devices))
+        ]
+        try:
+            for running in lanes:
+                running.wait()
+        except BaseException:
+            queue.stop.set()  # Ctrl-C: no lane takes another chunk
+            raise
+        if errors:
+            raise errors[0]
+        t_sim_end = max((e["end_s"] for e in timeline), default=0.0)
+        pool.drain()
+    return _account(times, started, timeline, pool, t_sim_end)
+
+
+def _loop_columns() -> tuple:
+    from mjx_radar.rundir.results import LOOP_COLUMNS
+
+    return LOOP_COLUMNS
+
+
+def _account(times, started, timeline, pool, t_sim_end: float) -> dict:
+    """Adds the lanes' seconds to ``times`` and returns the ``host`` section."""
+    running = [(e["start_s"], e["end_s"]) for e in timeline]
+    sim = _covered(running)
+    times.sim_s += sim
+    times.compile_s += max(0.0, t_sim_end - sim) if timeline else 0.0
+    times.compile_wall_s = max((p.result()[1] for p in started.pending.values()), default=0.0)
+    times.chunks_run += pool.done
+    tail = max(0.0, pool.last_done - started.t0 - t_sim_end) if pool.done else 0.0
+    return {
+        "workers": pool.workers,
+        "seconds": {k: round(v, 3) for k, v in sorted(pool.seconds.items())},
+        "lanes_waited_s": round(pool.waited_s, 3),
+        "after_last_chunk_s": round(tail, 3),
+        "timeline": sorted((_rounded(e) for e in timeline), key=lambda e: e["start_s"]),
+    }
+
+
+def _rounded(entry: dict) -> dict:
+    return {k: round(v, 3) if isinstance(v, float) else v for k, v in entry.items()}
