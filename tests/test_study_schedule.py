@@ -35,6 +35,10 @@ class _Pending:
         self.ready.wait()
         return [(f"program {d}", 0.0) for d in range(self.n_dev)], self.at
 
+    def device(self, i):
+        self.ready.wait()
+        return f"program {i}"
+
 
 def _arrays(scenario, b, k):
     m = scenario.n_targets

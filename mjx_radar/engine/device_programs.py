@@ -31,6 +31,7 @@ def device_programs(
     kind: str = "all",
     planner: str = "mppi",
     masks: bool = False,
+    ready=None,
 ) -> list:
     """``[(programs, seconds)]``: the single-device program of each device, each for
     ``batch`` trials. Every device runs the same per-device program, so a trial's
@@ -42,17 +43,24 @@ def device_programs(
     host's GPUs, where compiling the same program once per GPU in parallel had made
     2 H200s compile longer than one (57 s vs 42 s). Elsewhere (CPU devices, whose key
     holds the device, or no cache) every device compiles, in parallel threads.
+
+    ``ready(i, (programs, seconds))``, if given, is called as soon as device ``i``'s
+    program is there (a study's lane starts on it while the others still load).
     """
 
-    def one(d):
+    def one(i, d):
         mesh = device_mesh([d])
-        return compile_programs(scenario, batch, periods, full, mesh, kind, planner, masks)
+        out = compile_programs(scenario, batch, periods, full, mesh, kind, planner, masks)
+        if ready is not None:
+            ready(i, out)
+        return out
 
     devices = list(devices)
     if not (compile_cache.enabled() and devices[0].platform == "gpu") or len(devices) == 1:
-        return parallel([lambda d=d: one(d) for d in devices])
-    first = parallel([lambda: one(devices[0])])
-    return first + parallel([lambda d=d: one(d) for d in devices[1:]])
+        return parallel([lambda i=i, d=d: one(i, d) for i, d in enumerate(devices)])
+    first = parallel([lambda: one(0, devices[0])])
+    rest = list(enumerate(devices))[1:]
+    return first + parallel([lambda i=i, d=d: one(i, d) for i, d in rest])
 
 
 def request(scenario, batch, periods, full, devices, kind, planner, masks) -> tuple:
@@ -68,27 +76,40 @@ class PendingPrograms:
         request: what they are (:func:`request`); a run asking for others ignores them.
         started: the thread; ``started.result()`` is ``(device programs, seconds they
             took)``, waiting for them (an error of the thread is raised there).
+        devices: ``{i: (programs, seconds)}`` of the devices whose program is there.
     """
 
     request: tuple
     started: Started
+    devices: dict = dataclasses.field(default_factory=dict)
 
     def result(self) -> tuple[list, float]:
         """``(device programs, seconds they took)``, once they are there."""
         return self.started.result()
 
+    def device(self, i: int, poll: float = 0.05):
+        """Device ``i``'s ``programs``, as soon as they are there (the other devices' may
+        still be loading); the thread's error is raised here."""
+        while i not in self.devices and self.started.running():
+            time.sleep(poll)
+        if i not in self.devices:
+            self.started.result()  # raises the thread's error, if any
+        return self.devices[i][0]
+
 
 def start(scenario, batch, periods, full, devices, kind, planner, masks) -> PendingPrograms:
     """:func:`device_programs` of these arguments, started in a background thread."""
     args = (scenario, batch, periods, full, devices, kind, planner, masks)
+    ready: dict = {}
 
     def timed():
         t0 = time.perf_counter()
-        return device_programs(*args), time.perf_counter() - t0
+        out = device_programs(*args, ready=ready.__setitem__)
+        return out, time.perf_counter() - t0
 
     drawn = trace_queue.QUEUE.drawn
     started = Started(timed, name="programs")
     # its place in the tracing order is taken now (engine.trace_queue), not at the
     # thread's leisure: programs started one after the other trace in that order
     trace_queue.QUEUE.wait_drawn(drawn + 1, alive=started.running)
-    return PendingPrograms(request(*args), started)
+    return PendingPrograms(request(*args), started, ready)

@@ -107,7 +107,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
             n = c.last - c.first + 1
             key = program_key(c, started.programs)
             t_ask = time.perf_counter()
-            progs, _ = started.pending[key].result()
+            prog = started.pending[key].device(d)  # the others' may still be loading
             t_run = time.perf_counter()
 
             def progress(k, n=n):
@@ -117,7 +117,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
 
             block = np.arange(c.first, c.last + 1)
             ids = np.concatenate([block, np.full(args.chunk - n, c.last)])
-            res = run_on_device(progs[d][0], c.scenario, c.method, c.seed, ids, c.steps, progress)
+            res = run_on_device(prog, c.scenario, c.method, c.seed, ids, c.steps, progress)
             t_end = time.perf_counter()
             s = c.scenario
             cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
