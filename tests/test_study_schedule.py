@@ -25,10 +25,14 @@ class _Pending:
 
     def __init__(self, t0, n_dev):
         self.ready, self.t0, self.at, self.n_dev = threading.Event(), t0, None, n_dev
-        self.started = SimpleNamespace(wait=self.ready.wait)
+        self.started = SimpleNamespace(
+            wait=self.ready.wait, running=lambda: not self.ready.is_set()
+        )
+        self.devices = {}
 
     def set(self):
         self.at = time.perf_counter() - self.t0
+        self.devices.update({d: (f"program {d}", 0.0) for d in range(self.n_dev)})
         self.ready.set()
 
     def result(self):
@@ -93,8 +97,10 @@ def test_lanes_run_each_chunk_once_as_soon_as_its_program_is_ready(study):
     args = SimpleNamespace(chunk=2, progress=False)
     host = lanes.run_lanes(args, todo, mesh, times, programs)
     assert sorted(r[:2] for r in ran) == sorted((c.scenario.name, c.method) for c in todo)
-    # the first shape ran (on both devices) while the second program was still compiling
+    # the first shape ran (on both devices) while the second program was still compiling,
+    # the planning method's chunks before the stationary ones (the costliest first)
     assert [r[3] for r in ran] == [False] * 4 + [True] * 4
+    assert [r[1] for r in ran[:4]] == ["ddr-sfim"] * 2 + ["stationary"] * 2
     assert {r[2] for r in ran[:4]} == {"program 0", "program 1"}
     assert all(c.path.exists() for c in todo) and times.chunks_run == len(todo)
     # held back: 0.2 s to the first chunk, then ~0.3 s with no device running

@@ -1,14 +1,17 @@
 """A study's chunks run in lanes, one per device, each taking the next chunk as it frees up.
 
-Each device has a lane: a thread that takes the next chunk of the study (in study
-order) as soon as its previous one is done, waits for that chunk's program if it is
-still compiling (:mod:`mjx_radar.study.schedule`), runs it to the end on its device
-(:func:`mjx_radar.engine.device_lane.run_on_device`: every segment dispatched before
-the one before it is read) and hands its arrays to the host pool
-(:class:`mjx_radar.study.host_work.HostPool`), which computes the set metrics and
-writes the files while the lane runs its next chunk. No lane waits for another: the
+Each device has a lane: a thread that takes the next chunk of the study as soon as its
+previous one is done (of the chunks whose program is ready on its device, one of the
+first such program in study order, the costliest method first; if none is ready, the
+next chunk in study order, waiting for its program: :mod:`mjx_radar.study.schedule`),
+runs it to the end on its device (:func:`mjx_radar.engine.device_lane.run_on_device`:
+every segment dispatched before the one before it is read) and hands its arrays to the
+host pool (:class:`mjx_radar.study.host_work.HostPool`), which computes the set metrics
+and writes the files while the lane runs its next chunk. No lane waits for another: the
 devices are never held in lockstep, chunks of different scenarios and methods run side
-by side, and the host never sits between a device and its next chunk.
+by side, and the host never sits between a device and its next chunk. The programs
+compile at a lower priority (:func:`mjx_radar.engine.threads.lower_priority`), so the
+host threads driving the devices keep their cores.
 
 Numbers: every device runs the same single-device program for its scenario shape on a
 chunk of ``chunk`` trials (the last one padded), so a trial's numbers do not depend on
@@ -39,19 +42,35 @@ def host_workers(n_dev: int) -> int:
     return max(1, min(n_dev + 1, (os.cpu_count() or 2) // 2))
 
 
-class _Queue:
-    """The chunks still to run, handed out in study order to whichever lane asks."""
+#: the order in which a lane takes the chunks of one ready program: the costliest first,
+#: so that the study ends on short chunks that fill the devices evenly
+_COST_RANK = {"pfim": 0, "sfim": 1, "none": 2}
 
-    def __init__(self, todo):
-        self._todo, self._next, self._lock = list(todo), 0, threading.Lock()
+
+def _rank(chunk) -> int:
+    from mjx_radar.task.method import parse_method
+
+    return _COST_RANK.get(parse_method(chunk.method).info, 1)
+
+
+class _Queue:
+    """The chunks still to run. A lane takes, of the chunks whose program is ready on its
+    device, one of the first program in study order, the costliest method first
+    (:data:`_COST_RANK`); when none is ready, the next chunk in study order (and waits for
+    its program)."""
+
+    def __init__(self, todo, key, ready):
+        self._todo = sorted(todo, key=lambda c: (key(c), _rank(c)))  # stable: study order
+        self._key, self._ready = key, ready  # chunk -> program key; (key, device) -> bool
+        self._lock = threading.Lock()
         self.stop = threading.Event()
 
-    def take(self):
+    def take(self, device: int):
         with self._lock:
-            if self.stop.is_set() or self._next >= len(self._todo):
+            if self.stop.is_set() or not self._todo:
                 return None
-            self._next += 1
-            return self._todo[self._next - 1]
+            i = next((i for i, c in enumerate(self._todo) if self._ready(self._key(c), device)), 0)
+            return self._todo.pop(i)
 
 
 def _covered(intervals: list[tuple[float, float]]) -> float:
@@ -88,7 +107,17 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
     from mjx_radar.study.schedule import program_key
 
     devices = list(mesh.devices.flat)
-    queue, t0 = _Queue(todo), started.t0
+    order = {}  # program key -> its place in study order
+    for c in todo:
+        order.setdefault(program_key(c, started.programs), len(order))
+    key = lambda c: order[program_key(c, started.programs)]  # noqa: E731
+    keys = list(order)
+
+    def ready(k: int, d: int) -> bool:
+        pending = started.pending[keys[k]]
+        return d in getattr(pending, "devices", {d: None}) or not pending.started.running()
+
+    queue, t0 = _Queue(todo, key, ready), started.t0
     total = sum(c.steps * (c.last - c.first + 1) for c in todo)
     bar = tqdm(
         total=total,
@@ -103,7 +132,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
     errors: list[BaseException] = []
 
     def lane(d: int, pool: HostPool) -> None:
-        while (c := queue.take()) is not None:
+        while (c := queue.take(d)) is not None:
             n = c.last - c.first + 1
             key = program_key(c, started.programs)
             t_ask = time.perf_counter()
