@@ -7,7 +7,7 @@ each metric and the diverged / lost trial counts on each backend. Exit status 1 
 difference exceeds the float32-noise thresholds below, 0 when none does, 2 on bad
 arguments. Without a GPU both runs are on the CPU and agree exactly (the output says so).
 
-    python scripts/check_precision.py [--scenario paper_3r4t] [--methods ccr-sfim,ddr-sfim]
+    python benchmarks/check_precision.py [--scenario paper_3r4t] [--methods ccr-sfim,ddr-sfim]
         [--trials 8] [--steps 200] [--seed 0] [--tight-steps 20]
         [--matmul-precision pinned|default] [--planner-precision LEVEL]
         [--save FILE.npz] [--reference cpu|none|FILE.npz] [--perturb]

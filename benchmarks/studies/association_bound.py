@@ -30,7 +30,7 @@ for the MMSE, the hypothesis's own for the others; the 1 s mirror rule is left o
 every hypothesis here is a 3-D fix above the radars); *unmatched* (label-free: some
 drone with no estimate within 50 m under the best assignment) for the MAP.
 
-    python scripts/association_bound.py --out DIR [--scenario clutter_3r4t]
+    python benchmarks/studies/association_bound.py --out DIR [--scenario clutter_3r4t]
         [--method ddr-sfim] [--trials 8] [--steps 600] [--chunk 20]
 
 writes ``DIR/bound.csv`` (one row per trial) and ``DIR/bound.json`` (the summary).

@@ -1,6 +1,6 @@
 """Times the pieces of one MPPI iteration (rollouts, cost terms, information) on one device.
 
-Usage: ``python scripts/profile_mppi.py [--scenario paper_3r4t] [--method ddr-sfim]``
+Usage: ``python benchmarks/profile_mppi.py [--scenario paper_3r4t] [--method ddr-sfim]``
 (200 samples, the scenario's horizon; jit, median of 10 calls).
 """
 

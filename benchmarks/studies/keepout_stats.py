@@ -1,6 +1,6 @@
 """Keep-out statistics of planners: how close the radars come to the drones and each other.
 
-    python scripts/keepout_stats.py paper_3r4t --planners mppi,policy:DIR,stationary \
+    python benchmarks/studies/keepout_stats.py paper_3r4t --planners mppi,policy:DIR,stationary \
         --trials 200 [--json F]
 
 Runs ``simulate`` once per planner (``mppi`` and ``stationary`` are the scenario's

@@ -5,7 +5,7 @@
 rollout unroll asked for, prints the compile time and the per-call times after
 warm-up; the last line per combination is ``mppi_call_s=<median>``.
 
-    python scripts/bench_mppi.py [--scenario paper_3r4t] [--methods ddr-sfim,ddr-pfim]
+    python benchmarks/bench_mppi.py [--scenario paper_3r4t] [--methods ddr-sfim,ddr-pfim]
         [--unroll 1,15] [--calls 20] [--step fused,mjx] [--batch B]
         [--matmul-precision pinned|default] [--planner-precision LEVEL] [--gc on|off|freeze]
 

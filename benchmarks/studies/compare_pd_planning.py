@@ -17,8 +17,8 @@ resumes (each study resumes chunk by chunk; a finished study is read back).
 
 Usage::
 
-    python scripts/compare_pd_planning.py --trials 8 --steps 200 --chunk 8 --out /tmp/pd  # CPU
-    python scripts/compare_pd_planning.py --trials 200 --chunk 200 --out runs/pd_planning  # GPU
+    python benchmarks/studies/compare_pd_planning.py --trials 8 --steps 200 --chunk 8 --out /tmp/pd  # CPU
+    python benchmarks/studies/compare_pd_planning.py --trials 200 --chunk 200 --out runs/pd_planning  # GPU
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def parse(argv=None) -> argparse.Namespace:

@@ -23,7 +23,7 @@ cutoff (50 m) under the best assignment of tracks to drones (``gospa_missed > 0`
 trial whose tracks are good but swap labels is lost and not unmatched. A study already complete in
 ``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
 
-    python scripts/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
+    python benchmarks/studies/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
         [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn] [--methods ddr-sfim,stationary]
         [--trials 200] [--steps 600] [--chunk 200]
 """

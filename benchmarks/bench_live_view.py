@@ -12,7 +12,7 @@ polls the server as the page does: ``figure.json`` once, then ``state.json`` eve
 competes for the CPU). The segments are those of ``run --view`` (at most one simulated
 second; :func:`mjx_radar.viz.live.live_periods`); without it, those of ``run``. Usage::
 
-    python scripts/bench_live_view.py --scenario smoke --steps 400 --rollouts analytic
+    python benchmarks/bench_live_view.py --scenario smoke --steps 400 --rollouts analytic
 """
 
 from __future__ import annotations

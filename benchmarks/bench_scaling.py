@@ -21,7 +21,7 @@ Three measurements, each printed as a table and written to ``OUT/scaling.csv``
 
 Usage (CPU numbers in docs/scaling.md)::
 
-    JAX_PLATFORMS=cpu python scripts/bench_scaling.py --sizes 3 8 --steps 40 --trials 1 \\
+    JAX_PLATFORMS=cpu python benchmarks/bench_scaling.py --sizes 3 8 --steps 40 --trials 1 \\
         --rollouts analytic --samples 50 100 200 --out runs/scaling_cpu
 
 ``--skip loop filter quality`` leaves parts out.
@@ -52,6 +52,7 @@ from mjx_radar.task.planner import make_planner
 from mjx_radar.task.task import build
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))  # make_swarm
 from bench_timing import median_seconds  # noqa: E402
 from make_swarm import swarm_toml  # noqa: E402
 

@@ -5,7 +5,7 @@ Runs pytest with the README's test options (``DEFAULT``, or the arguments given 
 (setup + call + teardown), XLA compilations (count, seconds), tracing and lowering
 seconds in the test's own process (a test's subprocesses are counted only in its wall)::
 
-    python scripts/bench_suite.py [--out runs/suite.jsonl] [--top 25] [--summarise-only]
+    python benchmarks/bench_suite.py [--out runs/suite.jsonl] [--top 25] [--summarise-only]
         [-- -m "not slow" -n 2 --dist loadfile tests/]
 
 With ``--compile-profile`` a record holds its worker and start time (the summary gives each

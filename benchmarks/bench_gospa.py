@@ -5,7 +5,7 @@ drones uniform in a 60 m box, tracks at Gaussian errors of the given size; print
 wall time of :func:`mjx_radar.rundir.results.set_columns` (assignment, GOSPA, OSPA,
 continuity) per case.
 
-Usage: ``python scripts/bench_gospa.py [--trials 500] [--steps 600]``
+Usage: ``python benchmarks/bench_gospa.py [--trials 500] [--steps 600]``
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ times one evaluation of ``E`` matrices over ``T`` steps, for the entry-wise form
 is, with XLA optimisation barriers between its stages, and (a timing reference) on
 batched ``[E, 6, 6]`` matrices (``--variants``)::
 
-    python scripts/bench_pfim.py [--elements 200000] [--steps 15] [--calls 20]
+    python benchmarks/bench_pfim.py [--elements 200000] [--steps 15] [--calls 20]
 """
 
 from __future__ import annotations

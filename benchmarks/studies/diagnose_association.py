@@ -19,7 +19,7 @@ Three numbers, on the CPU in a few minutes (docs/tracking.md, "Diagnosis"):
    is the permutation π minimising ``Σ_m |x̂_m − x_π(m)|²``. Monte Carlo over e: how
    often it is not the identity (the fraction of trials any tracker mislabels).
 
-    python scripts/diagnose_association.py [--scenario clutter_3r4t] [--trials 4]
+    python benchmarks/studies/diagnose_association.py [--scenario clutter_3r4t] [--trials 4]
         [--steps 200] [--association jpda] [--method ddr-sfim]
 """
 
@@ -56,7 +56,7 @@ def labels(scenario, samples: int = 200_000, seed: int = 0) -> dict:
 def oracle(task, params, truth, radars, x0, seed: int, steps=(20, 80, -1)):
     """Fixed-association hypotheses of one trial: ``[(k, error, p)]`` per step k (clamped to
     the run), the winner's largest track error [m] and the posterior probability of the
-    true association (the filters and hypotheses of ``scripts/association_bound.py``)."""
+    true association (the filters and hypotheses of ``benchmarks/studies/association_bound.py``)."""
     from association_bound import fixed_association_filters, joint_hypotheses
 
     out = fixed_association_filters(task, params, truth, radars, x0, seed)

@@ -2,7 +2,7 @@
 # Issue 24, terrain: the 200-trial study of DDR-SFIM on hills_4r4t with and without
 # occlusion-aware planning (mpc.los), for docs/terrain.md ("Study" section).
 # Run on a GPU machine from the repository root (after `source scripts/gpu_setup.sh`):
-#   bash scripts/study_terrain.sh [OUT_DIR]
+#   bash benchmarks/studies/study_terrain.sh [OUT_DIR]
 # Writes OUT_DIR/los_off and OUT_DIR/los_on (study.json, report.md, figures) and prints
 # the two summaries; same seed and trials in both, so trial i is the same world
 # (placement, drones, noise) in both studies (common random numbers).

@@ -14,7 +14,7 @@ another's warm compiler)::
     compile   XLA compilation of plan, period, the whole step, and plan || period [s]
     run       wall time of the periods of one run, host-driven stages vs the step [s]
 
-    python scripts/bench_stages.py [--scenario scenarios/paper_3r4t.toml] [--kind sfim]
+    python benchmarks/bench_stages.py [--scenario scenarios/paper_3r4t.toml] [--kind sfim]
         [--batch 1] [--periods 6] [--steps 600]
 """
 

@@ -3,8 +3,8 @@
 # DDR-SFIM planning with the Pd-aware cost (detection.planner = true, the bundled scenario)
 # and without it (planner = false, the same world) vs stationary radars; 200 trials (GPU).
 #
-#   scripts/study_detection.sh [OUT] [TRIALS]          # GPU: defaults runs/study_detection 200
-#   STEPS=40 ROLLOUTS=analytic scripts/study_detection.sh /tmp/det_cpu 2   # small CPU check
+#   benchmarks/studies/study_detection.sh [OUT] [TRIALS]          # GPU: defaults runs/study_detection 200
+#   STEPS=40 ROLLOUTS=analytic benchmarks/studies/study_detection.sh /tmp/det_cpu 2   # small CPU check
 set -euo pipefail
 out=${1:-runs/study_detection}
 trials=${2:-200}

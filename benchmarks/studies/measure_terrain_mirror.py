@@ -8,7 +8,7 @@ Mirror: a target's estimate on the other side of the ground plane than its truth
 detector defines it (env/track_health.py); with terrain the radars are no
 longer coplanar, so the mirror of the range geometry is no longer z -> -z.
 
-Usage: ``python scripts/measure_terrain_mirror.py [TRIALS] [STEPS] [ROLLOUTS]``
+Usage: ``python benchmarks/studies/measure_terrain_mirror.py [TRIALS] [STEPS] [ROLLOUTS]``
 (defaults 16, 600, analytic).
 """
 

@@ -1,13 +1,13 @@
 """The Pareto figure of the planner comparison: median RMSE vs milliseconds per control call.
 
 Joins ``planners.csv`` (``scripts/compare_planners.py``: RMSE per scenario, budget and
-planner) with one or more per-call timing files (``scripts/bench_planners.py --csv``,
+planner) with one or more per-call timing files (``benchmarks/bench_planners.py --csv``,
 e.g. one from the H100 and one from the 2-core CPU), draws one panel per scenario and
 device (x: median ms per control call, log scale; y: median per-trial RMSE with its 90 %
 HDI as error bars; one colour per planner, marker size by budget), marks the Pareto
 front, and writes the joined table next to the figure::
 
-    python scripts/plot_planners.py DIR/planners.csv CALLS.csv [CALLS2.csv ...] --out FIG.png
+    python benchmarks/plot_planners.py DIR/planners.csv CALLS.csv [CALLS2.csv ...] --out FIG.png
 """
 
 from __future__ import annotations

@@ -1,10 +1,10 @@
 """Median MPPI call time without obstacles, with the obstacle cost, and with ``mpc.los``.
 
-Same settings as ``scripts/bench_mppi.py`` (the scenario's MPPI and MPC tables,
+Same settings as ``benchmarks/bench_mppi.py`` (the scenario's MPPI and MPC tables,
 DDR-SFIM); "no obstacles" is the same scenario with its obstacles removed.
 Numbers for the 2-core CPU are in docs/obstacles.md.
 
-    python scripts/bench_obstacles.py [--scenario forest_4r4t] [--rollouts mjx] [--calls 15]
+    python benchmarks/bench_obstacles.py [--scenario forest_4r4t] [--rollouts mjx] [--calls 15]
 """
 
 from __future__ import annotations

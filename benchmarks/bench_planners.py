@@ -7,7 +7,7 @@ resets one trial, compiles ``jit(planner.plan)(carry, obs, key)`` ahead (every c
 once, in threads), then times ``--calls`` calls of each, one after the other, each waited
 for, the carry fed back as in the closed loop. Prints one line per case and writes ``--csv``::
 
-    python scripts/bench_planners.py [--scenario paper_3r4t] [--method ddr-sfim]
+    python benchmarks/bench_planners.py [--scenario paper_3r4t] [--method ddr-sfim]
         [--planners mppi,ps,cem,grad,hybrid,cmaes] [--budgets 1000,300,100] [--calls 30]
         [--csv planner_calls.csv]
 
@@ -26,7 +26,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 from compare_planners import budget_variant  # noqa: E402  (the same budgets)
 
 

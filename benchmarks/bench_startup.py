@@ -10,7 +10,7 @@ Runs, each in a fresh process and in this order:
    an empty cache directory (skip with ``--no-quick-start``);
 5. optionally (``--study-trials T``) ``mjx-radar study SCENARIO --methods M1,M2 --trials T
    --chunk T`` cold and warm;
-6. one MPPI call at paper settings, DDR-SFIM and DDR-PFIM (``scripts/bench_mppi.py``,
+6. one MPPI call at paper settings, DDR-SFIM and DDR-PFIM (``benchmarks/bench_mppi.py``,
    median of ``--mppi-calls`` calls; 0 skips it).
 
 Prints one line per step with the process wall time and the compile / simulation
@@ -20,7 +20,7 @@ the goals of the device it ran on: on a CPU, quick start compile <= 15 s and
 run <= 20 s cold and <= 8 s warm and one MPPI call <= 4 ms (SFIM) and <= 6 ms (PFIM);
 and the machine's load average. Usage::
 
-    python scripts/bench_startup.py --scenario scenarios/paper_3r4t.toml --steps 600
+    python benchmarks/bench_startup.py --scenario scenarios/paper_3r4t.toml --steps 600
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ its stack trace (``mujoco`` for MJX's own code), and counts what XLA made of it:
 operations after optimisation, the fusions and, on the CPU, the separately compiled
 kernels. Prints the compile seconds (trace and lower, XLA) and the table::
 
-    python scripts/program_anatomy.py [--scenario smoke] [--kind none] [--batch 1]
+    python benchmarks/program_anatomy.py [--scenario smoke] [--kind none] [--batch 1]
         [--periods 4] [--top 15] [--functions]
 
 ``--kind``: the program kind (``none``: no planner, ``sfim``, ``pfim``, ``all``);

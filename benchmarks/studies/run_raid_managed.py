@@ -11,7 +11,7 @@ its localisation / missed / false parts, from the records' ``track_pos``,
 tracks, existing while their drone is present). Prints each chunk and, at the end, the
 summary (``OUT/summary.md``, ``OUT/summary.json``)::
 
-    python scripts/run_raid_managed.py --out runs/raid_managed --trials 200 --chunk 50
+    python benchmarks/studies/run_raid_managed.py --out runs/raid_managed --trials 200 --chunk 50
 
 GOSPA (Rahmathullah, García-Fernández & Svensson 2017) of truth set X (m present
 drones) and estimate set Y (n confirmed tracks), α = 2::

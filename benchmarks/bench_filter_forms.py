@@ -6,7 +6,7 @@ batch of trials (vmap), timed as a ``lax.scan`` of ``--scan`` steps (per-step ti
 reported). Closed loop: ``run_trials`` of a scenario, both forms and structures,
 warm (median ``sim_s`` of interleaved repeats; compilation excluded).
 
-    python scripts/bench_filter_forms.py --trials 8 --steps 200 [--skip-loop]
+    python benchmarks/bench_filter_forms.py --trials 8 --steps 200 [--skip-loop]
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ metric column, how many values differ (exact comparison; NaN equals NaN) and the
 absolute difference; last line ``differing_values=<total>``. Exit 1 if the studies hold
 different trials or any value differs. Usage::
 
-    python scripts/compare_studies.py STUDY_A STUDY_B
+    python benchmarks/compare_studies.py STUDY_A STUDY_B
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Environment throughput with the planner out of the loop (issue 34; docs/learning.md).
 
-    python scripts/bench_env.py paper_3r4t --batch 4096 --periods 50 [--adapter] [--json F]
+    python benchmarks/bench_env.py paper_3r4t --batch 4096 --periods 50 [--adapter] [--json F]
 
 ``jit(vmap(reset))`` over ``--batch`` trial keys, then one jitted ``lax.scan`` of
 ``--periods`` control periods of ``vmap(env.step)`` driven by random actions within the

@@ -6,7 +6,7 @@ step, mean / median / RMS RMSE, RMS PCRLB, trials lost) and ``OUT/columns.csv`` 
 method: the mean over trials and steps of every numeric metric column, e.g. detections,
 false alarms, visible pairs, targets present). Usage::
 
-    python scripts/study_digest.py STUDY_DIR OUT_DIR
+    python benchmarks/studies/study_digest.py STUDY_DIR OUT_DIR
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@
 #   scenarios/raid_4r8t.toml       eight drones in two waves with appear / leave times (1600 steps)
 #
 # Usage (from the repository root, after `pip install -e .` with JAX for the GPU):
-#   bash scripts/study_beyond_paper.sh [OUT_ROOT]      # default studies/beyond_paper
+#   bash benchmarks/studies/study_beyond_paper.sh [OUT_ROOT]      # default studies/beyond_paper
 # Each study is resumable: re-running the same command continues it (--resume).
 # Then fill in docs/beyond_paper.md's results section from OUT_ROOT/*/report.md.
 #
