@@ -23,7 +23,8 @@ and variants of the code path, set through the environment of the process:
 Appends one row per (case, variant, temperature) to ``OUT/compile.csv`` and skips rows
 already there, so an interrupted run resumes::
 
-    python benchmarks/bench_compile.py --out DIR --cases town,paper,run --variants base,staged,fastxla
+    python benchmarks/bench_compile.py --out DIR --cases town,paper,run \\
+        --variants base,staged,fastxla
 """
 
 from __future__ import annotations

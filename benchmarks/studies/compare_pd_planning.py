@@ -17,8 +17,10 @@ resumes (each study resumes chunk by chunk; a finished study is read back).
 
 Usage::
 
-    python benchmarks/studies/compare_pd_planning.py --trials 8 --steps 200 --chunk 8 --out /tmp/pd  # CPU
-    python benchmarks/studies/compare_pd_planning.py --trials 200 --chunk 200 --out runs/pd_planning  # GPU
+    python benchmarks/studies/compare_pd_planning.py --trials 8 --steps 200 --chunk 8 \\
+        --out /tmp/pd  # CPU
+    python benchmarks/studies/compare_pd_planning.py --trials 200 --chunk 200 \\
+        --out runs/pd_planning  # GPU
 """
 
 from __future__ import annotations

@@ -12,9 +12,11 @@ non-finite / not positive definite at some step) or *lost* otherwise (mirror loc
 an error beyond max(5 sigma, 50 m): docs/statistics.md). Prints one table and writes
 ``OUT.csv`` (one row per rerun trial). Usage::
 
-    python benchmarks/studies/rerun_lost.py STUDY_DIR --precision float64 --methods ccr-sfim,ccr-pfim \\
+    python benchmarks/studies/rerun_lost.py STUDY_DIR --precision float64 \\
+        --methods ccr-sfim,ccr-pfim \\
         --out runs/lost_f64
-    python benchmarks/studies/rerun_lost.py STUDY_DIR --ground-prior --methods ddr-sfim --out runs/gp
+    python benchmarks/studies/rerun_lost.py STUDY_DIR --ground-prior --methods ddr-sfim \\
+        --out runs/gp
 """
 
 from __future__ import annotations
