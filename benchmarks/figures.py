@@ -20,10 +20,10 @@ REPO = Path(__file__).resolve().parents[1]
 NUMBER = r"\d+(?:[.,]\d+)*"
 FIGURE = re.compile(
     rf"(?<![\w.]){NUMBER}(?:\s?[–-]\s?{NUMBER})?\s?"
-    r"(?:ms|s|min|GiB|MiB|GB|frames/s|[x×])(?![\w/])"
+    r"(?:ms|s|min|GiB|MiB|GB|frames/s|[x×](?!\s?\d))(?![\w/])"
 )
 TABLE = re.compile(r"<!-- table: [^>]*? -->\n.*?<!-- /table -->", re.S)
-CODE = re.compile(r"```.*?```|`[^`\n]*`", re.S)
+CODE = re.compile(r"```.*?```|`[^`]*`", re.S)
 #: model and scenario parameters and other figures that are not measurements
 PARAMETERS = {
     "25 ms", "100 ms", "1.5 s", "0.1 s", "2 s", "0.025 s", "1 s", "10 s", "15 s",

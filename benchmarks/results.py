@@ -79,25 +79,37 @@ def software() -> dict:
 
     try:
         commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-            cwd=RESULTS.parent, check=True,
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            cwd=RESULTS.parent,
+            check=True,
         ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         commit = None
     return {
-        "mjx_radar": version("mjx_radar"), "commit": commit, "jax": version("jax"),
-        "jaxlib": version("jaxlib"), "mujoco": version("mujoco"),
+        "mjx_radar": version("mjx_radar"),
+        "commit": commit,
+        "jax": version("jax"),
+        "jaxlib": version("jaxlib"),
+        "mujoco": version("mujoco"),
         "python": platform.python_version(),
     }
 
 
-def write_result(ident, title, command, hardware, columns, rows, notes=None, headline=None,
-                 root: Path = RESULTS) -> Path:
+def write_result(
+    ident, title, command, hardware, columns, rows, notes=None, headline=None, root: Path = RESULTS
+) -> Path:
     """Write ``root/<ident>.json`` atomically, with this process's software and today's date."""
     result = {
-        "id": ident, "title": title, "command": command, "hardware": hardware,
-        "software": software(), "date": datetime.date.today().isoformat(),
-        "columns": list(columns), "rows": [list(r) for r in rows],
+        "id": ident,
+        "title": title,
+        "command": command,
+        "hardware": hardware,
+        "software": software(),
+        "date": datetime.date.today().isoformat(),
+        "columns": list(columns),
+        "rows": [list(r) for r in rows],
     }
     if notes:
         result["notes"] = notes

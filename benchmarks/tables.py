@@ -69,8 +69,7 @@ def render(spec: str, results: dict[str, dict]) -> str:
             if "headline" not in r:
                 raise KeyError(f"{ident} has no headline")
             cmd = r["command"] if isinstance(r["command"], str) else r["command"][0] + " …"
-            rows.append([r["headline"]["what"], r["headline"]["figure"], r["hardware"],
-                         f"`{cmd}`"])
+            rows.append([r["headline"]["what"], r["headline"]["figure"], r["hardware"], f"`{cmd}`"])
         return "\n".join(table(["what", "figure", "hardware", "command"], rows)) + "\n"
     r = results[spec]
     return "\n".join(table(r["columns"], r["rows"]) + ["", source_line(r)]) + "\n"
