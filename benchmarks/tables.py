@@ -43,8 +43,8 @@ def command_text(result: dict) -> str:
 def source_line(result: dict) -> str:
     """Where a table's figures come from: the command, the hardware and the result file."""
     line = (
-        f"`{command_text(result)}` on {result['hardware']} "
-        f"(`benchmarks/results/{result['id']}.json`)."
+        f"Command: `{command_text(result)}`; hardware: {result['hardware']}; "
+        f"`benchmarks/results/{result['id']}.json`."
     )
     if result.get("notes"):
         line += f" {result['notes']}"
@@ -72,7 +72,8 @@ def render(spec: str, results: dict[str, dict]) -> str:
             rows.append([r["headline"]["what"], r["headline"]["figure"], r["hardware"], f"`{cmd}`"])
         return "\n".join(table(["what", "figure", "hardware", "command"], rows)) + "\n"
     r = results[spec]
-    return "\n".join(table(r["columns"], r["rows"]) + ["", source_line(r)]) + "\n"
+    lines = [f"**{r['title']}**", "", *table(r["columns"], r["rows"]), "", source_line(r)]
+    return "\n".join(lines) + "\n"
 
 
 def documents(repo: Path = REPO) -> list[Path]:

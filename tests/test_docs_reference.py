@@ -39,4 +39,5 @@ def test_the_pattern_catches_a_journal_line():
 def test_readme_is_a_short_guide():
     readme = (REPO / "README.md").read_text()
     assert len(readme.splitlines()) <= 200
+    assert len((REPO / "docs" / "scaling.md").read_text().splitlines()) <= 400
     assert (REPO / "CHANGELOG.md").read_text().startswith("# Changelog")
