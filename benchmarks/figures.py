@@ -26,7 +26,7 @@ TABLE = re.compile(r"<!-- table: [^>]*? -->\n.*?<!-- /table -->", re.S)
 CODE = re.compile(r"```.*?```|`[^`]*`", re.S)
 #: model and scenario parameters and other figures that are not measurements
 PARAMETERS = {
-    "25 ms", "100 ms", "1.5 s", "0.1 s", "2 s", "0.025 s", "1 s", "10 s", "15 s",
+    "25 ms", "100 ms", "1.5 s", "0.1 s", "2 s", "0.025 s", "1 s", "10 s", "15 s", "250 ms",
 }  # fmt: skip
 
 
