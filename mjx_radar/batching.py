@@ -8,7 +8,7 @@ mixes in something that is not: a zero initial factor filled from a batched matr
 radar state shared by all MPPI samples rolled out under each sample's controls, MPPI's
 placeholders for the iteration's samples. Loops nest (filter steps, MPPI iterations,
 rollouts, the PFIM recursion); marking them cut the first trace of the paper study's
-program by about 5-10 % (docs/scaling.md, tenth session). :func:`batched_like` marks
+program by about 5-10 % (docs/notes/scaling-history.md). :func:`batched_like` marks
 such a carry batched from the start, with its values unchanged.
 """
 

@@ -30,7 +30,7 @@ under its own ``jax.jit``) wraps the calls in ``with mjx_radar.precision.scope()
 (``estimation.pcrlb``) is numpy and needs nothing.
 
 A user must not change :data:`ESTIMATION`. :data:`PLANNER` may be relaxed if the GPU
-measurement (``scripts/check_precision.py``, ``scripts/bench_mppi.py``, docs/scaling.md)
+measurement (``benchmarks/check_precision.py``, ``benchmarks/bench_mppi.py``, docs/scaling.md)
 shows the planner keeps its results and gains time; ``tests/test_precision.py``
 checks both. The levels are read when a program is traced (set them before the first
 compilation of a process); they are part of the export-cache key.

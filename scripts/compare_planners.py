@@ -16,7 +16,7 @@ RMSE's median with its 90 % HDI (arviz), and the lost-trial rate::
         [--trials 500,200] [--method ddr-sfim] [--steps N] [--chunk 500]
 
 ``--trials`` gives one count per scenario (or one for all). The ms per control call
-comes from ``scripts/bench_planners.py`` (one call timed alone); ``scripts/plot_planners.py``
+comes from ``benchmarks/bench_planners.py`` (one call timed alone); ``benchmarks/plot_planners.py``
 draws the Pareto figure from both files. docs/planners.md says what was run and found.
 """
 

@@ -1,5 +1,5 @@
 #!/bin/bash
-# The paper's Monte Carlo study on a SLURM cluster (docs/scaling.md, "Many devices,
+# The paper's Monte Carlo study on a SLURM cluster (docs/scaling.md, "Studies over devices,
 # processes and hosts"). Both ways write chunk files to one shared study directory:
 #
 #   1. Array job, 4 independent tasks of one GPU each (`--shard I/N`), then a

@@ -26,7 +26,7 @@ def pytest_addoption(parser):
         metavar="PATH",
         help="append one JSON line per test to PATH: its wall seconds, JAX's compile "
         "counts and seconds in the test's process, its compilations of >= 1 s by name and "
-        "the closed-loop programs it compiled or loaded (scripts/bench_suite.py sums them)",
+        "the closed-loop programs it compiled or loaded (benchmarks/bench_suite.py sums them)",
     )
 
 

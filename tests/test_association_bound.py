@@ -1,4 +1,4 @@
-"""The association bound's hypothesis algebra (scripts/association_bound.py, issue 35)
+"""The association bound's hypothesis algebra (benchmarks/studies/association_bound.py, issue 35)
 against a plain enumeration of the joint hypotheses."""
 
 import importlib.util
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "association_bound.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "studies" / "association_bound.py"
 
 
 @pytest.fixture(scope="module")

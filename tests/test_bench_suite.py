@@ -1,4 +1,4 @@
-"""scripts/bench_suite.py: the suite's compile profile, summed by file and test."""
+"""benchmarks/bench_suite.py: the suite's compile profile, summed by file and test."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_suite", REPO / "scripts/bench_suite.py")
+    spec = importlib.util.spec_from_file_location("bench_suite", REPO / "benchmarks/bench_suite.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

@@ -179,11 +179,11 @@ def test_run_and_study_refuse_a_missing_policy_before_compiling(tmp_path):
 
 
 def test_keepout_stats_by_hand():
-    """scripts/keepout_stats.py's statistics on a hand-made two-trial case."""
+    """benchmarks/studies/keepout_stats.py's statistics on a hand-made two-trial case."""
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parent.parent / "scripts" / "keepout_stats.py"
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "studies" / "keepout_stats.py"
     spec = importlib.util.spec_from_file_location("keepout_stats_script", path)
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)

@@ -92,12 +92,12 @@ def test_managed_env_tracks_unknown_drones():
 
 
 def test_script_gospa_matches_brute_force():
-    """scripts/run_raid_managed.py's GOSPA (α = 2) against every assignment, by hand."""
+    """benchmarks/studies/run_raid_managed.py's GOSPA (α = 2) against every assignment, by hand."""
     import importlib.util
     import itertools
     from pathlib import Path
 
-    path = Path(__file__).parents[1] / "scripts" / "run_raid_managed.py"
+    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "run_raid_managed.py"
     spec = importlib.util.spec_from_file_location("run_raid_managed", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

@@ -97,6 +97,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         )
     p.add_argument("--force", action="store_true", help="overwrite a complete run in --out")
     p.add_argument(
+        "--verbose",
+        "-v",
+        action="store_true",
+        help="also print the final-step RMSE, control rate, GOSPA / OSPA and track continuity",
+    )
+    p.add_argument(
         "--keep-diverged",
         action="store_true",
         help="exit 0 (with a warning) even if some trials' filters diverged",

@@ -74,14 +74,29 @@ def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
 
 
 def summary(s, args, res, out: Path) -> None:
-    rmse = float(np.mean(res["rmse_pos"]))
-    print(
-        f"mean position RMSE {rmse:.3f} m (final step {np.mean(res['rmse_pos'][:, -1]):.3f} m), "
-        f"PCRLB {np.mean(res['crlb_pos']):.3f} m; control rate {res['control_hz']:.1f} Hz for "
-        f"the batch of {args.trials} (real time: {1 / s.timing.dt_control:g} Hz), "
-        f"compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
-        f"{int(np.asarray(res['lost']).any(axis=-1).sum())} of {args.trials} trial(s) lost track; "
-        f"{set_line(s, res)}; results in {out}"
+    """The run's summary: one short line; ``--verbose`` adds a line of further figures."""
+    print(summary_line(args, res, out))
+    if getattr(args, "verbose", False):
+        print(detail_line(s, args, res))
+
+
+def summary_line(args, res, out: Path) -> str:
+    """Mean position RMSE against the PCRLB, lost trials, times and the run directory."""
+    lost = int(np.asarray(res["lost"]).any(axis=-1).sum())
+    return (
+        f"mean position RMSE {float(np.mean(res['rmse_pos'])):.3f} m "
+        f"(PCRLB {np.mean(res['crlb_pos']):.3f} m); {lost} of {args.trials} trial(s) lost "
+        f"track; compile {res['compile_s']:.1f} s, simulation {res['sim_s']:.1f} s; "
+        f"results in {out}"
+    )
+
+
+def detail_line(s, args, res) -> str:
+    """``--verbose``: final-step RMSE, control rate, GOSPA / OSPA and track continuity."""
+    return (
+        f"final-step RMSE {np.mean(res['rmse_pos'][:, -1]):.3f} m; control rate "
+        f"{res['control_hz']:.1f} Hz for the batch of {args.trials} (real time: "
+        f"{1 / s.timing.dt_control:g} Hz); {set_line(s, res)}"
     )
 
 

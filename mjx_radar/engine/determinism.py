@@ -4,7 +4,7 @@ With XLA's default GPU settings a seed does not fix a run's numbers. XLA *autotu
 its GPU kernels at compile time, timing candidate implementations and keeping the
 fastest, so two cold compilations of one program can pick different kernels (XLA's
 ``docs/determinism.md``); and some kernels (scatter-adds, split reductions) use atomics,
-whose summation order varies from run to run. Measured on one H100 (docs/scaling.md,
+whose summation order varies from run to run. Measured on one H100 (docs/notes/scaling-history.md,
 "Deterministic kernels"): the same 250-trial DDR-PFIM run of ``paper_3r4t``, compiled
 cold twice with XLA's defaults, differed in 987 k of 3.15 M metric values (mean RMSE
 2.151 vs 2.160 m); with the flag two cold compilations gave identical numbers.

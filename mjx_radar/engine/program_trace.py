@@ -10,10 +10,10 @@ A device that runs one trial (``mjx-radar run``'s default, a study's ``--chunk 1
 the loop itself with a leading axis of one, not a ``vmap`` of size one: JAX traces a
 vmapped loop's bodies once and batches them a second time, and XLA then compiles batch
 dimensions of size one. The single-trial program traces in about a quarter less time
-and compiles about a tenth faster (docs/scaling.md). Like every batch size's program it
-has its own float32 round-off: a trial's numbers depend on the per-device batch size,
-never on its batch mates (docs/scaling.md, "Why the numbers do not depend on the device
-count").
+and compiles about a tenth faster (docs/notes/scaling-history.md). Like every batch
+size's program it has its own float32 round-off: a trial's numbers depend on the
+per-device batch size, never on its batch mates (docs/scaling.md, "Why the numbers do
+not depend on the device count").
 """
 
 from __future__ import annotations

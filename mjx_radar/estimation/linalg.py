@@ -89,7 +89,7 @@ def _unrolls() -> bool:
     """Whether small factorisations are unrolled: not on the CPU, whose backend compiles
     every unrolled column into kernels of its own (half of a closed-loop program's
     operations) while a loop costs nothing there; the programs compile 15-18 % faster with
-    the same numbers (docs/scaling.md, "Where the CPU compile goes")."""
+    the same numbers (docs/notes/scaling-history.md, "Where the CPU compile goes")."""
     return jax.default_backend() != "cpu"
 
 

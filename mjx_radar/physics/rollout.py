@@ -31,7 +31,7 @@ from mjx_radar.world import terrain as ground
 
 ROLLOUT_UNROLL: int = 1
 """Rollout steps per loop iteration of :func:`radar_rollout` (``lax.scan``'s ``unroll``).
-H100, ``scripts/bench_mppi.py --unroll 1,15``: with MJX's stages, unrolled 15 steps took
+H100, ``benchmarks/bench_mppi.py --unroll 1,15``: with MJX's stages, unrolled 15 steps took
 an SFIM MPPI call from 6.06 to 5.58 ms but its compilation from 12 to 30 s; benchmarks
 may change it."""
 

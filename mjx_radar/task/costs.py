@@ -116,7 +116,7 @@ def _pfim(h: Horizon, task, params) -> jax.Array:
     minor axis: point-major (``einsum("hpm,p->hm")``), XLA emitted it as one strided,
     transposing kernel that took 95% of a study chunk's MPPI call on an H100 (39 of
     42 ms per iteration at 250 trials x 200 samples: 209 ms per call, now 19 ms;
-    docs/scaling.md). CPU time unchanged."""
+    docs/notes/scaling-history.md). CPU time unchanged."""
     hh, p, m = h.target_points.shape[:3]
     j3 = _components(h, task, params, target_major=True)
     wp = jnp.full((p,), 1.0 / p, j3[0].dtype)

@@ -110,5 +110,5 @@ def _objective(task):
     # Traced once per program, inlined where it is called: MPPI calls it three times (the
     # aux shape, the vmapped samples, the plan of the mean); the later calls reuse the
     # cached jaxpr (vmap batches it, no Python). The same operations reach XLA, so the
-    # same numbers (docs/scaling.md, "Tracing the objective once").
+    # same numbers (docs/notes/scaling-history.md, "Tracing the objective once").
     return jax.jit(cost, inline=True)

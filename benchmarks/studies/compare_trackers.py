@@ -1,0 +1,127 @@
+"""Which association tracks the close drones in clutter: pda, jpda (exact, JPDA*, LBP), gnn.
+
+For each scenario (default ``clutter_3r4t``) and tracker variant, one resumable study
+(``mjx_radar.run_study``, common random numbers: the same trials, truth and detections
+for every variant) of the given methods. The variants are the scenario with
+``[tracker]`` changed::
+
+    known      detection.clutter_density = 0: the same detections, labelled (the
+               per-target bank's masked update: known association, docs/detection.md)
+    pda        association = "pda" (today's default)
+    jpda       association = "jpda", exact marginals (G = tracker.candidates)
+    jpda-star  jpda with jpda_star = true (Blom & Bloem's JPDA*)
+    jpda-lbp   jpda with marginals = "lbp" (loopy belief propagation)
+    jpda-ms    jpda with marginals = "multisensor" (radar tuples, all radars jointly)
+    gnn        association = "gnn"
+
+Prints one line per variant and method as each study finishes, and rewrites
+``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
+final-step and of the time-mean position RMSE, the summary's median RMSE, and the ratio of
+the median time-mean RMSE to the known-association run's). *Unmatched* is the label-free
+counterpart of lost: trials in which at some step a drone has no track within the GOSPA
+cutoff (50 m) under the best assignment of tracks to drones (``gospa_missed > 0``), so a
+trial whose tracks are good but swap labels is lost and not unmatched. A study already complete in
+``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
+
+    python benchmarks/studies/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
+        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn] [--methods ddr-sfim,stationary]
+        [--trials 200] [--steps 600] [--chunk 200]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+VARIANTS = {
+    "known": {"detection": {"clutter_density": 0.0}},
+    "pda": {"tracker": {"association": "pda"}},
+    "jpda": {"tracker": {"association": "jpda"}},
+    "jpda-star": {"tracker": {"association": "jpda", "jpda_star": True}},
+    "jpda-lbp": {"tracker": {"association": "jpda", "marginals": "lbp"}},
+    "jpda-ms": {"tracker": {"association": "jpda", "marginals": "multisensor"}},
+    "gnn": {"tracker": {"association": "gnn"}},
+}
+
+
+def variant(scenario, name: str):
+    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`)."""
+    return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **VARIANTS[name])
+
+
+def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
+    """Per method: lost trials, median final-step / time-mean RMSE over trials."""
+    last = metrics["step"].max()
+    out = []
+    for method, g in metrics.groupby("method"):
+        trial = g.groupby("trial").agg(
+            mean=("rmse_pos", "mean"), lost=("lost", "max"), far=("gospa_missed", "max")
+        )
+        final = g[g["step"] == last].set_index("trial")["rmse_pos"]
+        s = summary[summary["method"] == method].iloc[0]
+        out.append(
+            {
+                "method": method,
+                "trials": len(trial),
+                "lost_trials": int(trial["lost"].sum()),
+                "unmatched_trials": int((trial["far"] > 0).sum()),
+                "median_final_rmse": float(np.median(final)),
+                "median_trial_rmse": float(np.median(trial["mean"])),
+                "summary_median_rmse": float(s["median_rmse_pos"]),
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def main(argv=None) -> int:
+    import mjx_radar
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--scenarios", default="clutter_3r4t")
+    p.add_argument("--variants", default=",".join(VARIANTS))
+    p.add_argument("--methods", default="ddr-sfim,stationary")
+    p.add_argument("--trials", type=int, default=200)
+    p.add_argument("--steps", type=int, default=None)
+    p.add_argument("--chunk", type=int, default=200)
+    args = p.parse_args(argv)
+    unknown = set(args.variants.split(",")) - set(VARIANTS)
+    if unknown:
+        p.error(f"--variants: unknown {sorted(unknown)}; one of {', '.join(VARIANTS)}")
+    frames = []
+    for name in args.scenarios.split(","):
+        base = mjx_radar.load_scenario(name)
+        for v in args.variants.split(","):
+            out = args.out / name / v
+            study = mjx_radar.run_study(
+                variant(base, v),
+                methods=args.methods.split(","),
+                trials=args.trials,
+                chunk=min(args.chunk, args.trials),
+                out=out,
+                steps=args.steps,
+                resume=(out / "study.json").exists(),
+                progress=False,
+            )
+            frame = rows(study.metrics, study.summary())
+            frame.insert(0, "scenario", name)
+            frame.insert(1, "variant", v)
+            frames.append(frame)
+            table = pd.concat(frames, ignore_index=True)
+            known = table[table["variant"] == "known"].set_index(["scenario", "method"])
+            ref = table.set_index(["scenario", "method"]).index.map(
+                known["median_trial_rmse"].to_dict()
+            )
+            table["ratio_to_known"] = table["median_trial_rmse"] / np.asarray(ref, float)
+            table.to_csv(args.out / "trackers.csv", index=False)
+            print(frame.to_string(index=False, header=len(frames) == 1), flush=True)
+    print(table.to_string(index=False), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
