@@ -86,19 +86,3 @@ def test_refused_study_leaves_without_compiling_its_program(tmp_path):
     _, programs = _refused(tmp_path, command)
     assert list(programs.glob("loop-*.lock"))  # its program had started
     assert not list(programs.glob("exe-*.bin"))  # and was left unfinished
-
-
-def test_a_background_compilation_runs_at_a_lower_priority():
-    """Background programs yield the cores to the threads that drive the devices
-    (engine.threads.lower_priority): their nice value is raised, the caller's is not."""
-    import os
-    import threading
-
-    from mjx_radar.engine.threads import BACKGROUND_NICE, Started
-
-    def nice():
-        return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
-
-    before = nice()
-    assert Started(nice, background=True).result() == min(before + BACKGROUND_NICE, 19)
-    assert Started(nice).result() == before and nice() == before

@@ -108,7 +108,7 @@ def start(scenario, batch, periods, full, devices, kind, planner, masks) -> Pend
         return out, time.perf_counter() - t0
 
     drawn = trace_queue.QUEUE.drawn
-    started = Started(timed, name="programs", background=True)
+    started = Started(timed, name="programs")
     # its place in the tracing order is taken now (engine.trace_queue), not at the
     # thread's leisure: programs started one after the other trace in that order
     trace_queue.QUEUE.wait_drawn(drawn + 1, alive=started.running)

@@ -3,7 +3,6 @@ run side by side."""
 
 from __future__ import annotations
 
-import os
 import threading
 import weakref
 
@@ -14,20 +13,6 @@ _LIVE: weakref.WeakSet = weakref.WeakSet()  # the threads compile_thread made
 #: stack size of threads that compile (XLA's compiler recurses deeply on large programs;
 #: the default 8 MiB thread stack overflowed compiling a 2-GPU program)
 COMPILE_THREAD_STACK = 512 * 1024 * 1024
-#: nice value of background compilations (:class:`Started` with ``background``): tracing
-#: and XLA's compilation then yield the cores to the host threads that drive the devices
-#: (a GPU program's loops are driven by its host thread; docs/scaling.md)
-BACKGROUND_NICE = 10
-
-
-def lower_priority(nice: int = BACKGROUND_NICE) -> None:
-    """Raises the calling thread's nice value by ``nice`` (Linux: per thread; threads it
-    creates inherit it). Nothing where the platform has no per-thread priorities."""
-    try:
-        tid = threading.get_native_id()
-        os.setpriority(os.PRIO_PROCESS, tid, os.getpriority(os.PRIO_PROCESS, tid) + nice)
-    except (AttributeError, OSError):
-        pass
 
 
 def compile_thread(target, name: str = "compile"):
@@ -69,19 +54,14 @@ def busy() -> bool:
 class Started:
     """``fn()`` running in a :func:`compile_thread` from now on; :meth:`result` waits for it.
 
-    ``background``: the thread (and the threads it starts) runs at a lower priority
-    (:func:`lower_priority`).
-
     The caller waits in short slices, so Ctrl-C is honoured at once even while the
     thread sits in an XLA compilation that does not return to Python for minutes.
     """
 
-    def __init__(self, fn, name: str = "compile", background: bool = False):
+    def __init__(self, fn, name: str = "compile"):
         self._box: dict = {}
 
         def work():
-            if background:  # a compilation that the devices should not wait behind
-                lower_priority()
             try:
                 self._box["value"] = fn()
             except BaseException as err:  # noqa: BLE001 -- re-raised by result()

@@ -9,9 +9,7 @@ every segment dispatched before the one before it is read) and hands its arrays 
 host pool (:class:`mjx_radar.study.host_work.HostPool`), which computes the set metrics
 and writes the files while the lane runs its next chunk. No lane waits for another: the
 devices are never held in lockstep, chunks of different scenarios and methods run side
-by side, and the host never sits between a device and its next chunk. The programs
-compile at a lower priority (:func:`mjx_radar.engine.threads.lower_priority`), so the
-host threads driving the devices keep their cores.
+by side, and the host never sits between a device and its next chunk.
 
 Numbers: every device runs the same single-device program for its scenario shape on a
 chunk of ``chunk`` trials (the last one padded), so a trial's numbers do not depend on
