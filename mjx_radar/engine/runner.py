@@ -29,6 +29,7 @@ from jax.sharding import Mesh
 
 from mjx_radar.engine import device_programs as pending_programs
 from mjx_radar.engine.device_programs import PendingPrograms, device_programs
+from mjx_radar.engine.oom import oom_as_input_error
 from mjx_radar.engine.program_jobs import program_jobs, program_map, programs_needed
 from mjx_radar.engine.programs import (
     COMPILE_LOG,
@@ -98,6 +99,7 @@ def segment_periods(scenario: Scenario, steps: int, target_segments: int = 20) -
     return 1
 
 
+@oom_as_input_error
 def run_trials(
     scenario: Scenario,
     method,
@@ -156,7 +158,9 @@ def run_trials(
 
     Raises:
         InputError: a trial cannot place its radars (the initial conditions' own
-            ``placement_ok``, read before the first step; one line naming the fields).
+            ``placement_ok``, read before the first step; one line naming the fields);
+            XLA ran out of memory compiling or running the programs (one line naming
+            the batch and what to reduce, :func:`~mjx_radar.engine.oom.oom_line`).
     """
     every = scenario.timing.control_every
     method, args = _program_args(
