@@ -12,14 +12,15 @@ program (temporaries + arguments + outputs - donated aliases) and their ratio::
 With ``--peak`` every case runs in a process of its own (``--jobs`` at once), runs one
 segment after compiling and adds the device's ``peak_bytes_in_use``
 (``jax.Device.memory_stats()``; ``None`` on the CPU, where the process's peak RSS is
-given instead). The lead's GPU table (one H200, about 3 minutes)::
+given instead). The GPU table (every bundled scenario, ``run --method ddr-sfim``'s
+program at 64 trials; one H200, about 3-4 minutes)::
 
-    python scripts/measure_memory.py --kinds sfim+pfim+none --metrics-only --trials 64 \\
-        --peak --jobs 4 --json gpu_memory.json
+    python scripts/measure_memory.py --kinds sfim --trials 64 --peak --jobs 6 \\
+        --json gpu_memory.json
 
 ``--kinds sfim+pfim+none --metrics-only`` is a study's program (every built-in method
 of a shape in one program, metrics only). ``--structure`` and ``--rollouts`` override
-the scenarios' own. Rows print as they finish; ``--json`` writes them all at the end.
+the scenarios' own. Rows print as they finish; ``--json`` holds every row so far.
 """
 
 from __future__ import annotations
@@ -125,6 +126,15 @@ def _in_subprocess(case: tuple, a) -> dict:
     return json.loads(rows[-1])
 
 
+def _keep(rows: list, row: dict, path: str | None) -> None:
+    """Prints a row and rewrites the JSON file with every row so far (a run cut short
+    keeps what it measured)."""
+    rows.append(row)
+    print(json.dumps(row), flush=True)
+    if path:
+        Path(path).write_text(json.dumps(rows, indent=1))
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("scenarios", nargs="*", help="files or bundled names (default: all bundled)")
@@ -150,16 +160,12 @@ def main() -> int:
                 row = measure(path, kind, a.trials, a.steps, a.structure, a.rollouts, full, a.one)
             except Exception as err:  # noqa: BLE001 -- one row per case, the table goes on
                 row = {"scenario": path, "kind": kind, "error": f"{type(err).__name__}: {err}"}
-            rows.append(row)
-            print(json.dumps(row), flush=True)
+            _keep(rows, row, a.json)
     else:
         with ThreadPoolExecutor(max(1, a.jobs)) as pool:
             rows = []
             for row in pool.map(lambda c: _in_subprocess(c, a), cases):
-                rows.append(row)
-                print(json.dumps(row), flush=True)
-    if a.json:
-        Path(a.json).write_text(json.dumps(rows, indent=1))
+                _keep(rows, row, a.json)
     if not a.one:
         for r in rows:
             if "error" in r:

@@ -26,8 +26,8 @@ and ``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimut
   segments against each obstacle, ``T·S·H·N·M·(K·F + C)`` tests for ``K`` polyhedra
   of ``F`` planes (boxes 6, meshes their hull's) and ``C`` cylinders, 1 number each
   on a GPU, 4 on the CPU in a ``"all"`` program and none kept in a program of one kind;
-  the truth's line of sight in the loop ``7·N·M·(K·F + C)`` (and ``45·K·F + 16·C`` of
-  the occluders' geometry in the loop state);
+  the truth's line of sight in the loop ``6·N·M·(K·F + C)`` (and 270 numbers of each
+  mesh's geometry in the loop state, 20 of any other obstacle's);
 * MPPI sampling: the factored proposal draws ``e1 [S, S]`` per sub-iteration,
   ``6·T·S²·F`` (XLA asked for 24.0 TB at ``S = 10⁶``);
 * MJX rollouts (``mpc.rollout = "mjx"``): one ``mjx.Data`` per sample,
@@ -49,8 +49,8 @@ and ``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimut
 
 XLA's figure for a program is ``compiled.memory_analysis()`` of its step program:
 temporaries + arguments + outputs - donated aliases (``scripts/measure_memory.py``).
-The estimate / that figure lies in 0.86-1.14 for every bundled scenario x kind at 2
-trials on the CPU (jax 0.10.2; 0.94-1.03 for programs above 1 MB), the table of
+The estimate / that figure lies in 0.86-1.13 for every bundled scenario x kind at 2
+trials on the CPU (jax 0.10.2; 0.94-1.06 for programs above 1 MB), the table of
 ``tests/test_resources.py``, and in :data:`MEASURED_FACTOR` on its synthetic shapes
 and H100 figures.
 """
@@ -160,9 +160,9 @@ def device_terms(
         filt = 4 * d * d + m * (n * dim) ** 2 + 24 * z
         state = 16 * 36 * m + 4 * d * d
     if scenario.obstacles:  # the truth's line of sight in the loop, radar x target x face
-        planes, cylinders = occluder_counts(scenario.obstacles)
-        filt += 7 * n * m * (planes + cylinders)
-        state += 45 * planes + 16 * cylinders  # the occluders' geometry in the carry
+        filt += 6 * n * m * occluder_tests(scenario.obstacles)
+        meshes = sum(o.kind == "mesh" for o in scenario.obstacles)  # their geometry: carry
+        state += 270 * meshes + 20 * (len(scenario.obstacles) - meshes)
     clutter = bool(scenario.detection.clutter and scenario.detection.planner)
     every = scenario.timing.control_every
     k = segment_steps or every
@@ -192,16 +192,10 @@ def device_terms(
     return {k: int(v) for k, v in terms.items()}
 
 
+@functools.lru_cache(maxsize=64)
 def occluder_tests(obstacles: tuple) -> int:
     """Half-space and cylinder tests of one segment: ``K·F + C`` of the occluders."""
-    return sum(occluder_counts(obstacles))
-
-
-@functools.lru_cache(maxsize=64)
-def occluder_counts(obstacles: tuple) -> tuple[int, int]:
-    """``(K·F, C)``: the occluders' half-spaces (``K`` polyhedra of ``F`` planes) and
-    cylinders."""
     from mjx_radar.world.occlusion import occluders
 
     occ = occluders(obstacles)
-    return int(occ.planes.shape[0] * occ.planes.shape[1]), int(occ.cylinders.shape[0])
+    return int(occ.planes.shape[0] * occ.planes.shape[1] + occ.cylinders.shape[0])
