@@ -10,12 +10,15 @@ the host's kept trajectories: ``T·K·(3D + 6N + 22)`` plus ``T·C·(2N + 2HN + 
 32 kept MPPI samples; 12 metrics per step for a study), counted twice (per-segment
 chunks and their concatenation).
 
-A run is refused when the estimate exceeds the memory available: ``MemAvailable``
-of ``/proc/meminfo`` (``os.sysconf`` elsewhere) on the CPU, where device and host
-share it, and ``bytes_limit - bytes_in_use`` of ``jax.Device.memory_stats()`` on a
-GPU. The refusal names the dominant term and the change that shrinks it
-(``[filter] structure = "per-target"`` for the joint filter's expectations, fewer
-samples, a shorter horizon, fewer trials or a smaller ``--chunk``).
+A run is refused when the estimate of its program (per program kind: a ``stationary``
+run compiles no planner, a study's shared program every method's) exceeds the memory
+available (:mod:`mjx_radar.engine.memory_available`): ``MemAvailable`` on the CPU, where
+device and host share it, the device's free memory on a GPU, either capped by
+``$MJX_RADAR_MEMORY_LIMIT``. The refusal names the dominant term, the largest
+``--trials`` (``run``, ``simulate``) or ``--chunk`` (``study``) that fits, and the
+change that shrinks the term (``[filter] structure = "per-target"`` for the joint
+filter's expectations, fewer samples, a shorter horizon). XLA's own out-of-memory error,
+should it still come, is one line too (:mod:`mjx_radar.engine.oom`).
 
 Compile size: the packed Fisher information unrolls a loop over the N radars, the
 CKF and the objective unroll over the M targets, and the MJX model holds N bodies
