@@ -151,3 +151,24 @@ def test_host_pool_finishes_every_chunk_and_raises_a_failed_write(tmp_path):
 def test_covered_is_the_union_of_intervals():
     assert lanes._covered([(0, 1), (0.5, 2), (3, 4), (3.5, 3.7)]) == pytest.approx(3.0)
     assert lanes._covered([]) == 0.0
+
+
+def test_xla_out_of_memory_in_a_lane_is_one_line(study, monkeypatch):
+    """A chunk that runs out of device memory stops the study with one InputError line
+    naming the chunk size (engine.oom), never XLA's traceback."""
+    import jax
+
+    from mjx_radar.errors import InputError
+
+    todo, _, _, mesh = study
+
+    def exhausted(prog, scenario, method, seed, ids, steps, progress):
+        raise jax.errors.JaxRuntimeError("RESOURCE_EXHAUSTED: Out of memory allocating 9 bytes")
+
+    monkeypatch.setattr(device_lane, "run_on_device", exhausted)
+    args = SimpleNamespace(chunk=2, progress=False)
+    programs = schedule.start(todo, 4, mesh)
+    with pytest.raises(InputError) as err:
+        lanes.run_lanes(args, todo, mesh, driver.StudyTimes(), programs)
+    line = str(err.value)
+    assert "\n" not in line and "out of memory running 2 trial(s) per device" in line, line

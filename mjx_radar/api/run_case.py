@@ -261,7 +261,7 @@ def execute(
     deterministic = process_options(req)
     with precision_scope(req):
         if checks:
-            resources.check(req.scenario, len(req.trials), req.steps)
+            resources.check(req.scenario, len(req.trials), req.steps, kind=req.method.kind)
         programs = programs or start_programs(req, live)
         view = {} if live is None else live.runner_options()
         res = runner.run_trials(

@@ -1,41 +1,58 @@
 """Bytes of the large arrays of a compiled closed-loop program, measured against XLA.
 
 :func:`device_terms` sizes one segment program of ``T`` trials on one device
-(``F`` bytes per number: 4, or 8 with ``--precision float64``), with ``S`` MPPI
-samples, horizon ``H``, ``N`` radars, ``M`` targets, joint state ``D = 6M`` and
-``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimuth). ``P``
-is the number of cubature points per target in the planner's expectations: ``12M``
-for the joint filter (``[filter] structure = "joint"``: its points live in the
+(``F`` bytes per number: 4, or 8 with ``--precision float64``) and one *program kind*
+(what is compiled of the planner: ``"none"`` for ``stationary``, ``"sfim"`` or
+``"pfim"`` for a planning method, a study's ``"sfim+pfim+none"``, or ``"all"``), with
+``S`` MPPI samples, horizon ``H``, ``N`` radars, ``M`` targets, joint state ``D = 6M``
+and ``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimuth).
+``P`` is the number of cubature points per target in the planner's expectations:
+``12M`` for the joint filter (``[filter] structure = "joint"``: its points live in the
 6M-dimensional joint space) and ``12`` for the per-target bank.
 
 * planner expectations: the objective of every sample, horizon step, cubature point
   and target, ``T·S·H·P·M·A·F``, where XLA keeps ``A`` arrays of shape
-  ``[S, H, P·M]`` (the Fisher-information entries, log dets, keep-out counts,
-  per-radar geometry): ``A = 11 + dim·N/2`` on the CPU and ``8 + dim·N`` on a GPU.
-  Quadratic in ``M`` for the joint filter: 300 targets
-  give ``P·M = 1.08·10⁶`` points per sample and step, 26.8 GB at S = 64, H = 8
-  (XLA's request when such a run died), against 85 MB with the per-target bank;
+  ``[S, H, P·M]`` alive at once (:func:`objective_arrays`). The Fisher information is
+  accumulated radar by radar, and XLA keeps two arrays per radar (the pair's weight
+  ``w/r²`` and its product with the geometry; ``buffer-assignment`` of the CPU
+  program): ``A = 3 + 2N`` for SFIM, ``6.3 + 2N`` for PFIM on the CPU, ``+5N`` when the
+  planner weighs the information by detection with clutter; a program joining both
+  under ``lax.cond`` (kind ``"all"``) fuses them, ``11.3 + N/2``. On a GPU ``2 + 1.5N``
+  for SFIM (the 110 GiB that 16 trials of the joint swarm_32r32t asked of an H200) and
+  ``6 + N`` joined. Quadratic in ``M`` for the joint filter: swarm_32r32t (``P·M =
+  12 288``) keeps 65 arrays of 147 MB, 9.9 GB a trial on the CPU, against 0.3 GB with
+  the per-target bank (``P·M = 384``);
 * line of sight (scenes with obstacles): the planner tests every sample's radar-target
   segments against each obstacle, ``T·S·H·N·M·(K·F + C)`` tests for ``K`` polyhedra
-  of ``F`` planes (boxes 6, meshes their hull's) and ``C`` cylinders, 4 numbers each
-  on the CPU, 1 on a GPU (city_4r4t: 96 planes, 64 MB a trial; forest_4r4t: 150 trees);
+  of ``F`` planes (boxes 6, meshes their hull's) and ``C`` cylinders, 1 number each
+  on a GPU, 4 on the CPU in a ``"all"`` program and none kept in a program of one kind;
+  the truth's line of sight in the loop ``6·N·M·(K·F + C)`` (and 270 numbers of each
+  mesh's geometry in the loop state, 20 of any other obstacle's);
 * MPPI sampling: the factored proposal draws ``e1 [S, S]`` per sub-iteration,
   ``6·T·S²·F`` (XLA asked for 24.0 TB at ``S = 10⁶``);
 * MJX rollouts (``mpc.rollout = "mjx"``): one ``mjx.Data`` per sample,
-  ``T·S·(400·(N + 1) + 50·obstacles)·F``;
+  ``T·S·(400·(N + 1) + 50·obstacles)·F``; on the CPU no longer alive when the joint
+  filter's expectations are, nor the obstacles' part in a program of one kind;
 * filter: joint CKF: covariance, square root and gain work ``8·D²``, the 2D cubature
-  points over the horizon ``2H·D²``, measurement-space arrays (predicted
-  measurements ``[2D, Z]``, cross covariance ``[D, Z]``: ``4·D·Z``) and the innovation
-  covariance with its Cholesky work ``7·Z²``; per-target bank: the joint covariance
-  kept between steps ``6·D²`` plus ``M`` small filters ``7·M·(N·dim)² + 24·Z + 72·H·M``.
+  points over the horizon ``2H·D²`` (a planning kind), measurement-space arrays
+  (predicted measurements ``[2D, Z]``, cross covariance ``[D, Z]``: ``4·D·Z``) and the
+  innovation covariance with its Cholesky work ``7·Z²`` (``9·D² + 5·Z²`` in all without
+  a planner); per-target bank: the joint
+  covariance kept between steps ``6·D²`` plus ``M`` small filters ``7·M·(N·dim)² +
+  24·Z + 72·H·M`` (``4·D² + M·(N·dim)² + 24·Z`` without a planner);
+* loop state: the carry (joint ``4·D² + 120·D``, bank ``576·M + 4·D²``, the
+  ``2·32·H·N`` kept MPPI samples, 2500 numbers of keys, clocks and small arrays), a
+  segment's records (``run``: ``3D + 6N + 22`` numbers a filter step and
+  ``2(N + HN + 32·HN + 32)`` a control step; a study: ``8M + 12`` a step) and the task's
+  parameters (with ``[[target_motion]]`` the motion tables of the file's ``K`` steps,
+  ``(9K + 7)·M``, for all trials): the whole program of ``stationary``.
 
 XLA's figure for a program is ``compiled.memory_analysis()`` of its step program:
 temporaries + arguments + outputs - donated aliases (``scripts/measure_memory.py``).
-The estimate / that figure lies in :data:`MEASURED_FACTOR` on every shape of
-``tests/test_resources.py``: 0.91-1.27 on 21 CPU shapes (joint and per-target, 2 to
-300 targets, 2 to 48 radars, MJX and analytic rollouts, boxes, meshes and trees,
-azimuth), 1.02-1.32 for the bundled scenarios at study sizes (1 to 500 trials per
-device) on an H100; 1.6 for the 0.7 MB smoke program, which the GPU fuses more tightly.
+The estimate / that figure lies in 0.86-1.13 for every bundled scenario x kind at 2
+trials on the CPU (jax 0.10.2; 0.94-1.06 for programs above 1 MB), the table of
+``tests/test_resources.py``, and in :data:`MEASURED_FACTOR` on its synthetic shapes
+and H100 figures.
 """
 
 from __future__ import annotations
@@ -44,9 +61,16 @@ import functools
 
 from mjx_radar.scenario.schema import Scenario
 
+KEEP = 32  # MPPI samples kept per control step (closed_loop.N_KEEP_SAMPLES)
+#: numbers per line-of-sight test kept at once, {(platform, kind "all"): numbers}: a
+#: program of one information kind computes them apart from the objective's arrays on
+#: the CPU (none kept); one that joins both under ``lax.cond`` keeps them
+LOS_NUMBERS = {("cpu", False): 0, ("cpu", True): 4, ("gpu", False): 1, ("gpu", True): 1}
 FLOAT = 4  # bytes (float32; 8 with --precision float64, see :func:`float_bytes`)
 #: estimate / XLA's figure for the step program on the shapes of tests/test_resources.py
-MEASURED_FACTOR = (0.85, 1.5)
+MEASURED_FACTOR = (0.8, 1.35)
+#: ... for every bundled scenario x program kind (the goal: within 25 %)
+BUNDLED_FACTOR = (0.75, 1.25)
 
 
 def float_bytes() -> int:
@@ -56,18 +80,65 @@ def float_bytes() -> int:
     return 8 if jax.config.jax_enable_x64 else FLOAT
 
 
-def device_terms(scenario: Scenario, trials: int, platform: str = "cpu") -> dict:
+#: arrays ``[S, H, P·M]`` of a trial that XLA keeps at once in the planner's expectations,
+#: ``a + b·N`` per information kind and platform (``N`` radars; module docstring)
+OBJECTIVE_ARRAYS = {
+    ("cpu", "sfim"): (3.0, 2.0),
+    ("cpu", "pfim"): (6.3, 2.0),
+    ("gpu", "sfim"): (2.0, 1.5),
+    ("gpu", "pfim"): (5.0, 1.5),
+}
+#: the same for a program that joins both informations under ``lax.cond`` (kind "all"):
+#: XLA then fuses the per-radar terms
+JOINED_ARRAYS = {"cpu": (11.3, 0.5), "gpu": (6.0, 1.0)}
+#: extra arrays per radar when the planner weighs the information by the detection
+#: probability with clutter (the PDA planner factor, ``[detection] planner = true``)
+CLUTTER_ARRAYS = 5.0
+
+
+def objective_arrays(kind: str, n: int, platform: str, clutter: bool = False) -> float:
+    """Arrays ``[S, H, P·M]`` per trial of the planner's expectations of a program kind.
+
+    ``"none"`` compiles no planner (0). A kind of several informations joined by a
+    runtime switch holds the larger of its branches; ``"all"`` (``lax.cond`` on the
+    method's flags) fuses more (:data:`JOINED_ARRAYS`).
+    """
+    plat = "gpu" if platform == "gpu" else "cpu"
+    infos = [k for k in kind.split("+") if k in ("sfim", "pfim")]
+    if kind == "all":
+        a, b = JOINED_ARRAYS[plat]
+    elif infos:
+        a, b = max(OBJECTIVE_ARRAYS[(plat, k)] for k in infos)
+    else:
+        return 0.0
+    return a + b * n + (CLUTTER_ARRAYS * n if clutter else 0.0)
+
+
+def device_terms(
+    scenario: Scenario,
+    trials: int,
+    platform: str = "cpu",
+    kind: str = "all",
+    full: bool = True,
+    segment_steps: int | None = None,
+) -> dict:
     """Bytes of the large arrays of one program of ``trials`` trials on one device.
 
     Args:
         scenario: the scenario (N, M, S, H, filter structure, measurement model,
-            obstacles, rollout kind).
+            obstacles, rollout kind, detection).
         trials: T, trials per device.
         platform: ``"cpu"`` or ``"gpu"`` (``jax.Device.platform``): XLA keeps a
             different number of the objective's arrays on each (module docstring).
+        kind: the program kind (:data:`mjx_radar.task.method.PROGRAM_KINDS`): what is
+            compiled of the planner (``"none"``: nothing).
+        full: the program returns trajectories (``run``) or only metrics (``study``).
+        segment_steps: filter steps of one segment program (its records); default one
+            control period.
 
     Returns:
-        ``{"planner expectations", "MPPI sampling", "filter"[, "MJX rollouts"]: bytes}``.
+        ``{"planner expectations", "MPPI sampling", "filter", "loop state"[, "MJX
+        rollouts", "line of sight"]: bytes}`` (no planner terms for kind ``"none"``).
     """
     n, m = scenario.n_radars, scenario.n_targets
     s, h = scenario.mppi.samples, scenario.mpc.horizon
@@ -75,24 +146,49 @@ def device_terms(scenario: Scenario, trials: int, platform: str = "cpu") -> dict
     joint = scenario.filter.structure == "joint"
     d, z = 6 * m, n * m * dim
     p = 12 * m if joint else 12  # cubature points per target in the expectations
-    if joint:
+    plans = kind != "none"  # the planner's context: the cubature points over the horizon
+    if joint and plans:
         filt = 8 * d * d + 2 * h * d * d + 4 * d * z + 7 * z * z
-    else:
+        state = 4 * d * d + 120 * d
+    elif joint:
+        filt = 9 * d * d + 5 * z * z
+        state = 4 * d * d + 120 * d
+    elif plans:
         filt = 6 * d * d + 7 * m * (n * dim) ** 2 + 24 * z + 72 * h * m
-    gpu = platform == "gpu"
-    arrays = 8 + dim * n if gpu else 11 + dim * n / 2
+        state = 16 * 36 * m + 4 * d * d
+    else:
+        filt = 4 * d * d + m * (n * dim) ** 2 + 24 * z
+        state = 16 * 36 * m + 4 * d * d
+    if scenario.obstacles:  # the truth's line of sight in the loop, radar x target x face
+        filt += 6 * n * m * occluder_tests(scenario.obstacles)
+        meshes = sum(o.kind == "mesh" for o in scenario.obstacles)  # their geometry: carry
+        state += 270 * meshes + 20 * (len(scenario.obstacles) - meshes)
+    clutter = bool(scenario.detection.clutter and scenario.detection.planner)
+    every = scenario.timing.control_every
+    k = segment_steps or every
+    if full:
+        state += k * (3 * d + 6 * n + 22) + (k // every) * 2 * (n + h * n + KEEP * h * n + KEEP)
+    else:
+        state += k * (8 * m + 12)
+    state += 2 * KEEP * h * n + 2500  # the kept MPPI samples; keys, clocks, small arrays
     f = float_bytes()
-    terms = {
-        "planner expectations": trials * s * h * (p * m * arrays + 8 * n) * f,
-        "MPPI sampling": 6 * trials * s * s * f,
-        "filter": trials * filt * f,
-    }
-    if scenario.obstacles:
-        tests = s * h * n * m * occluder_tests(scenario.obstacles)
-        terms["line of sight"] = trials * tests * (1 if gpu else 4) * f
-    if scenario.mpc.rollout == "mjx":
-        n_obs = len(scenario.obstacles)
-        terms["MJX rollouts"] = trials * s * (400 * (n + 1) + 50 * n_obs) * f
+    terms = {"filter": trials * filt * f, "loop state": trials * state * f}
+    if scenario.target_motion:  # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
+        terms["loop state"] += (9 * scenario.timing.steps + 7) * m * f
+    arrays = objective_arrays(kind, n, platform, clutter)
+    if arrays:
+        terms["planner expectations"] = trials * s * h * (p * m * arrays + 8 * n) * f
+        terms["MPPI sampling"] = 6 * trials * s * s * f
+        gpu = platform == "gpu"
+        los = LOS_NUMBERS[("gpu" if gpu else "cpu", kind == "all")]
+        if scenario.obstacles and los:
+            tests = s * h * n * m * occluder_tests(scenario.obstacles)
+            terms["line of sight"] = trials * tests * los * f
+        # the rollouts' mjx.Data: on the CPU no longer alive beside the joint filter's
+        # (larger) expectations, nor are the obstacles' beside one information kind's
+        if scenario.mpc.rollout == "mjx" and (gpu or not joint or kind == "all"):
+            n_obs = len(scenario.obstacles) if gpu or kind == "all" else 0
+            terms["MJX rollouts"] = trials * s * (400 * (n + 1) + 50 * n_obs) * f
     return {k: int(v) for k, v in terms.items()}
 
 

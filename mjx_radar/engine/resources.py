@@ -10,12 +10,15 @@ the host's kept trajectories: ``T·K·(3D + 6N + 22)`` plus ``T·C·(2N + 2HN + 
 32 kept MPPI samples; 12 metrics per step for a study), counted twice (per-segment
 chunks and their concatenation).
 
-A run is refused when the estimate exceeds the memory available: ``MemAvailable``
-of ``/proc/meminfo`` (``os.sysconf`` elsewhere) on the CPU, where device and host
-share it, and ``bytes_limit - bytes_in_use`` of ``jax.Device.memory_stats()`` on a
-GPU. The refusal names the dominant term and the change that shrinks it
-(``[filter] structure = "per-target"`` for the joint filter's expectations, fewer
-samples, a shorter horizon, fewer trials or a smaller ``--chunk``).
+A run is refused when the estimate of its program (per program kind: a ``stationary``
+run compiles no planner, a study's shared program every method's) exceeds the memory
+available (:mod:`mjx_radar.engine.memory_available`): ``MemAvailable`` on the CPU, where
+device and host share it, the device's free memory on a GPU, either capped by
+``$MJX_RADAR_MEMORY_LIMIT``. The refusal names the dominant term, the largest
+``--trials`` (``run``, ``simulate``) or ``--chunk`` (``study``) that fits, and the
+change that shrinks the term (``[filter] structure = "per-target"`` for the joint
+filter's expectations, fewer samples, a shorter horizon). XLA's own out-of-memory error,
+should it still come, is one line too (:mod:`mjx_radar.engine.oom`).
 
 Compile size: the packed Fisher information unrolls a loop over the N radars, the
 CKF and the objective unroll over the M targets, and the MJX model holds N bodies
@@ -29,9 +32,17 @@ CPU host, on the high side); it is printed so a long compile does not look like 
 from __future__ import annotations
 
 import dataclasses
-import os
 
 from mjx_radar.engine import memory_model
+from mjx_radar.engine.memory_available import (  # noqa: F401 (LIMIT_ENV, the GPU setting)
+    LIMIT_ENV,
+    allocate_gpu_memory_on_demand,
+    capped,
+    host_available,
+    memory_limit,
+)
+from mjx_radar.engine.memory_available import device_available as _device_available
+from mjx_radar.engine.memory_available import platform as _platform
 from mjx_radar.engine.memory_model import FLOAT, MEASURED_FACTOR, float_bytes  # noqa: F401
 from mjx_radar.errors import InputError
 from mjx_radar.scenario.schema import Scenario
@@ -85,13 +96,26 @@ class Estimate:
         )
 
 
-def device_terms(scenario: Scenario, trials: int, platform: str | None = None) -> dict:
+def device_terms(
+    scenario: Scenario,
+    trials: int,
+    platform: str | None = None,
+    kind: str = "all",
+    full: bool = True,
+    segment_steps: int | None = None,
+) -> dict:
     """:func:`memory_model.device_terms` on ``platform`` (default: this process's device)."""
-    return memory_model.device_terms(scenario, trials, platform or _platform())
+    plat = platform or _platform()
+    return memory_model.device_terms(scenario, trials, plat, kind, full, segment_steps)
 
 
 def estimate(
-    scenario: Scenario, trials: int, steps: int, devices: int = 1, full: bool = True
+    scenario: Scenario,
+    trials: int,
+    steps: int,
+    devices: int = 1,
+    full: bool = True,
+    kind: str = "all",
 ) -> Estimate:
     """Memory and compile size of ``trials`` closed-loop trials of ``steps`` filter steps.
 
@@ -101,6 +125,8 @@ def estimate(
         steps: K filter steps.
         devices: number of devices the batch is sharded over.
         full: trajectories are kept (``run``); False: only the metrics (``study``).
+        kind: the program kind (:data:`mjx_radar.task.method.PROGRAM_KINDS`): ``"none"``
+            compiles no planner, a study's shared program every method's.
 
     Returns:
         The :class:`Estimate` (available memory queried from this machine).
@@ -109,7 +135,11 @@ def estimate(
     h, d = scenario.mpc.horizon, 6 * scenario.n_targets
     c = steps // scenario.timing.control_every
     n_obs = len(scenario.obstacles)
-    device = device_terms(scenario, -(-trials // max(1, devices)))
+    from mjx_radar.engine.runner import segment_periods  # the runner's segments
+
+    seg = segment_periods(scenario, steps) * scenario.timing.control_every
+    per_device = -(-trials // max(1, devices))
+    device = device_terms(scenario, per_device, kind=kind, full=full, segment_steps=seg)
     per_step = 3 * d + 6 * n + 22 if full else 12
     per_control = 2 * n + 2 * h * n + 2 * KEEP * h * n + 2 * KEEP if full else 0
     traj = 2 * trials * (steps * per_step + c * per_control) * float_bytes()
@@ -118,6 +148,7 @@ def estimate(
     host_avail = host_available()
     if shared:
         dev_avail = host_avail
+    dev_avail, host_avail = capped(dev_avail), capped(host_avail)
     # Rough linear fit of the compile time [s] in the program's unrolled size. Measured on
     # the 2-core CPU with the fused physics step (issue 27): smoke (size 4.2) 9.6-11.5 s,
     # paper_3r4t (7.6) 10.4 s, swarm_8r8t (19.2) 13.0 s; MJX and analytic rollouts now
@@ -138,34 +169,62 @@ def check(
     *,
     full: bool = True,
     batch_option: str = "--trials",
+    kind: str = "all",
 ) -> Estimate:
     """:func:`estimate`, refusing a run whose arrays cannot fit in the available memory.
 
     Args:
-        scenario, trials, steps, devices, full: as :func:`estimate`.
+        scenario, trials, steps, devices, full, kind: as :func:`estimate`.
         batch_option: the option that sets the batch, named in the refusal
             (``"--trials"``, or ``"--chunk"``: trials per device).
 
     Raises:
-        InputError: one line naming the dominant term, its size, the memory available
-            and the change that shrinks it.
+        InputError: one line naming the dominant term, its size, the memory available,
+            the largest ``batch_option`` that fits and the change that shrinks the term.
     """
-    est = estimate(scenario, trials, steps, devices, full)
+    est = estimate(scenario, trials, steps, devices, full, kind)
     need = est.device | est.host if est.shared else est.device
     avail = est.host_available if est.shared else est.device_available
     where = "in host RAM" if est.shared else "on the device"
-    batch = f"{batch_option} {-(-trials // devices) if batch_option == '--chunk' else trials}"
-    _refuse_if(scenario, batch, need, avail, where)
-    if not est.shared:
-        _refuse_if(scenario, batch, est.host, est.host_available, "in host RAM")
+    per_call = -(-trials // devices) if batch_option == "--chunk" else trials
+
+    def fits(batch: int) -> bool:  # the batch in batch_option's unit
+        t = batch * devices if batch_option == "--chunk" else batch
+        e = estimate(scenario, t, steps, devices, full, kind)
+        ok = _fits(e.device | e.host if e.shared else e.device, avail)
+        return ok and (e.shared or _fits(e.host, e.host_available))
+
+    batch = f"{batch_option} {per_call}"
+    if not _fits(need, avail):
+        _refuse(scenario, batch, need, avail, where, _largest(fits, per_call), kind)
+    if not est.shared and not _fits(est.host, est.host_available):
+        fit = _largest(fits, per_call)
+        _refuse(scenario, batch, est.host, est.host_available, "in host RAM", fit, kind)
     return est
 
 
-def _refuse_if(scenario: Scenario, batch: str, need: dict, avail: int | None, where: str):
-    if avail is None or sum(need.values()) <= avail:
-        return
+def _fits(need: dict, avail: int | None) -> bool:
+    return avail is None or sum(need.values()) <= avail
+
+
+def _largest(fits, below: int) -> int:
+    """The largest batch ``< below`` with ``fits(batch)`` (memory grows with the batch),
+    0 if not even one trial fits."""
+    lo, hi = 0, below  # fits(lo) (0: vacuously), not fits(hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+    return lo
+
+
+def _refuse(scenario, batch: str, need: dict, avail: int, where: str, fit: int, kind: str):
     term = max(need, key=need.get)
-    what, fix = _advice(scenario, term, batch, need[term])
+    what, fix = _advice(scenario, term, batch, need[term], kind)
+    option = batch.split()[0]
+    if fit:
+        fix = f"{option} {fit} fits; or {fix}"
+    else:
+        fix = f"not even {option} 1 fits: {fix.replace(f' or {option}', '')}"
     verb = "need" if term.endswith("s") else "needs"
     raise InputError(
         f"{scenario.name}: {what}: the {term} {verb} ~{fmt_bytes(need[term])} (all arrays "
@@ -174,7 +233,7 @@ def _refuse_if(scenario: Scenario, batch: str, need: dict, avail: int | None, wh
     )
 
 
-def _advice(scenario: Scenario, term: str, batch: str, size: int) -> tuple[str, str]:
+def _advice(scenario: Scenario, term: str, batch: str, size: int, kind: str) -> tuple[str, str]:
     """``(the settings behind term, the change that shrinks it)`` for a refusal line."""
     s, h, m = scenario.mppi.samples, scenario.mpc.horizon, scenario.n_targets
     joint = scenario.filter.structure == "joint"
@@ -190,7 +249,9 @@ def _advice(scenario: Scenario, term: str, batch: str, size: int) -> tuple[str, 
             alt = dataclasses.replace(
                 scenario, filter=dataclasses.replace(scenario.filter, structure="per-target")
             )
-            ratio = device_terms(alt, 1)[term] / device_terms(scenario, 1)[term]
+            ratio = (
+                device_terms(alt, 1, kind=kind)[term] / device_terms(scenario, 1, kind=kind)[term]
+            )
             fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
         return what, fix
     if term == "filter":
@@ -216,56 +277,3 @@ def fmt_bytes(b: float) -> str:
             return f"{b:.0f} {unit}" if unit == "B" else f"{b:.1f} {unit}"
         b /= 1024
     return f"{b:.1f} TiB"
-
-
-def host_available() -> int | None:
-    """Free host memory [bytes]: ``MemAvailable`` of ``/proc/meminfo``, else ``os.sysconf``."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def _platform() -> str:
-    """``"cpu"`` or ``"gpu"`` (``jax.Device.platform``) of this process's first device."""
-    import jax
-
-    return jax.local_devices()[0].platform
-
-
-def _device_available() -> tuple[bool, int | None]:
-    """``(shared with the host, free bytes on this process's first device or None)``."""
-    import jax
-
-    dev = jax.local_devices()[0]  # under jax.distributed, devices()[0] is process 0's
-    if dev.platform == "cpu":
-        return True, None
-    try:
-        stats = dev.memory_stats() or {}
-    except Exception:  # backends without memory statistics
-        return False, None
-    if "bytes_limit" not in stats:
-        return False, None
-    return False, int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
-
-
-def allocate_gpu_memory_on_demand() -> None:
-    """Asks JAX to take GPU memory as a run needs it instead of reserving 75 % of the
-    device at its first transfer (``XLA_PYTHON_CLIENT_PREALLOCATE=false``, before JAX
-    starts its backend), unless the user set that variable.
-
-    The reservation took about 1 s of every ``mjx-radar run`` on an H100 before any work,
-    and a warm run loads its programs in the background meanwhile waited for it (paper_3r4t,
-    600 steps: 7.0-7.8 s -> 5.4-5.6 s; the same numbers). The device's limit
-    (``bytes_limit`` of ``memory_stats``, which :func:`check` compares the estimate with)
-    is the same either way; what JAX gives up is the protection against fragmentation of
-    one large block, which the loop's fixed-size buffers do not need.
-    """
-    os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")

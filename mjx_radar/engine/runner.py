@@ -29,6 +29,7 @@ from jax.sharding import Mesh
 from mjx_radar.engine import device_programs as pending_programs
 from mjx_radar.engine.device_lane import DeviceBatch, run_batches, segment_periods
 from mjx_radar.engine.device_programs import PendingPrograms, device_programs
+from mjx_radar.engine.oom import oom_as_input_error
 from mjx_radar.engine.program_jobs import program_jobs, program_map, programs_needed
 from mjx_radar.engine.programs import (
     COMPILE_LOG,
@@ -90,6 +91,7 @@ def program_log(since: int = 0) -> list[dict]:
     ]
 
 
+@oom_as_input_error
 def run_trials(
     scenario: Scenario,
     method,
@@ -149,7 +151,9 @@ def run_trials(
 
     Raises:
         InputError: a trial cannot place its radars (the initial conditions' own
-            ``placement_ok``, read before the first step; one line naming the fields).
+            ``placement_ok``, read before the first step; one line naming the fields);
+            XLA ran out of memory compiling or running the programs (one line naming
+            the batch and what to reduce, :func:`~mjx_radar.engine.oom.oom_line`).
     """
     every = scenario.timing.control_every
     method, args = _program_args(

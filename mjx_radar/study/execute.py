@@ -145,13 +145,19 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     from mjx_radar.engine.placement_cache import check_placeable
     from mjx_radar.study import chunks as chunks_of
     from mjx_radar.study import consolidate, driver, lanes, schedule
+    from mjx_radar.task.params import shape_key
 
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining, joining)
     mesh = runner.device_mesh()
     n_dev, devices = mesh.size, str(list(mesh.devices.flat))
-    for s, _, n_steps, _ in scenarios:  # refuse what cannot fit before writing anything
-        resources.check(s, args.chunk * n_dev, n_steps, n_dev, full=False, batch_option="--chunk")
+    # refuse what cannot fit before writing anything, for each program of each shape
+    programs = runner.program_map([(s, m) for s, *_ in scenarios for m in args.methods])
+    for s, _, n_steps, _ in scenarios:
+        shape = shape_key(s)
+        for kind in sorted({k for (sh, _), (k, _) in programs.items() if sh == shape}):
+            opts = {"full": False, "batch_option": "--chunk", "kind": kind}
+            resources.check(s, args.chunk * n_dev, n_steps, n_dev, **opts)
     chunks = chunks_of.all_chunks(scenarios, args.methods, args.trials, args.chunk, args.out)
     todo = [c for c in worker.mine(chunks) if not c.path.exists()]
     stream = None  # metrics.parquet written while the chunks run (study.consolidate)

@@ -134,7 +134,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
             n = c.last - c.first + 1
             key = program_key(c, started.programs)
             t_ask = time.perf_counter()
-            prog = started.pending[key].device(d)  # the others' may still be loading
+            prog = _guard_oom(c, args.chunk, started.pending[key].device, d)
             t_run = time.perf_counter()
 
             def progress(k, n=n):
@@ -144,7 +144,8 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
 
             block = np.arange(c.first, c.last + 1)
             ids = np.concatenate([block, np.full(args.chunk - n, c.last)])
-            res = run_on_device(prog, c.scenario, c.method, c.seed, ids, c.steps, progress)
+            run = (prog, c.scenario, c.method, c.seed, ids, c.steps, progress)
+            res = _guard_oom(c, args.chunk, run_on_device, *run)
             t_end = time.perf_counter()
             s = c.scenario
             cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
@@ -215,3 +216,17 @@ def _account(times, started, timeline, pool, t_sim_end: float) -> dict:
 
 def _rounded(entry: dict) -> dict:
     return {k: round(v, 3) if isinstance(v, float) else v for k, v in entry.items()}
+
+
+def _guard_oom(chunk, per_device: int, fn, *args):
+    """``fn(*args)``; XLA running out of memory (compiling or running ``chunk``) becomes one
+    :class:`~mjx_radar.errors.InputError` line (:mod:`mjx_radar.engine.oom`)."""
+    from mjx_radar.engine.oom import oom_line, out_of_memory
+    from mjx_radar.errors import InputError
+
+    try:
+        return fn(*args)
+    except Exception as err:
+        if not out_of_memory(err):
+            raise
+        raise InputError(oom_line(chunk.scenario, per_device, err)) from None
