@@ -136,12 +136,20 @@ class Registry:
         if isinstance(name, str) and ":" in name:
             base, _, arg = name.partition(":")
             base = base.lower()
-            obj = self.get(base)
+            obj = self._entry(base)
             if not getattr(obj, "takes_argument", False):
                 raise ValueError(f"{self.kind} {name!r}: {base!r} takes no ':ARGUMENT'")
             if not arg:
                 raise ValueError(f"{self.kind} {name!r}: give {base}:ARGUMENT")
             return functools.partial(obj, argument=arg)
+        obj = self._entry(name)
+        if getattr(obj, "takes_argument", False):
+            arg = getattr(obj, "argument_name", "ARGUMENT")
+            raise ValueError(f"{self.kind} {name!r}: give {name}:{arg}")
+        return obj
+
+    def _entry(self, name: str) -> Any:
+        """The entry called ``name`` itself (one-line ``ValueError`` if unknown)."""
         if isinstance(name, str):
             name = name.lower()  # names are case-insensitive
             if name in self._user:
@@ -185,7 +193,7 @@ class Registry:
         for n in names or ():  # "name:ARGUMENT": what the argument names (a file's digest)
             if isinstance(n, str) and ":" in n:
                 base, _, arg = n.partition(":")
-                digest = getattr(self.get(base), "argument_digest", None)
+                digest = getattr(self._entry(base.lower()), "argument_digest", None)
                 out += ((n, digest(arg) if digest else ""), *self.key((base,)))
         return out
 
