@@ -33,8 +33,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import warnings
 import os
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
