@@ -80,9 +80,9 @@ def hdi(samples: np.ndarray, prob: float = HDI_PROB) -> np.ndarray:
         [2] ``(low, high)`` for 1-D input, else [K, 2].
     """
     x = np.asarray(samples, np.float64)
-    flat = x.reshape(x.shape[0], -1)
-    if flat.shape[0] == 0:
+    if x.ndim == 0 or x.shape[0] == 0:
         raise ValueError("hdi: no values (at least one trial is needed)")
+    flat = x.reshape(x.shape[0], -1)
     return np.stack([_hdi_column(flat[:, k], prob) for k in range(flat.shape[1])]).reshape(
         (2,) if x.ndim == 1 else (-1, 2)
     )
