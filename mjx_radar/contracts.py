@@ -82,9 +82,11 @@ def placeholder(fn):
 
 
 def _takes(fn, n: int) -> bool:
-    """Whether ``fn`` can be called with ``n`` positional arguments."""
+    """Whether ``fn`` can be called with ``n`` positional arguments (and ``argument=``,
+    for an entry selected as ``name:ARGUMENT``)."""
+    extra = {"argument": ""} if getattr(fn, "takes_argument", False) else {}
     try:
-        inspect.signature(fn).bind(*range(n))
+        inspect.signature(fn).bind(*range(n), **extra)
     except TypeError:
         return False
     except ValueError:  # no signature (a builtin): assume it can

@@ -28,10 +28,10 @@ def script():
 @pytest.mark.parametrize(
     ("change", "steps", "message"),
     [
-        ({}, 10**20, r"steps = 100000000000000000000: must be an integer in \[1, "),
+        ({}, 10**20, r"steps = 100000000000000000000: must be an integer in \[1, 1000000000000\]"),
         ({}, 2.5e5, "steps = 250000.0: must be an integer"),
-        ({"learning_rate": -3e-4}, 100, r"learning_rate = -0.0003: must be a number in \(0"),
-        ({"discounting": 1.5}, 100, "discounting = 1.5"),
+        ({"learning_rate": -3e-4}, 100, "learning_rate = -0.0003: must be a finite number > 0"),
+        ({"discounting": 1.5}, 100, r"discounting = 1.5: must be a finite number in \(0, 1\]"),
         ({"num_updates_per_batch": 0}, 100, "num_updates_per_batch = 0"),
         ({"entropy_cost": float("nan")}, 100, "entropy_cost = nan"),
         ({"policy_hidden": (0,)}, 100, "policy_hidden"),

@@ -99,9 +99,22 @@ def _in_range(name: str, value, lo, hi, lo_open: bool) -> None:
     ok = isinstance(value, kinds) and not isinstance(value, bool)
     ok = ok and math.isfinite(value) and lo <= value <= hi and not (lo_open and value == lo)
     if not ok:
-        what = "an integer" if integer else "a number"
+        what = "an integer" if integer else "a finite number"
+        low = f"{'>' if lo_open else '>='} {_fmt(lo)}"
+        if hi == _INF or (ok_number(value) and value < hi):  # below the range: its floor
+            raise ScenarioError(f"{name} = {value!r}: must be {what} {low}")
         left = "(" if lo_open else "["
-        raise ScenarioError(f"{name} = {value!r}: must be {what} in {left}{lo}, {hi}]")
+        raise ScenarioError(f"{name} = {value!r}: must be {what} in {left}{_fmt(lo)}, {_fmt(hi)}]")
+
+
+def _fmt(bound) -> str:
+    return f"{bound:g}" if isinstance(bound, float) else str(bound)
+
+
+def ok_number(value) -> bool:
+    """A finite int or float (not a bool)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return number and math.isfinite(value)
 
 
 def check_config(config: PPOConfig, steps: int) -> None:

@@ -42,9 +42,10 @@ class _OutOfTime(Exception):
 STATE_KEYS = ("scenario", "method", "config", "steps_done", "wall_s", "chunks", "checkpoint")
 
 
-def read_state(out) -> dict | None:
+def read_state(out, scenario: str | None = None, method: str | None = None) -> dict | None:
     """``DIR/policy.json`` as a dict (None when absent), checked for a resume: one line
-    naming the file for an unreadable or incomplete one, or a missing checkpoint."""
+    naming the file for an unreadable or incomplete one, one trained on another
+    ``scenario`` / ``method`` (if given), or a missing checkpoint."""
     path = Path(out) / "policy.json"
     if not path.exists():
         return None
@@ -54,6 +55,14 @@ def read_state(out) -> dict | None:
         raise ScenarioError(f"out: {path} is not a policy file ({err})") from None
     if not isinstance(state, dict):
         raise ScenarioError(f"out: {path} is not a policy file (not a JSON object)")
+    if scenario is not None and (state.get("scenario"), state.get("method")) != (
+        scenario,
+        method,
+    ):
+        raise ScenarioError(
+            f"out = {str(out)!r}: trained on {state.get('scenario')} / {state.get('method')}, "
+            f"not {scenario} / {method}"
+        )
     missing = [k for k in STATE_KEYS if k not in state]
     if missing:
         raise ScenarioError(f"out: {path} lacks {', '.join(missing)} (damaged or edited)")
@@ -131,13 +140,8 @@ def train_policy(
         isinstance(max_seconds, int | float) and 0 < max_seconds < math.inf
     ):
         raise ScenarioError(f"max_seconds = {max_seconds!r}: must be a number > 0 (or None)")
-    state = read_state(out)
+    state = read_state(out, sc.name, method)
     if state is not None:
-        if state["scenario"] != sc.name or state["method"] != method:
-            raise ScenarioError(
-                f"out = {str(out)!r}: trained on {state['scenario']} / {state['method']}, "
-                f"not {sc.name} / {method}"
-            )
         config = config_of(state)
     config = config or PPOConfig()
     if penalty_scale is not None:  # checked with the rest of the configuration
