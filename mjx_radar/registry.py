@@ -25,6 +25,8 @@ import marshal
 from collections.abc import Callable
 from typing import Any
 
+from mjx_radar import contracts
+
 _SCALARS = (int, float, str, bool, tuple)
 
 
@@ -100,16 +102,20 @@ class Registry:
             return lambda o: self.register(name, o)
         if not isinstance(name, str) or not name.replace("-", "_").isidentifier():
             raise ValueError(f"{self.kind} name {name!r}: letters, digits, '-' and '_' only")
-        if name in self._builtin:
+        key = name.lower()  # names are case-insensitive, as method names
+        if key in self._builtin:
             raise ValueError(f"{self.kind} name {name!r}: a built-in {self.kind}")
-        if not callable(obj):
+        if key in contracts.RESERVED.get(self.kind, ()):
+            raise ValueError(f"{self.kind} name {name!r}: reserved (the scenario's own choice)")
+        if not callable(obj) and self.kind not in contracts.METHODS:
             raise TypeError(f"{self.kind} {name!r}: a class or function, not {type(obj).__name__}")
-        self._user[name] = obj
+        contracts.check(self.kind, name, obj)
+        self._user[key] = obj
         return obj
 
     def unregister(self, name: str) -> None:
         """Removes a registered entry (no error if absent; built-ins stay)."""
-        self._user.pop(name, None)
+        self._user.pop(name.lower() if isinstance(name, str) else name, None)
 
     def add_builtin(self, name: str, obj: Any) -> None:
         """Lists a built-in entry (package code only)."""
@@ -129,13 +135,23 @@ class Registry:
         """
         if isinstance(name, str) and ":" in name:
             base, _, arg = name.partition(":")
-            obj = self.get(base)
+            base = base.lower()
+            obj = self._entry(base)
             if not getattr(obj, "takes_argument", False):
                 raise ValueError(f"{self.kind} {name!r}: {base!r} takes no ':ARGUMENT'")
             if not arg:
                 raise ValueError(f"{self.kind} {name!r}: give {base}:ARGUMENT")
             return functools.partial(obj, argument=arg)
+        obj = self._entry(name)
+        if getattr(obj, "takes_argument", False):
+            arg = getattr(obj, "argument_name", "ARGUMENT")
+            raise ValueError(f"{self.kind} {name!r}: give {name}:{arg}")
+        return obj
+
+    def _entry(self, name: str) -> Any:
+        """The entry called ``name`` itself (one-line ``ValueError`` if unknown)."""
         if isinstance(name, str):
+            name = name.lower()  # names are case-insensitive
             if name in self._user:
                 return self._user[name]
             if name in self._builtin:
@@ -151,8 +167,8 @@ class Registry:
         raise ValueError(f"{self.kind}: {name!r} is not one of {', '.join(self.names())}")
 
     def __contains__(self, name) -> bool:
-        if isinstance(name, str) and ":" in name:
-            name = name.partition(":")[0]
+        if isinstance(name, str):
+            name = name.partition(":")[0].lower()
         return name in self._user or name in self._builtin
 
     def names(self) -> tuple[str, ...]:
@@ -171,13 +187,13 @@ class Registry:
         items = (
             self._user.items()
             if names is None
-            else [(n, self._user[n]) for n in names if n in self._user]
+            else [(n, self._user[n.lower()]) for n in names if n.lower() in self._user]
         )
         out = tuple((n, code_digest(o)) for n, o in items)
         for n in names or ():  # "name:ARGUMENT": what the argument names (a file's digest)
             if isinstance(n, str) and ":" in n:
                 base, _, arg = n.partition(":")
-                digest = getattr(self.get(base), "argument_digest", None)
+                digest = getattr(self._entry(base.lower()), "argument_digest", None)
                 out += ((n, digest(arg) if digest else ""), *self.key((base,)))
         return out
 

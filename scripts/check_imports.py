@@ -58,6 +58,8 @@ ROOT_FLOORS = {
     "precision": "base",
     "version": "base",
     "registry": "base",
+    "contracts": "base",
+    "plugin_errors": "base",
     "batching": "base",
 }
 

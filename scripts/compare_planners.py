@@ -9,7 +9,7 @@ sep-cmaes) run ``mppi.iterations`` rounds of ``B / iterations`` samples; ``grad`
 rollouts); ``hybrid`` samples half the budget and polishes with ``B / 6`` steps. Writes
 ``DIR/planners.csv``: per scenario, budget and planner the paper's time-averaged
 median position RMSE and 90 % HDI upper end (``study.summary()``), the per-trial mean
-RMSE's median with its 90 % HDI (arviz), and the lost-trial rate::
+RMSE's median with its 90 % HDI (as arviz 0.x), and the lost-trial rate::
 
     python scripts/compare_planners.py --out DIR [--scenarios paper_3r4t,hills_4r4t]
         [--planners mppi,ps,cem,grad,hybrid,cmaes] [--budgets 1000,300,100]
@@ -45,14 +45,14 @@ def budget_variant(scenario, rollouts: int):
 
 def per_trial(metrics: pd.DataFrame) -> pd.DataFrame:
     """Median and 90 % HDI of the per-trial time-mean position RMSE, and lost trials."""
-    import arviz as az
+    from mjx_radar.study.metrics import hdi
 
     trial = metrics.groupby(["scenario", "method", "trial"]).agg(
         rmse=("rmse_pos", "mean"), lost=("lost", "max")
     )
     rows = []
     for (sc, m), g in trial.groupby(level=[0, 1]):
-        lo, hi = az.hdi(g["rmse"].to_numpy(), hdi_prob=0.9)
+        lo, hi = hdi(g["rmse"].to_numpy(), 0.9)
         rows.append(
             {
                 "scenario": sc,

@@ -18,13 +18,34 @@ import dataclasses
 import sys
 
 
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, exit 2 (argparse prints its usage otherwise)
+        print(f"error: {self.prog}: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def _count(text: str) -> int:
+    """An integer, also written ``2e5`` or ``200_000`` (a whole number)."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not value.is_integer():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number")
+    return int(value)
+
+
 def _parser() -> argparse.ArgumentParser:
     from mjx_radar.learning.train import PPOConfig
 
     d = PPOConfig()
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = _Parser(description=__doc__.splitlines()[0])
     p.add_argument("scenario", metavar="SCENARIO", help="a bundled scenario name or TOML file")
-    p.add_argument("--steps", type=int, required=True, help="env steps (control periods) in all")
+    p.add_argument("--steps", type=_count, required=True, help="env steps (control periods) in all")
     p.add_argument("--out", required=True, help="policy directory (resumed when it exists)")
     p.add_argument("--method", default="ddr-sfim", help="the tracker's method (noise model)")
     p.add_argument("--max-minutes", type=float, default=None, help="end this chunk in time")
@@ -38,7 +59,7 @@ def _parser() -> argparse.ArgumentParser:
         ("eval_every", "--eval-every"),
         ("seed", "--seed"),
     ):
-        p.add_argument(flag, dest=name, type=int, default=getattr(d, name))
+        p.add_argument(flag, dest=name, type=_count, default=getattr(d, name))
     for name, flag in (
         ("learning_rate", "--lr"),
         ("entropy_cost", "--entropy-cost"),
@@ -81,6 +102,16 @@ def _sizes(text: str, flag: str) -> tuple[int, ...]:
     return sizes
 
 
+def _flag_names(message: str) -> str:
+    """A message naming a setting (``num_updates_per_batch = 0``) named as its flag."""
+    flags = {"num_updates_per_batch": "updates-per-batch", "num_eval_envs": "eval-envs"}
+    flags |= {"learning_rate": "lr", "max_seconds": "max-minutes"}
+    name, eq, rest = message.partition(" = ")
+    if eq and name.isidentifier():
+        return f"--{flags.get(name, name.replace('_', '-'))} = {rest}"
+    return message
+
+
 def main(argv=None) -> int:
     from mjx_radar.io.checks import ScenarioError
     from mjx_radar.learning.train import PPOConfig, train_policy
@@ -89,9 +120,6 @@ def main(argv=None) -> int:
     try:
         names = {f.name for f in dataclasses.fields(PPOConfig)}
         kw = {k: v for k, v in vars(args).items() if k in names}
-        for k in ("num_envs", "unroll_length", "batch_size", "num_minibatches", "eval_every"):
-            if kw[k] < 1:
-                raise ValueError(f"--{k.replace('_', '-')} = {kw[k]}: must be >= 1")
         kw["policy_hidden"] = _sizes(args.policy_hidden, "--policy-hidden")
         kw["value_hidden"] = _sizes(args.value_hidden, "--value-hidden")
         budget = None if args.max_minutes is None else 60.0 * args.max_minutes
@@ -104,8 +132,8 @@ def main(argv=None) -> int:
             penalty_scale=args.penalty_scale,
             max_seconds=budget,
         )
-    except (ScenarioError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
+    except (ScenarioError, ValueError) as err:  # the settings' names, as the flags say
+        print(f"error: {_flag_names(str(err))}", file=sys.stderr)
         return 2
     print(
         f"policy: {args.out} ({state['steps_done']} of {args.steps} steps, {state['wall_s']:.0f} s)"

@@ -188,12 +188,12 @@ def test_train_script_bad_input_is_one_line_exit_2(tmp_path, capsys):
     out = str(tmp_path / "p")
     cases = [
         (["smoke", "--steps", "0", "--out", out], "steps = 0: must be an integer >= 1"),
-        (["smoke", "--steps", "9", "--out", out, "--num-envs", "3"], "num_envs = 3: must divide"),
+        (["smoke", "--steps", "9", "--out", out, "--num-envs", "3"], "--num-envs = 3: must divide"),
         (["nope", "--steps", "9", "--out", out], "nope"),
         (["smoke", "--steps", "9", "--out", out, "--policy-hidden", "a"], "--policy-hidden"),
-        (["smoke", "--steps", "9", "--out", out, "--penalty-scale", "-1"], "penalty_scale = -1.0"),
-        (["smoke", "--steps", "9", "--out", out, "--init-noise-std", "0"], "init_noise_std = 0.0"),
-        (["smoke", "--steps", "9", "--out", out, "--keepout-grade", "-2"], "keepout_grade = -2.0"),
+        (["smoke", "--steps", "9", "--out", out, "--penalty-scale", "-1"], "penalty-scale = -1.0"),
+        (["smoke", "--steps", "9", "--out", out, "--init-noise-std", "0"], "init-noise-std = 0.0"),
+        (["smoke", "--steps", "9", "--out", out, "--keepout-grade", "-2"], "keepout-grade = -2.0"),
     ]
     for argv, message in cases:
         assert script.main(argv) == 2

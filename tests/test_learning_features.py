@@ -134,6 +134,12 @@ def test_registry_arguments_and_digests(tmp_path):
         def __init__(self, env, argument):
             self.argument = argument
 
+        def init(self):  # the planner contract (checked at registration)
+            return ()
+
+        def plan(self, carry, obs, key):
+            return None, carry
+
         @staticmethod
         def argument_digest(argument):
             return (tmp_path / argument).read_text()

@@ -311,3 +311,21 @@ def test_matplotlib_overlay_draws_every_marker(run_dir):
         assert len(ax.lines) == 2 * n + 2 * m  # trails, radar markers, drones, estimates
     finally:
         plt.close(fig)
+
+
+def test_view_of_a_run_whose_truth_and_radars_hold_nan(run_dir, tmp_path, cli):
+    """A diverged run's NaN positions draw as gaps; the scene's ranges come from the finite
+    values (plotly refused a NaN axis range: a ValueError traceback)."""
+    import warnings
+
+    d = _copy(run_dir, tmp_path / "nan")
+    with np.load(d / "trajectories.npz") as z:
+        target, radar = z["target"].astype(float), z["radar"].astype(float)
+    target[0] = np.nan
+    radar[0, 3:] = np.nan
+    _npz_without(d, "target", target=target)
+    _npz_without(d, "radar", radar=radar)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert cli.main(["view", str(d), "--out", str(tmp_path / "v.html")]) == 0
+    assert (tmp_path / "v.html").stat().st_size > 0

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_radar.io.checks import ScenarioError
+from mjx_radar.io.checks import InputError, ScenarioError
 
 #: every option of a run and its default, for the command line and the API alike
 RUN_DEFAULTS = {
@@ -66,12 +66,25 @@ def load_plugins(paths) -> None:
     Raises:
         ScenarioError: a missing file, or one that raises (one line naming it).
     """
+    if isinstance(paths, str | os.PathLike):  # one file given as a string: one item
+        paths = [paths]
     for path in paths or ():
+        if not isinstance(path, str | os.PathLike):
+            raise ScenarioError(
+                f"plugin = {path!r}: must be a file path, not {type(path).__name__}"
+            )
         p = Path(path)
         if not p.is_file():
             raise ScenarioError(f"plugin = {str(path)!r}: no such file")
         try:
             runpy.run_path(str(p), run_name=f"mjx_radar_plugin_{p.stem}")
+        except SystemExit as err:  # the file ends the process: refused, nothing is run
+            raise ScenarioError(
+                f"plugin = {str(path)!r}: called sys.exit({err.code!r}); a plug-in file only "
+                "registers plug-ins"
+            ) from None
+        except InputError as err:  # a plug-in refused at registration: its own line
+            raise ScenarioError(f"plugin = {str(path)!r}: {err}") from None
         except Exception as err:  # noqa: BLE001 -- a user's file: one line, no traceback
             raise ScenarioError(f"plugin = {str(path)!r}: {type(err).__name__}: {err}") from None
 

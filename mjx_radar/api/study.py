@@ -138,10 +138,19 @@ def run_study(
     from mjx_radar.task.method import with_planners
 
     load_plugins(plugins)
+    from mjx_radar.planners import PLANNERS
+
     try:
-        methods = normalise_methods(list(METHODS) if methods is None else list(methods))
+        methods = normalise_methods(
+            list(METHODS) if methods is None else _listed(methods, "methods")
+        )
         if planners is not None:
-            methods = with_planners(methods, list(planners))
+            planners = _listed(planners, "planners")
+            if not planners:
+                raise ValueError("planners: empty list; give one or more planner names")
+            for name in planners:
+                PLANNERS.get(name)
+            methods = with_planners(methods, planners)
     except ValueError as err:
         raise ScenarioError(str(err)) from None
     if rollouts not in (None, "mjx", "analytic"):
@@ -172,6 +181,16 @@ def run_study(
         )
         execute.run_study(opts)
     return Study.load(out)
+
+
+def _listed(value, field: str) -> list:
+    """A list of names: a single string is one name, never its letters."""
+    if isinstance(value, str):
+        return [value]
+    try:
+        return list(value)
+    except TypeError:
+        raise ValueError(f"{field} = {value!r}: must be a name or a list of names") from None
 
 
 def _precision() -> str:

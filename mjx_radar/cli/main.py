@@ -141,6 +141,8 @@ def main(argv: list[str] | None = None) -> int:
             compile_cache.enable(args.cache_dir)
         return int(args.handler(args) or 0)
     except (InputError, ScenarioError) as err:
+        if getattr(err, "frames", ""):  # a plug-in's own exception: the user's frames
+            print(err.frames, file=sys.stderr)
         print(f"error: {err}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:

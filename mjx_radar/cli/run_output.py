@@ -11,7 +11,7 @@ import numpy as np
 from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED
 
 
-def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
+def diverged_line(diverged, trials, out: Path, keep: bool, method: str = "") -> str | None:
     """The one-line report of diverged trials (``None`` if none diverged).
 
     Args:
@@ -20,6 +20,7 @@ def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
         trials: [T] trial indices.
         out: the run directory.
         keep: ``--keep-diverged`` (a warning instead of an error).
+        method: the run's method; a ``METHOD+PLANNER`` one names its planner.
     """
     if diverged is None:
         return None
@@ -30,6 +31,8 @@ def diverged_line(diverged, trials, out: Path, keep: bool) -> str | None:
     first_step = div[bad].argmax(axis=1)  # 0-based step of each diverged trial
     j = int(np.argmin(first_step))  # earliest; ties -> lowest trial
     where = f"first at trial {int(trials[bad[j]])}, step {int(first_step[j]) + 1}"
+    if "+" in method:  # a planner of the user's choice: name it (a NaN action diverges)
+        where += f"; method {method}, planner {method.partition('+')[2]!r}"
     head = f"{bad.size} of {len(trials)} trials diverged ({where}); results in {out}"
     if keep:
         return f"warning: {head}; kept (--keep-diverged)"
@@ -44,7 +47,7 @@ def finish(out: Path, args, s, seed_, trials, steps, res) -> int:
         print("interrupted: no results written", file=sys.stderr)
         return EXIT_INTERRUPTED
     summary(s, args, res, out)
-    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged)
+    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged, args.method)
     if line:
         print(line, file=sys.stderr)
     if args.video:

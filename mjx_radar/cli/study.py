@@ -87,11 +87,37 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--process-id", type=int, default=None, help="(--distributed)")
 
 
+def check_processes(args) -> None:
+    """The many-process flags: one of --shard and --distributed; --coordinator,
+    --num-processes and --process-id only with --distributed, in range (one line)."""
+    given = [
+        flag
+        for flag, v in (
+            ("--coordinator", args.coordinator),
+            ("--num-processes", args.num_processes),
+            ("--process-id", args.process_id),
+        )
+        if v is not None
+    ]
+    if args.shard and args.distributed:
+        raise InputError("--shard and --distributed: choose one")
+    if given and not args.distributed:
+        raise InputError(f"{given[0]}: only with --distributed (else one process runs it all)")
+    n, i = args.num_processes, args.process_id
+    if n is not None and n < 1:
+        raise InputError(f"--num-processes = {n}: must be an integer >= 1")
+    if i is not None and (n is None or not 0 <= i < n):
+        need = "give --num-processes too" if n is None else f"must be in [0, {n - 1}]"
+        raise InputError(f"--process-id = {i}: {need}")
+    if args.coordinator is not None:
+        host, colon, port = args.coordinator.rpartition(":")
+        if not (colon and host and port.isdigit() and 0 < int(port) < 65536):
+            raise InputError(f"--coordinator = {args.coordinator!r}: must be HOST:PORT")
+
+
 def _worker(args):
     from mjx_radar.study.driver import Worker
 
-    if args.shard and args.distributed:
-        raise InputError("--shard and --distributed: choose one")
     if args.shard:
         return Worker(args.shard[0], args.shard[1], "shard")
     if args.distributed:
@@ -106,7 +132,14 @@ def _worker(args):
             )
             if v is not None
         }
-        jax.distributed.initialize(**kw)
+        try:
+            jax.distributed.initialize(**kw)
+        except (ValueError, RuntimeError) as err:  # no cluster found, coordinator unreachable
+            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            raise InputError(
+                f"--distributed: {first} (give --coordinator HOST:PORT, --num-processes N and "
+                "--process-id I, or run under SLURM)"
+            ) from None
         return Worker(jax.process_index(), jax.process_count(), "distributed")
     return Worker()
 
@@ -117,10 +150,13 @@ def main(args) -> int:
     from mjx_radar.study import execute
     from mjx_radar.task.method import with_planners
 
+    check_processes(args)
     load_plugins(args.plugin)
     methods = args.methods
     if args.planners is not None:
         planners = [x.strip() for x in args.planners.split(",") if x.strip()]
+        if not planners:
+            raise InputError(f"--planners = {args.planners!r}: give one or more planner names")
         try:
             for name in planners:
                 PLANNERS.get(name)

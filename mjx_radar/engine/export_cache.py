@@ -19,8 +19,12 @@ SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
 
 def export(init, step, init_args, step_args):
     """Both programs traced once into :class:`jax.export.Exported` form (None if impossible)."""
+    from mjx_radar.engine.locations import flatten
+
     try:
-        return tuple(jax.export.export(f)(*a) for f, a in ((init, init_args), (step, step_args)))
+        return tuple(
+            flatten(jax.export.export(f)(*a)) for f, a in ((init, init_args), (step, step_args))
+        )
     except Exception:  # noqa: BLE001 -- an unexportable program still runs, traced directly
         return None
 

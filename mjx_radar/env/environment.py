@@ -25,11 +25,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar import precision
-from mjx_radar.env import filter_ops, placement, presence, track_health
+from mjx_radar.env import filter_ops, inputs, placement, presence, track_health
 from mjx_radar.env.period import make_filter_step
 from mjx_radar.env.state import LoopState, State
 from mjx_radar.env.streams import streams_of, trial_key
 from mjx_radar.estimation import ckf_sqrt, linalg
+from mjx_radar.io.checks import ScenarioError
 from mjx_radar.physics import plant as physics
 from mjx_radar.planners.base import Observation
 from mjx_radar.task import objective
@@ -94,6 +95,7 @@ class RadarEnv:
 
     def reset(self, key) -> State:
         """The state at t = 0 of the trial whose key is ``key`` (radars placed, tracks started)."""
+        inputs.check_key(key)
         return precision.pinned(self._reset)(key)
 
     def step(self, state: State, action) -> State:
@@ -101,8 +103,10 @@ class RadarEnv:
 
         The reward is ``-Σ_m log det P_m,pos`` over the targets present at the period's end
         (``P_m,pos`` the 3x3 position block of target m's posterior covariance [m²]): the
-        information the radars hold about where the drones are.
+        information the radars hold about where the drones are. A wrongly shaped action
+        (or, outside ``jit``, a non-finite one) is refused in one line (:mod:`.inputs`).
         """
+        inputs.check_state(state, State)
         return self.transition(state, action)[0]
 
     def transition(self, state: State, action):
@@ -173,7 +177,7 @@ class RadarEnv:
     def clip_action(self, action) -> jax.Array:
         """``action`` (``[N, 2]`` or ``[2N]``) as ``[N, 2]`` within ``action_bounds``."""
         lower, upper = self.action_bounds
-        return jnp.clip(jnp.reshape(action, (self.n_radars, 2)), lower, upper)
+        return jnp.clip(inputs.check_action(action, self.n_radars), lower, upper)
 
     def _transition(self, state: State, action):
         u = self.clip_action(action)
@@ -270,10 +274,12 @@ def make(scenario, method="ddr-sfim", seed: int | None = None, steps: int | None
     from mjx_radar.task.params import shape_key, task_params
     from mjx_radar.task.task import make_task
 
-    if isinstance(scenario, str):
-        from mjx_radar.scenario.reader import load_scenario
-
-        scenario = load_scenario(scenario)
-    method = parse_method(method)
+    scenario = inputs.check_scenario(scenario)
+    try:
+        method = parse_method(method)
+    except ValueError as err:
+        raise ScenarioError(str(err)) from None
+    seed = inputs.check_seed(seed)
+    steps = inputs.check_steps(steps, scenario.timing.control_every)
     task = make_task(shape_key(scenario), method.kind)
     return RadarEnv(task, task_params(scenario, method, seed), steps)

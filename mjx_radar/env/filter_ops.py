@@ -23,8 +23,10 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from mjx_radar.contracts import PluginError
 from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement_filter
 from mjx_radar.physics import target_motion
+from mjx_radar.plugin_errors import failure
 from mjx_radar.registry import TRACKERS
 from mjx_radar.task.task import RadarTask, process_noise
 
@@ -72,8 +74,26 @@ def tracker_name(scenario) -> str:
 
 
 def make(task: RadarTask, params) -> FilterOps:
-    """The scenario's tracker (:func:`tracker_name`) with the noise model of ``params.method``."""
-    return TRACKERS.get(tracker_name(task.scenario))(task, params)
+    """The scenario's tracker (:func:`tracker_name`) with the noise model of ``params.method``.
+
+    A registered tracker's factory must return a :class:`FilterOps` (one-line
+    :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception)."""
+    name = tracker_name(task.scenario)
+    factory = TRACKERS.get(name)
+    if name.lower() not in TRACKERS.registered():
+        return factory(task, params)
+    try:
+        ops = factory(task, params)
+    except PluginError:
+        raise
+    except Exception as err:  # noqa: BLE001 -- the user's code: one line and its frames
+        raise failure("tracker", name, "factory", err) from None
+    if not isinstance(ops, FilterOps):
+        raise PluginError(
+            f"tracker {name!r}: its factory returned {type(ops).__name__}, not FilterOps"
+            " (predict, update, begin[, init, tracks])"
+        )
+    return ops
 
 
 def register_tracker(name: str, factory=None):

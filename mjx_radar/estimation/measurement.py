@@ -39,6 +39,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from mjx_radar.contracts import placeholder
 from mjx_radar.estimation import fisher, sensing
 from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair
 
@@ -98,22 +99,27 @@ class MeasurementModel:
     name: str = ""
     dim: int = 0
 
+    @placeholder
     def predict(self, radar_pos, target_pos):
         """Noiseless ``h``: ``[..., N, 3]``, ``[..., M, 3]`` -> ``[..., N, M, dim]``."""
         raise NotImplementedError
 
+    @placeholder
     def variance(self, z_hat, params: NoiseParams, ccr):
         """Filter noise variance at a (predicted) measurement ``[..., dim]`` -> ``[..., dim]``."""
         raise NotImplementedError
 
+    @placeholder
     def sample(self, key, radar_pos, target_pos, params: NoiseParams):
         """Truth draw (DDR variances at the true distance) ``-> [N, M, dim]``."""
         raise NotImplementedError
 
+    @placeholder
     def residual(self, a, b):
         """``a − b`` of measurements ``[..., dim]`` (angles wrapped to (−π, π])."""
         raise NotImplementedError
 
+    @placeholder
     def pair_information(self, dx, dy, dz, params: NoiseParams, ccr):
         """Position FIM of one pair from the components of ``d = target − radar``.
 

@@ -232,6 +232,8 @@ def check(field: str, value: Any, rule_: Rule | tuple) -> Any:
         return value
     if r.kind is str:
         allowed = r.allowed()
+        if allowed and isinstance(value, str) and value not in allowed:  # names: any case
+            value = {a.lower(): a for a in allowed}.get(value.lower(), value)
         ok = isinstance(value, str) and (
             value in allowed if allowed else bool(value) and value.replace("_", "").isalnum()
         )

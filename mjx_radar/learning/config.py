@@ -67,25 +67,76 @@ def config_of(state: dict) -> PPOConfig:
     return PPOConfig(**{**saved, **{k: tuple(saved[k]) for k in ("policy_hidden", "value_hidden")}})
 
 
+#: the largest ``steps`` a training accepts (10^12 env steps: weeks on a GPU)
+MAX_STEPS = 10**12
+_INF = math.inf
+#: ``(low, high, low_open)`` of each number of :class:`PPOConfig`
+RANGES = {
+    "num_envs": (1, 2**20, False),
+    "unroll_length": (1, 10**6, False),
+    "batch_size": (1, 2**20, False),
+    "num_minibatches": (1, 2**20, False),
+    "num_updates_per_batch": (1, 10**4, False),
+    "num_eval_envs": (1, 2**20, False),
+    "eval_every": (1, MAX_STEPS, False),
+    "seed": (0, 2**31 - 1, False),
+    "learning_rate": (0.0, 1.0, True),
+    "entropy_cost": (0.0, _INF, False),
+    "discounting": (0.0, 1.0, True),
+    "gae_lambda": (0.0, 1.0, False),
+    "clipping_epsilon": (0.0, 1.0, True),
+    "reward_scaling": (0.0, _INF, True),
+    "max_grad_norm": (0.0, _INF, True),
+    "penalty_scale": (0.0, _INF, False),
+    "keepout_grade": (0.0, _INF, False),
+    "init_noise_std": (0.0, _INF, True),
+}
+
+
+def _in_range(name: str, value, lo, hi, lo_open: bool) -> None:
+    integer = isinstance(lo, int) and isinstance(hi, int)
+    kinds = int if integer else int | float
+    ok = isinstance(value, kinds) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value) and lo <= value <= hi and not (lo_open and value == lo)
+    if not ok:
+        what = "an integer" if integer else "a finite number"
+        low = f"{'>' if lo_open else '>='} {_fmt(lo)}"
+        if hi == _INF or (ok_number(value) and value < hi):  # below the range: its floor
+            raise ScenarioError(f"{name} = {value!r}: must be {what} {low}")
+        left = "(" if lo_open else "["
+        raise ScenarioError(f"{name} = {value!r}: must be {what} in {left}{_fmt(lo)}, {_fmt(hi)}]")
+
+
+def _fmt(bound) -> str:
+    return f"{bound:g}" if isinstance(bound, float) else str(bound)
+
+
+def ok_number(value) -> bool:
+    """A finite int or float (not a bool)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return number and math.isfinite(value)
+
+
 def check_config(config: PPOConfig, steps: int) -> None:
     """Raises :class:`ScenarioError` naming the first setting out of range."""
-    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
-        raise ScenarioError(f"steps = {steps!r}: must be an integer >= 1")
+    if not isinstance(config, PPOConfig):
+        raise ScenarioError(f"config = {config!r:.40}: must be a PPOConfig")
+    _in_range("steps", steps, 1, MAX_STEPS, False)
+    for name, (lo, hi, lo_open) in RANGES.items():
+        _in_range(name, getattr(config, name), lo, hi, lo_open)
+    for name in ("policy_hidden", "value_hidden"):
+        sizes = getattr(config, name)
+        if not (
+            isinstance(sizes, tuple)
+            and sizes
+            and all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in sizes)
+        ):
+            raise ScenarioError(f"{name} = {sizes!r}: must be a tuple of layer sizes >= 1")
     if (config.batch_size * config.num_minibatches) % config.num_envs:
         raise ScenarioError(
             f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
             f"{config.batch_size * config.num_minibatches}"
         )
-    for name, positive in (
-        ("penalty_scale", False),
-        ("keepout_grade", False),
-        ("init_noise_std", True),
-    ):
-        value = getattr(config, name)
-        number = isinstance(value, int | float) and not isinstance(value, bool)
-        if not (number and math.isfinite(value) and (value > 0 if positive else value >= 0)):
-            bound = "> 0" if positive else ">= 0"
-            raise ScenarioError(f"{name} = {value!r}: must be a finite number {bound}")
     for name in ("shield", "evaluate"):
         if not isinstance(getattr(config, name), bool):
             raise ScenarioError(f"{name} = {getattr(config, name)!r}: must be True or False")

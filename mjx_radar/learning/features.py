@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from mjx_radar.env.inputs import check_action
 from mjx_radar.task.costs import Horizon, cost_terms
 
 
@@ -87,7 +88,7 @@ def features(env, obs) -> jax.Array:
 def action_to_control(env, action) -> jax.Array:
     """``[N, 2]`` controls of a policy action ``[2N]`` in ``[-1, 1]`` (clipped first)."""
     lower, upper = env.action_bounds
-    a = jnp.clip(jnp.reshape(action, lower.shape), -1.0, 1.0)
+    a = jnp.clip(check_action(action, lower.shape[0], "action"), -1.0, 1.0)  # never reshaped
     mid, half = 0.5 * (upper + lower), 0.5 * (upper - lower)
     return mid + a * half.astype(mid.dtype)
 

@@ -31,6 +31,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
+from mjx_radar.io.checks import ScenarioError
 from mjx_radar.learning import brax_env
 
 _BOUND = 1e3
@@ -40,6 +41,24 @@ def _spaces(env: brax_env.BraxRadarEnv):
     obs = spaces.Box(-_BOUND, _BOUND, (env.observation_size,), np.float32)
     act = spaces.Box(-1.0, 1.0, (env.action_size,), np.float32)
     return obs, act
+
+
+def _action(action, shape: tuple, where: str) -> np.ndarray:
+    """``action`` as float32 of the action space's ``shape``, finite (one line otherwise;
+    never reshaped: a transposed action would scramble the radars' controls)."""
+    try:
+        a = np.asarray(action, np.float32)
+    except (TypeError, ValueError):
+        raise ScenarioError(
+            f"{where}: action = {action!r:.40}: must be an array of shape {list(shape)}"
+        ) from None
+    if a.shape != tuple(shape):
+        raise ScenarioError(
+            f"{where}: action of shape {list(a.shape)}: must be {list(shape)} (action_space)"
+        )
+    if not np.isfinite(a).all():
+        raise ScenarioError(f"{where}: action holds NaN or inf: every component must be finite")
+    return a
 
 
 def _info(state) -> dict:
@@ -73,7 +92,7 @@ class RadarGymEnv(gymnasium.Env):
     def step(self, action):
         if self._state is None:
             raise gymnasium.error.ResetNeeded("call reset() before step()")
-        a = jnp.asarray(np.asarray(action, np.float32))
+        a = jnp.asarray(_action(action, self.action_space.shape, "step"))
         self._state = self._step(self._state, a)
         self._t += 1
         truncated = self._t >= self.episode_length
@@ -133,7 +152,7 @@ class RadarVectorEnv(VectorEnv):
     def step(self, actions):
         if self._state is None:
             raise gymnasium.error.ResetNeeded("call reset() before step()")
-        a = jnp.asarray(np.asarray(actions, np.float32).reshape(self.action_space.shape))
+        a = jnp.asarray(_action(actions, self.action_space.shape, "step"))
         mask = self._needs_reset.copy()
         self._state = self._step(self._state, a, self._keys(), jnp.asarray(mask))
         self._t = np.where(mask, 0, self._t + 1)

@@ -28,15 +28,34 @@ from mjx_radar.learning.features import action_to_control, feature_size, feature
 from mjx_radar.learning.shield import shield
 from mjx_radar.planners.base import Planner
 
+#: what ``policy.json`` holds (train_policy.py writes it)
+KEYS = ("checkpoint", "n_radars", "n_targets", "observation_size", "action_size", "config")
+
 
 def _policy_dir(argument: str) -> tuple[Path, dict]:
+    """The folder and ``policy.json`` of ``policy:DIR``, checked (one line otherwise)."""
     path = Path(argument).expanduser().resolve()  # orbax reads absolute paths only
+    where = f"planner policy:{argument}"
+    if not path.is_dir():
+        raise ScenarioError(f"{where}: no such folder (train_policy.py --out DIR writes one)")
     meta = path / "policy.json"
     if not meta.is_file():
-        raise ScenarioError(f"planner policy:{argument}: no policy.json (train_policy.py --out)")
-    state = json.loads(meta.read_text())
+        raise ScenarioError(f"{where}: no policy.json (train_policy.py --out)")
+    try:
+        state = json.loads(meta.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ScenarioError(f"{where}: {meta} is not a policy file ({err})") from None
+    if not isinstance(state, dict):
+        raise ScenarioError(f"{where}: {meta} is not a policy file (not a JSON object)")
     if not state.get("checkpoint"):
-        raise ScenarioError(f"planner policy:{argument}: no checkpoint saved yet")
+        raise ScenarioError(f"{where}: no checkpoint saved yet")
+    missing = [k for k in KEYS if k not in state]
+    if missing:
+        raise ScenarioError(f"{where}: {meta} lacks {', '.join(missing)} (damaged or edited)")
+    if not (path / str(state["checkpoint"])).is_dir():
+        raise ScenarioError(
+            f"{where}: its checkpoint {state['checkpoint']!r} is missing from {path}"
+        )
     return path, state
 
 
@@ -49,6 +68,7 @@ class PolicyPlanner(Planner):
     """
 
     takes_argument = True
+    argument_name = "DIR"  # "give policy:DIR"
 
     def __init__(self, env, argument: str):
         super().__init__(env)
@@ -57,7 +77,7 @@ class PolicyPlanner(Planner):
         if (state["n_radars"], state["n_targets"]) != (n, m):
             raise ScenarioError(
                 f"planner policy:{argument}: trained for {state['n_radars']} radars and "
-                f"{state['n_targets']} targets ({state['scenario']}), not {n} and {m}"
+                f"{state['n_targets']} targets ({state.get('scenario', '?')}), not {n} and {m}"
             )
         if state["observation_size"] != feature_size(n, m):
             raise ScenarioError(f"planner policy:{argument}: features of another version")
@@ -105,5 +125,11 @@ def load_policy(checkpoint, state: dict):
         state["action_size"],
         preprocess_observations_fn=running_statistics.normalize,
     )
-    params = ppo_ckpt.load(checkpoint)
+    try:
+        params = ppo_ckpt.load(checkpoint)
+    except Exception as err:  # noqa: BLE001 -- a damaged checkpoint: one line naming it
+        raise ScenarioError(
+            f"planner policy: checkpoint {checkpoint} cannot be read ({type(err).__name__}: "
+            f"{str(err).splitlines()[0] if str(err) else ''})"
+        ) from None
     return networks.make_inference_fn(network)(params, deterministic=True)

@@ -22,6 +22,7 @@ import csv
 import dataclasses
 import json
 import math
+import os
 import time
 from pathlib import Path
 
@@ -37,10 +38,56 @@ class _OutOfTime(Exception):
     """Raised from brax's progress callback to end a chunk after a checkpoint."""
 
 
-def read_state(out) -> dict | None:
-    """``DIR/policy.json`` as a dict (None when absent)."""
+#: what a resumed ``policy.json`` must hold
+STATE_KEYS = ("scenario", "method", "config", "steps_done", "wall_s", "chunks", "checkpoint")
+
+
+def read_state(out, scenario: str | None = None, method: str | None = None) -> dict | None:
+    """``DIR/policy.json`` as a dict (None when absent), checked for a resume: one line
+    naming the file for an unreadable or incomplete one, one trained on another
+    ``scenario`` / ``method`` (if given), or a missing checkpoint."""
     path = Path(out) / "policy.json"
-    return json.loads(path.read_text()) if path.is_file() else None
+    if not path.exists():
+        return None
+    try:
+        state = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ScenarioError(f"out: {path} is not a policy file ({err})") from None
+    if not isinstance(state, dict):
+        raise ScenarioError(f"out: {path} is not a policy file (not a JSON object)")
+    if scenario is not None and (state.get("scenario"), state.get("method")) != (
+        scenario,
+        method,
+    ):
+        raise ScenarioError(
+            f"out = {str(out)!r}: trained on {state.get('scenario')} / {state.get('method')}, "
+            f"not {scenario} / {method}"
+        )
+    missing = [k for k in STATE_KEYS if k not in state]
+    if missing:
+        raise ScenarioError(f"out: {path} lacks {', '.join(missing)} (damaged or edited)")
+    try:
+        config_of(state)
+    except (TypeError, KeyError, ValueError) as err:
+        raise ScenarioError(f"out: {path}: its config is not a PPO configuration ({err})") from None
+    if state["checkpoint"] and not (Path(out) / str(state["checkpoint"])).is_dir():
+        raise ScenarioError(
+            f"out: {path} names checkpoint {state['checkpoint']!r}, which is missing "
+            "(restore it, or train into a new folder)"
+        )
+    return state
+
+
+def check_out(out: Path) -> None:
+    """``out`` is a folder or can be made one (one line otherwise; nothing is made)."""
+    if out.exists() and not out.is_dir():
+        raise ScenarioError(f"out = {str(out)!r}: a file, not a folder")
+    parent = next((p for p in out.parents if p.exists()), None)
+    if not out.exists() and (parent is None or not parent.is_dir()):
+        raise ScenarioError(f"out = {str(out)!r}: {parent} is not a folder")
+    target = out if out.exists() else parent
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise ScenarioError(f"out = {str(out)!r}: {target} is not writable")
 
 
 def train_policy(
@@ -76,18 +123,25 @@ def train_policy(
         ``DIR/policy.json``'s content (``steps_done``, ``checkpoint``, ...).
     """
     from mjx_radar.engine import compile_cache
+    from mjx_radar.env.inputs import check_scenario
     from mjx_radar.learning import compat
-    from mjx_radar.scenario.reader import load_scenario
+    from mjx_radar.task.method import parse_method
 
-    out = Path(out).resolve()  # orbax writes to absolute paths only
-    sc = scenario if not isinstance(scenario, str | Path) else load_scenario(str(scenario))
-    state = read_state(out)
+    if not isinstance(out, str | os.PathLike) or not str(out):
+        raise ScenarioError(f"out = {out!r}: must be a folder path")
+    out = Path(out).expanduser().resolve()  # orbax writes to absolute paths only
+    check_out(out)
+    sc = check_scenario(scenario)
+    try:
+        parse_method(method)
+    except ValueError as err:
+        raise ScenarioError(str(err)) from None
+    if max_seconds is not None and not (
+        isinstance(max_seconds, int | float) and 0 < max_seconds < math.inf
+    ):
+        raise ScenarioError(f"max_seconds = {max_seconds!r}: must be a number > 0 (or None)")
+    state = read_state(out, sc.name, method)
     if state is not None:
-        if state["scenario"] != sc.name or state["method"] != method:
-            raise ScenarioError(
-                f"out = {str(out)!r}: trained on {state['scenario']} / {state['method']}, "
-                f"not {sc.name} / {method}"
-            )
         config = config_of(state)
     config = config or PPOConfig()
     if penalty_scale is not None:  # checked with the rest of the configuration
@@ -138,7 +192,10 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
     if schedule[-1][1] != config.penalty_scale:  # a curriculum step on a resume
         schedule.append([state["steps_done"], config.penalty_scale])
         state["config"]["penalty_scale"] = config.penalty_scale
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ScenarioError(f"out = {str(out)!r}: cannot be made ({err.strerror})") from None
     remaining = steps - state["steps_done"]
     if remaining <= 0:
         log(f"train: {out} already holds {state['steps_done']} >= {steps} steps")

@@ -26,6 +26,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
+from mjx_radar.contracts import placeholder
 from mjx_radar.registry import PLANNERS
 
 
@@ -101,6 +102,7 @@ class Planner:
         """The planner's initial carry (a pytree; ``()`` if it keeps none)."""
         return ()
 
+    @placeholder  # a subclass defines it (refused at registration otherwise)
     def plan(self, carry, obs: Observation, key) -> tuple[jax.Array, Any]:
         """``(action [N, 2], carry)``: the controls for the next control period."""
         raise NotImplementedError(f"planner {type(self).__name__} has no plan()")
@@ -139,5 +141,8 @@ def unregister_planner(name: str) -> None:
 
 
 def make(name: str, env):
-    """The planner ``name`` made for ``env`` (one-line ``ValueError`` for an unknown name)."""
-    return PLANNERS.get(name)(env)
+    """The planner ``name`` made for ``env`` (one-line ``ValueError`` for an unknown name),
+    its outputs checked where they are traced (:mod:`mjx_radar.planners.guard`)."""
+    from mjx_radar.planners.guard import guarded
+
+    return guarded(name, env)

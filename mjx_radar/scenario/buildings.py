@@ -34,6 +34,7 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
@@ -155,7 +156,9 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
                 f"not {feat['geometry'].get('type')!r}"
             )
         try:
-            geom = shape(feat["geometry"])
+            with warnings.catch_warnings():  # NaN coordinates: refused below, in one line
+                warnings.simplefilter("ignore", RuntimeWarning)
+                geom = shape(feat["geometry"])
         except Exception as err:  # shapely raises several types for malformed rings
             raise MapError(f"{where}: malformed coordinates ({str(err).splitlines()[0]})") from None
         if geom.is_empty or not np.all(np.isfinite(shapely.get_coordinates(geom))):

@@ -60,7 +60,13 @@ def moving_obstacle(i: int, raw: Any) -> MovingObstacle:
         if not ok or not 0.0 < v <= 1e3:
             raise ScenarioError(f"{field}.size[{j}] = {show(v)}: must be a number in (0, 1000] m")
     kwargs["size"] = tuple(float(v) for v in size)
-    kwargs["path"] = _path(f"{field}.path", raw["path"])
+    kwargs["path"] = path = _path(f"{field}.path", raw["path"])
+    loop = kwargs.get("end", _FIELDS["end"].default) == "loop"
+    if loop and math.dist(path[-1], path[0]) < 1e-3:
+        raise ScenarioError(
+            f"{field}.path[{len(path) - 1}] = {show(list(path[-1]))}: repeats path[0]; "
+            'end = "loop" closes the path itself (drop the last waypoint)'
+        )
     return MovingObstacle(**kwargs)
 
 

@@ -181,6 +181,11 @@ def check(s) -> None:
     t = s.tracker
     if t.management != "managed" and s.filter.tracker != "managed":
         return
+    if t.association != "pda":  # its own association (gating, the track table)
+        raise ScenarioError(
+            f'tracker.association = "{t.association}": the managed tracker ignores it '
+            '(tracker.management = "managed" associates returns to its track table); remove it'
+        )
     if t.confirm_m > t.confirm_n:
         raise ScenarioError(
             f"tracker.confirm_m = {t.confirm_m}: must be <= tracker.confirm_n = {t.confirm_n}"

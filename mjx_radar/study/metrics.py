@@ -12,7 +12,7 @@ Definitions (T trials, K steps of one scenario and method):
   lost trial (e.g. a CCR filter locked on the z-mirror, 1e6 m) dominates it.
 * **median per step**: median over the T trials.
 * **90% HDI per step**: the narrowest interval holding 90% of the T per-step
-  RMSE values (``arviz.hdi``: of the sorted values ``x``, the window
+  RMSE values (as ``arviz.hdi`` 0.x: of the sorted values ``x``, the window
   ``[x_i, x_{i + floor(0.9 T)}]`` of least width). Robust while fewer than ~10% of
   the trials are lost at that step.
 * **kept mean per step**: mean over the trials never flagged lost in any step.
@@ -38,8 +38,6 @@ Definitions (T trials, K steps of one scenario and method):
 """
 
 from __future__ import annotations
-
-import warnings
 
 import numpy as np
 import pandas as pd
@@ -67,24 +65,35 @@ STAT_COLUMN = {
 
 
 def hdi(samples: np.ndarray, prob: float = HDI_PROB) -> np.ndarray:
-    """Highest density interval over the first axis.
+    """Highest density interval over the first axis (arviz 0.x's ``hdi``, computed here).
+
+    Of the T sorted values ``x`` of a column, the window ``[x_i, x_{i + floor(prob T)}]``
+    of least width (the first on ties; NaN values sort last and, as in arviz, a column
+    with NaN may give a NaN bound). Computed without arviz, whose signature changed
+    (``hdi_prob`` in 0.x, ``prob`` in 1.x), with the same numbers as arviz 0.x.
 
     Args:
-        samples: [T] or [T, K] values (trials first).
-        prob: probability mass of the interval.
+        samples: [T] or [T, K] values (trials first), T >= 1.
+        prob: probability mass of the interval, in (0, 1].
 
     Returns:
         [2] ``(low, high)`` for 1-D input, else [K, 2].
     """
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # arviz 0.2x announces its refactor on import
-        import arviz as az
-
     x = np.asarray(samples, np.float64)
-    if x.ndim == 1:
-        return np.asarray(az.hdi(x, hdi_prob=prob))
-    # arviz reads an n-d array as (chain, draw, *shape): one chain, T draws, K variables.
-    return np.asarray(az.hdi(x.reshape(1, x.shape[0], -1), hdi_prob=prob)).reshape(-1, 2)
+    if x.ndim == 0 or x.shape[0] == 0:
+        raise ValueError("hdi: no values (at least one trial is needed)")
+    flat = x.reshape(x.shape[0], -1)
+    return np.stack([_hdi_column(flat[:, k], prob) for k in range(flat.shape[1])]).reshape(
+        (2,) if x.ndim == 1 else (-1, 2)
+    )
+
+
+def _hdi_column(values: np.ndarray, prob: float) -> np.ndarray:
+    v = np.sort(values)
+    width_idx = int(np.floor(prob * v.size))
+    widths = np.subtract(v[width_idx:], v[: v.size - width_idx], dtype=np.float64)
+    i = int(np.argmin(widths))
+    return np.array([v[i], v[i + width_idx]])
 
 
 def ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

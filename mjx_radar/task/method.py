@@ -126,16 +126,22 @@ def parse_method(name: str | Method, planner: str | None = None) -> Method:
             method = METHODS[base]
         except (KeyError, TypeError):
             raise ValueError(f"method: {name!r} is not one of {', '.join(METHODS)}") from None
+        if own and planner is not None and planner_name(planner) != planner_name(own):
+            raise ValueError(
+                f"planner: {planner!r} conflicts with the method {name!r}, which names its "
+                f"planner {own!r}; give one of them"
+            )
         planner = own or planner
     return with_planner(method, planner)
 
 
 def with_planner(method: Method, planner: str | None) -> Method:
     """``method`` moved by ``planner`` (named ``"METHOD+PLANNER"``; None: unchanged)."""
+    if not isinstance(planner, str | None) or planner == "":
+        raise ValueError(f"planner: {planner!r} is not a planner name")
+    planner = planner_name(planner)
     if planner is None or planner == method.planner:
         return method
-    if not isinstance(planner, str) or not planner:
-        raise ValueError(f"planner: {planner!r} is not a planner name")
     if not method.plans:
         raise ValueError(
             f"planner: {method.name!r} radars never move; give --planner a planning method "
@@ -145,6 +151,15 @@ def with_planner(method: Method, planner: str | None) -> Method:
     default = METHODS[base].planner if base in METHODS else "mppi"
     name = base if planner == default else f"{base}+{planner}"
     return Method(name, method.noise, method.info, planner)
+
+
+def planner_name(planner: str | None) -> str | None:
+    """A planner name as the registry keeps it: case-insensitive (``"CEM"`` is ``"cem"``),
+    a ``:ARGUMENT`` (``policy:DIR``) kept as given."""
+    if not isinstance(planner, str):
+        return planner
+    base, colon, arg = planner.strip().partition(":")
+    return base.lower() + colon + arg
 
 
 def baseline_of(method: Method) -> Method | None:

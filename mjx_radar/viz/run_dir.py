@@ -84,6 +84,9 @@ class Trial:
         """Lower and upper xy corners of the drone paths and the radars' R2T discs."""
         radar, r2t = self.radar[..., :2].reshape(-1, 2), self.meta["r2t"]
         xy = np.concatenate([radar - r2t, radar + r2t, self.target[..., :2].reshape(-1, 2)])
+        xy = xy[np.isfinite(xy).all(1)]  # a diverged trial's NaN positions draw no range
+        if not len(xy):
+            return np.full(2, -1.0), np.full(2, 1.0)
         return xy.min(0), xy.max(0)
 
 

@@ -124,7 +124,9 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
     for car in rd.scenario.moving_obstacles:  # the vehicles' roads in the scene too
         lo, hi = np.minimum(lo, np.min(car.path, 0)), np.maximum(hi, np.max(car.path, 0))
-    ztop, zlow = max(float(max(tr.target[..., 2].max() for tr in trs)) * 1.15, 1.0), 0.0
+    zs = np.concatenate([tr.target[..., 2].reshape(-1) for tr in trs])
+    zs = zs[np.isfinite(zs)]  # NaN truth (a diverged trial) sets no range
+    ztop, zlow = max(float(zs.max()) * 1.15 if zs.size else 1.0, 1.0), 0.0
     cols = counts.count_columns(rd.scenario, metrics)
     fig = counts.subplots(bool(cols))
     for trace in static_traces(rd.scenario, lo, hi):

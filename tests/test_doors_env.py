@@ -1,0 +1,101 @@
+"""The environment door: env.make, reset and step, and the gymnasium and brax wrappers
+refuse a user's mistakes in one line naming the argument; an action is never reshaped."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import mjx_radar
+from mjx_radar import ScenarioError
+from mjx_radar import env as radar_env
+
+
+@pytest.fixture(scope="module")
+def env():
+    return radar_env.make("smoke", steps=8)
+
+
+@pytest.fixture(scope="module")
+def state(env):
+    return env.reset(env.trial_key(0, 0))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"scenario": None}, "scenario = None: must be a Scenario"),
+        ({"scenario": "smoke", "seed": -1}, r"seed = -1: must be an integer in \[0, 2\^31 - 1\]"),
+        ({"scenario": "smoke", "seed": 2**40}, "seed = 1099511627776"),
+        ({"scenario": "smoke", "seed": 1.5}, "seed = 1.5"),
+        ({"scenario": "smoke", "steps": 0}, "steps = 0: must be an integer >= 1"),
+        ({"scenario": "smoke", "steps": 6}, "steps = 6: must be a multiple of"),
+        ({"scenario": "smoke", "method": "nope"}, "method: 'nope' is not one of"),
+    ],
+)
+def test_make_refuses_in_one_line(kwargs, message):
+    with pytest.raises(ScenarioError, match=message) as err:
+        radar_env.make(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+def test_make_validates_a_scenario_object():
+    bad = dataclasses.replace(mjx_radar.load_scenario("smoke"), p0=-5.0)
+    with pytest.raises(ScenarioError, match="p0 = -5.0"):
+        radar_env.make(bad)
+
+
+def test_reset_needs_a_key(env):
+    with pytest.raises(ScenarioError, match="reset: key = 7: must be a PRNG key"):
+        env.reset(7)
+    with pytest.raises(ScenarioError, match=r"not an array float32\[3\]"):
+        env.reset(jnp.zeros(3))
+
+
+def test_step_refuses_a_wrong_state_and_wrong_actions(env, state):
+    with pytest.raises(ScenarioError, match="step: state = 7: must be the State"):
+        env.step(7, jnp.zeros((2, 2)))
+    for bad in (jnp.zeros((2, 3)), jnp.zeros((3, 2)), jnp.zeros(6), jnp.zeros((1, 4))):
+        with pytest.raises(ScenarioError, match=r"must be \[2, 2\] .* or \[4\]"):
+            env.step(state, bad)
+    with pytest.raises(ScenarioError, match="action holds NaN or inf"):
+        env.step(state, jnp.array([[0.0, jnp.nan], [0.0, 0.0]]))
+    with pytest.raises(ScenarioError, match="must be an array"):
+        env.step(state, "fast")
+
+
+def test_a_transposed_action_is_refused_where_traced(env, state):
+    # a [2, N] action on N = 2 radars has the right shape; on 3 radars [2, 3] it had been
+    # reshaped silently into scrambled controls
+    with pytest.raises(ScenarioError, match=r"action of shape \[3, 2\]"):
+        jax.eval_shape(env.step, state, jax.ShapeDtypeStruct((3, 2), jnp.float32))
+    assert env.clip_action(jnp.arange(4.0)).shape == (2, 2)  # [2N] stays accepted
+
+
+def test_gymnasium_step_refuses_wrong_shapes_and_nan():
+    from mjx_radar.learning.gym_env import RadarGymEnv, RadarVectorEnv
+
+    g = RadarGymEnv("smoke")
+    g._state = object()  # as after reset(): the action is checked before anything runs
+    with pytest.raises(ScenarioError, match=r"action of shape \[2, 3\]: must be \[4\]"):
+        g.step(np.zeros((2, 3)))
+    with pytest.raises(ScenarioError, match=r"action of shape \[2, 2\]: must be \[4\]"):
+        g.step(np.zeros((2, 2)))
+    with pytest.raises(ScenarioError, match="NaN or inf"):
+        g.step(np.array([0.0, np.nan, 0.0, 0.0]))
+    v = RadarVectorEnv("smoke", num_envs=2)
+    v._state = object()
+    with pytest.raises(ScenarioError, match=r"action of shape \[8\]: must be \[2, 4\]"):
+        v.step(np.zeros(8))
+
+
+def test_brax_action_is_checked_not_reshaped(env):
+    from mjx_radar.learning.features import action_to_control
+
+    with pytest.raises(ScenarioError, match=r"action of shape \[3\]"):
+        action_to_control(env, jnp.zeros(3))
+    assert action_to_control(env, jnp.zeros(4)).shape == (2, 2)
