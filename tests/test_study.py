@@ -91,7 +91,8 @@ def test_trial_independent_of_batch_mates(study_dir):
 def test_kill9_then_resume_is_identical(study_dir, tmp_path, sigkill_once_written):
     out = tmp_path / "killed"
     proc = _subprocess(["study", *ARGS, "--out", str(out)], stderr=subprocess.DEVNULL)
-    sigkill_once_written(proc, out / "chunks" / "smoke__stationary__0-1.parquet", 300)
+    # the first chunk a lane runs: the costliest ready one (study.lanes)
+    sigkill_once_written(proc, out / "chunks" / "smoke__ddr-sfim__0-1.parquet", 300)
     assert not (out / "study.json").exists()
     assert 1 <= len(list((out / "chunks").glob("*.parquet"))) < 4  # killed mid-way
     assert cli.main(["study", *ARGS, "--out", str(out), "--resume"]) == 0

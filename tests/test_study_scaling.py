@@ -127,7 +127,8 @@ def test_killed_shard_reruns_losing_at_most_one_chunk(
     file, writes the rest, and with shard 0 the study equals the reference."""
     out = tmp_path / "killed"
     proc = _study(["--out", str(out), "--shard", "1/2"], env=_env(), stderr=subprocess.DEVNULL)
-    first = out / "chunks" / "smoke__stationary__2-3.parquet"  # shard 1 owns chunks 1, 3
+    # shard 1 owns chunks 1 and 3 (stationary 2-3, ddr-sfim 2-3) and runs the costliest first
+    first = out / "chunks" / "smoke__ddr-sfim__2-3.parquet"
     sigkill_once_written(proc, first, TIMEOUT_S)
     kept = first.stat().st_mtime_ns
     assert not (out / "study.json").exists()
