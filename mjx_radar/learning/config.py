@@ -10,6 +10,7 @@ planner ``policy:DIR``.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 from mjx_radar.io.checks import ScenarioError
@@ -140,3 +141,15 @@ def check_config(config: PPOConfig, steps: int) -> None:
     for name in ("shield", "evaluate"):
         if not isinstance(getattr(config, name), bool):
             raise ScenarioError(f"{name} = {getattr(config, name)!r}: must be True or False")
+
+
+def read_policy_json(path, where: str) -> dict:
+    """The JSON object of a ``policy.json`` at ``path``; a :class:`ScenarioError` naming
+    ``where`` (the option or field) when the file is unreadable or not a JSON object."""
+    try:
+        state = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ScenarioError(f"{where}: {path} is not a policy file ({err})") from None
+    if not isinstance(state, dict):
+        raise ScenarioError(f"{where}: {path} is not a policy file (not a JSON object)")
+    return state

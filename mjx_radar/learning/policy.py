@@ -20,10 +20,10 @@ targets (the features' size); other scenario settings may differ (generalisation
 from __future__ import annotations
 
 import hashlib
-import json
 from pathlib import Path
 
 from mjx_radar.io.checks import ScenarioError
+from mjx_radar.learning.config import read_policy_json
 from mjx_radar.learning.features import action_to_control, feature_size, features
 from mjx_radar.learning.shield import shield
 from mjx_radar.planners.base import Planner
@@ -41,12 +41,7 @@ def _policy_dir(argument: str) -> tuple[Path, dict]:
     meta = path / "policy.json"
     if not meta.is_file():
         raise ScenarioError(f"{where}: no policy.json (train_policy.py --out)")
-    try:
-        state = json.loads(meta.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise ScenarioError(f"{where}: {meta} is not a policy file ({err})") from None
-    if not isinstance(state, dict):
-        raise ScenarioError(f"{where}: {meta} is not a policy file (not a JSON object)")
+    state = read_policy_json(meta, where)
     if not state.get("checkpoint"):
         raise ScenarioError(f"{where}: no checkpoint saved yet")
     missing = [k for k in KEYS if k not in state]

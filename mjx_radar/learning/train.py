@@ -28,7 +28,13 @@ from pathlib import Path
 
 from mjx_radar.io.atomic import atomic_write_text
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.learning.config import PPOConfig, check_config, config_of, network_factory
+from mjx_radar.learning.config import (
+    PPOConfig,
+    check_config,
+    config_of,
+    network_factory,
+    read_policy_json,
+)
 
 FORMAT = 1
 CURVE = ("steps", "wall_s", "reward", "information", "penalty", "rmse_pos", "lost")
@@ -49,12 +55,7 @@ def read_state(out, scenario: str | None = None, method: str | None = None) -> d
     path = Path(out) / "policy.json"
     if not path.exists():
         return None
-    try:
-        state = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise ScenarioError(f"out: {path} is not a policy file ({err})") from None
-    if not isinstance(state, dict):
-        raise ScenarioError(f"out: {path} is not a policy file (not a JSON object)")
+    state = read_policy_json(path, "out")
     if scenario is not None and (state.get("scenario"), state.get("method")) != (
         scenario,
         method,
