@@ -57,9 +57,10 @@ class _Queue:
     (:data:`_COST_RANK`); when none is ready, the next chunk in study order (and waits for
     its program)."""
 
-    def __init__(self, todo, key, ready):
-        self._todo = sorted(todo, key=lambda c: (key(c), _rank(c)))  # stable: study order
-        self._key, self._ready = key, ready  # chunk -> program key; (key, device) -> bool
+    def __init__(self, todo, program, ready):
+        # (its program's place in study order, chunk), once per chunk; sorted stably
+        self._todo = sorted(((program(c), c) for c in todo), key=lambda x: (x[0], _rank(x[1])))
+        self._ready = ready  # (program's place, device) -> bool
         self._lock = threading.Lock()
         self.stop = threading.Event()
 
@@ -67,8 +68,8 @@ class _Queue:
         with self._lock:
             if self.stop.is_set() or not self._todo:
                 return None
-            i = next((i for i, c in enumerate(self._todo) if self._ready(self._key(c), device)), 0)
-            return self._todo.pop(i)
+            i = next((i for i, (k, _) in enumerate(self._todo) if self._ready(k, device)), 0)
+            return self._todo.pop(i)[1]
 
 
 def _covered(intervals: list[tuple[float, float]]) -> float:
@@ -101,6 +102,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
     from tqdm import tqdm
 
     from mjx_radar.engine.device_lane import run_on_device
+    from mjx_radar.rundir.results import LOOP_COLUMNS
     from mjx_radar.study.host_work import ChunkJob, HostPool
     from mjx_radar.study.schedule import program_key
 
@@ -108,14 +110,14 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
     order = {}  # program key -> its place in study order
     for c in todo:
         order.setdefault(program_key(c, started.programs), len(order))
-    key = lambda c: order[program_key(c, started.programs)]  # noqa: E731
     keys = list(order)
 
-    def ready(k: int, d: int) -> bool:
+    def ready(k: int, d: int) -> bool:  # device d's copy of program k is there (or failed)
         pending = started.pending[keys[k]]
-        return d in getattr(pending, "devices", {d: None}) or not pending.started.running()
+        return d in pending.devices or not pending.started.running()
 
-    queue, t0 = _Queue(todo, key, ready), started.t0
+    program = lambda c: order[program_key(c, started.programs)]  # noqa: E731
+    queue, t0 = _Queue(todo, program, ready), started.t0
     total = sum(c.steps * (c.last - c.first + 1) for c in todo)
     bar = tqdm(
         total=total,
@@ -150,7 +152,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
             s = c.scenario
             cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
             job = ChunkJob(c.path, s.name, c.method, c.first, c.last, *cfg)
-            loop = {k: v for k, v in res.items() if k in _loop_columns()}
+            loop = {k: v for k, v in res.items() if k in LOOP_COLUMNS}
             sets = {k: v for k, v in res.items() if k not in loop}
             pool.submit(job, loop, sets)
             timeline.append(
@@ -188,12 +190,6 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
         t_sim_end = max((e["end_s"] for e in timeline), default=0.0)
         pool.drain()
     return _account(times, started, timeline, pool, t_sim_end)
-
-
-def _loop_columns() -> tuple:
-    from mjx_radar.rundir.results import LOOP_COLUMNS
-
-    return LOOP_COLUMNS
 
 
 def _account(times, started, timeline, pool, t_sim_end: float) -> dict:
