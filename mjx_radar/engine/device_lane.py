@@ -71,11 +71,6 @@ class DeviceBatch:
         """The oldest dispatched segment's records on the host (waits for them)."""
         return [np.asarray(r) for r in self._queue.popleft()]
 
-    @property
-    def in_flight(self) -> int:
-        """Segments dispatched and not yet collected."""
-        return len(self._queue)
-
 
 def run_batches(
     batches: list[DeviceBatch], segments: int, on_segment: Callable[[int, list], None]
