@@ -31,6 +31,8 @@ class _Pending:
         self.devices = {}
 
     def set(self):
+        if self.ready.is_set():
+            return
         self.at = time.perf_counter() - self.t0
         self.devices.update({d: (f"program {d}", 0.0) for d in range(self.n_dev)})
         self.ready.set()
@@ -109,6 +111,19 @@ def test_lanes_run_each_chunk_once_as_soon_as_its_program_is_ready(study):
     # 8 chunks of 50 ms on 2 devices: ~0.2 s of simulation, not 0.4
     assert 0.18 < times.sim_s < 0.35, times.sim_s
     assert len(host["timeline"]) == len(todo) and {e["device"] for e in host["timeline"]} == {0, 1}
+
+
+def test_programs_first_holds_every_lane_until_every_program_is_loaded(study, monkeypatch):
+    todo, started, ran, mesh = study
+    monkeypatch.setenv(lanes.PROGRAMS_FIRST_ENV, "1")
+    programs = schedule.start(todo, 4, mesh)
+    threading.Timer(0.3, started[1].set).start()  # the second program, before any chunk
+    times = driver.StudyTimes()
+    lanes.run_lanes(SimpleNamespace(chunk=2, progress=False), todo, mesh, times, programs)
+    assert len(ran) == len(todo) and all(r[3] for r in ran)  # none ran beside a compile
+    assert times.compile_s > 0.28 and times.compile_wall_s == pytest.approx(started[1].at)
+    monkeypatch.setenv(lanes.PROGRAMS_FIRST_ENV, "0")
+    assert not lanes.programs_first()
 
 
 def test_a_failing_chunk_stops_the_lanes_and_is_raised(study, monkeypatch):

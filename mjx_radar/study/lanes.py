@@ -34,6 +34,19 @@ import numpy as np
 __all__ = ["host_workers", "run_lanes"]
 
 
+#: ``$MJX_RADAR_PROGRAMS_FIRST=1``: no lane starts before every program is on every device
+PROGRAMS_FIRST_ENV = "MJX_RADAR_PROGRAMS_FIRST"
+
+
+def programs_first() -> bool:
+    """Whether the lanes wait for every program on every device before their first chunk
+    (``$MJX_RADAR_PROGRAMS_FIRST`` = ``1``): the simulation then runs alone, without the
+    programs still compiling and loading beside it, and ``sim_s`` measures the devices'
+    scaling. By default a lane starts as soon as its first chunk's program is there,
+    which overlaps the two (docs/scaling.md compares them)."""
+    return os.environ.get(PROGRAMS_FIRST_ENV, "0").strip() not in ("", "0")
+
+
 def host_workers(n_dev: int) -> int:
     """Host threads for ``n_dev`` devices: one more than the devices, at most half the
     host's cores (at least one)."""
@@ -131,7 +144,12 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
     timeline: list[dict] = []
     errors: list[BaseException] = []
 
+    def every_program_loaded() -> bool:
+        return all(ready(k, d) for k in range(len(keys)) for d in range(len(devices)))
+
     def lane(d: int, pool: HostPool) -> None:
+        while programs_first() and not every_program_loaded() and not queue.stop.is_set():
+            time.sleep(0.05)
         while (c := queue.take(d)) is not None:
             n = c.last - c.first + 1
             key = program_key(c, started.programs)
