@@ -258,7 +258,8 @@ def _advice(scenario: Scenario, term: str, batch: str, size: int, kind: str) -> 
             ratio = (
                 device_terms(alt, 1, kind=kind)[term] / device_terms(scenario, 1, kind=kind)[term]
             )
-            fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
+            if ratio <= 1.0:  # not on a GPU's fused joint SFIM, which the bank would exceed
+                fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
         return what, fix
     if term == "filter":
         what = f"{m} targets ({scenario.filter.structure} filter), {batch}"
