@@ -12,11 +12,16 @@ program (temporaries + arguments + outputs - donated aliases) and their ratio::
 With ``--peak`` every case runs in a process of its own (``--jobs`` at once), runs one
 segment after compiling and adds the device's ``peak_bytes_in_use``
 (``jax.Device.memory_stats()``; ``None`` on the CPU, where the process's peak RSS is
-given instead). The GPU table (every bundled scenario, ``run --method ddr-sfim``'s
-program at 64 trials; one H200, about 3-4 minutes)::
+given instead) and compares it with the model's device peak (``predicted_peak``: on a
+GPU the runtime's floor added to a small program). The GPU tables (every bundled
+scenario x kind at 64 trials, SFIM at 16, a study's program; one H200)::
 
-    python scripts/measure_memory.py --kinds sfim --trials 64 --peak --jobs 6 \\
-        --json gpu_memory.json
+    CUDA_VISIBLE_DEVICES=0 python scripts/measure_memory.py --peak --kinds sfim \\
+        --trials 64 --jobs 5 --json gpu_sfim64.json
+    ... --kinds none,pfim --trials 64 --jobs 6 --json gpu_nonepfim64.json
+    ... --kinds sfim --trials 16 --jobs 5 --json gpu_sfim16.json
+    ... --kinds sfim+pfim+none --metrics-only --trials 64 --jobs 5 --json gpu_study64.json
+    python benchmarks/memory_gpu_result.py gpu_*.json   # the result files
 
 ``--kinds sfim+pfim+none --metrics-only`` is a study's program (every built-in method
 of a shape in one program, metrics only). ``--structure`` and ``--rollouts`` override
@@ -56,7 +61,7 @@ def measure(
     """Prediction, XLA's memory analysis and (``peak``) the device peak of one program."""
     import jax
 
-    from mjx_radar.engine import programs, resources, runner
+    from mjx_radar.engine import memory_model, programs, resources, runner
     from mjx_radar.scenario.reader import load_with_overrides
 
     s, steps = load_with_overrides(path, rollouts, steps)
@@ -100,8 +105,10 @@ def measure(
         runner.run_trials(s, method, 0, list(range(trials)), periods * every, full, program=program)
         stats = dev.memory_stats() or {}
         row["device_peak"] = stats.get("peak_bytes_in_use")
+        # the model's device peak: XLA's figure and, on a GPU, the runtime's floor
+        row["predicted_peak"] = memory_model.device_peak(row["predicted"], dev.platform)
         if row["device_peak"]:
-            row["peak_ratio"] = round(row["predicted"] / row["device_peak"], 3)
+            row["peak_ratio"] = round(row["predicted_peak"] / row["device_peak"], 3)
         row["peak_rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         row["run_s"] = round(time.perf_counter() - t0, 1)
     return row

@@ -17,15 +17,14 @@ and ``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimut
   ``w/r²`` and its product with the geometry; ``buffer-assignment`` of the CPU
   program): ``A = 3 + 2N`` for SFIM, ``6.3 + 2N`` for PFIM on the CPU, ``+5N`` when the
   planner weighs the information by detection with clutter; a program joining both
-  under ``lax.cond`` (kind ``"all"``) fuses them, ``11.3 + N/2``. On a GPU ``2 + 1.5N``
-  for SFIM (the 110 GiB that 16 trials of the joint swarm_32r32t asked of an H200) and
-  ``6 + N`` joined. Quadratic in ``M`` for the joint filter: swarm_32r32t (``P·M =
-  12 288``) keeps 65 arrays of 147 MB, 9.9 GB a trial on the CPU, against 0.3 GB with
-  the per-target bank (``P·M = 384``);
+  under ``lax.cond`` (kind ``"all"``) fuses them, ``11.3 + N/2`` (``6 + N`` on a GPU).
+  Quadratic in ``M`` for the joint filter: swarm_32r32t (``P·M = 12 288``) keeps 65
+  arrays of 147 MB, 9.9 GB a trial on the CPU, against 0.3 GB with the per-target bank
+  (``P·M = 384``);
 * line of sight (scenes with obstacles): the planner tests every sample's radar-target
   segments against each obstacle, ``T·S·H·N·M·(K·F + C)`` tests for ``K`` polyhedra
   of ``F`` planes (boxes 6, meshes their hull's) and ``C`` cylinders, 1 number each
-  on a GPU, 4 on the CPU in a ``"all"`` program and none kept in a program of one kind;
+  on a GPU and 4 on the CPU in a ``"all"`` program, none kept in a program of one kind;
   the truth's line of sight in the loop ``6·N·M·(K·F + C)`` (and 270 numbers of each
   mesh's geometry in the loop state, 20 of any other obstacle's);
 * MPPI sampling: the factored proposal draws ``e1 [S, S]`` per sub-iteration,
@@ -47,25 +46,35 @@ and ``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimut
   parameters (with ``[[target_motion]]`` the motion tables of the file's ``K`` steps,
   ``(9K + 7)·M``, for all trials): the whole program of ``stationary``.
 
+On a GPU a program of one kind or a study's keeps fewer arrays (XLA fuses more), and
+the device's peak adds the runtime's floor to a small program:
+:mod:`mjx_radar.engine.memory_model_gpu`.
+
 XLA's figure for a program is ``compiled.memory_analysis()`` of its step program:
 temporaries + arguments + outputs - donated aliases (``scripts/measure_memory.py``).
 The estimate / that figure lies in 0.86-1.13 for every bundled scenario x kind at 2
 trials on the CPU (jax 0.10.2; 0.94-1.06 for programs above 1 MB), the table of
 ``tests/test_resources.py``, and in :data:`MEASURED_FACTOR` on its synthetic shapes
-and H100 figures.
+and H100 figures (kind ``"all"``). On one H200 (jax 0.11.2, 64 and 16 trials, every
+bundled scenario x kind and a study's program;
+``benchmarks/results/memory_model_gpu_h200_rows.json``) it lies in 0.84-1.17 of XLA's
+figure but for smoke's programs of 1.4-24 MB (0.31-1.32: XLA keeps smoke's SFIM arrays
+at 64 trials and fuses them at 16), and in 0.76-1.13 of the device's peak but for two
+of clutter_3r4t's (0.62-0.63: its peak lies ~230 MB above the step program's figure).
 """
 
 from __future__ import annotations
 
 import functools
 
+from mjx_radar.engine.memory_model_gpu import device_peak, gpu_terms  # noqa: F401
 from mjx_radar.scenario.schema import Scenario
 
 KEEP = 32  # MPPI samples kept per control step (closed_loop.N_KEEP_SAMPLES)
 #: numbers per line-of-sight test kept at once, {(platform, kind "all"): numbers}: a
 #: program of one information kind computes them apart from the objective's arrays on
 #: the CPU (none kept); one that joins both under ``lax.cond`` keeps them
-LOS_NUMBERS = {("cpu", False): 0, ("cpu", True): 4, ("gpu", False): 1, ("gpu", True): 1}
+LOS_NUMBERS = {("cpu", False): 0, ("cpu", True): 4, ("gpu", True): 1}
 FLOAT = 4  # bytes (float32; 8 with --precision float64, see :func:`float_bytes`)
 #: estimate / XLA's figure for the step program on the shapes of tests/test_resources.py
 MEASURED_FACTOR = (0.8, 1.35)
@@ -80,13 +89,11 @@ def float_bytes() -> int:
     return 8 if jax.config.jax_enable_x64 else FLOAT
 
 
-#: arrays ``[S, H, P·M]`` of a trial that XLA keeps at once in the planner's expectations,
-#: ``a + b·N`` per information kind and platform (``N`` radars; module docstring)
+#: arrays ``[S, H, P·M]`` of a trial that XLA keeps at once in the planner's expectations
+#: on the CPU, ``a + b·N`` per information kind (``N`` radars; module docstring)
 OBJECTIVE_ARRAYS = {
     ("cpu", "sfim"): (3.0, 2.0),
     ("cpu", "pfim"): (6.3, 2.0),
-    ("gpu", "sfim"): (2.0, 1.5),
-    ("gpu", "pfim"): (5.0, 1.5),
 }
 #: the same for a program that joins both informations under ``lax.cond`` (kind "all"):
 #: XLA then fuses the per-radar terms
@@ -97,7 +104,9 @@ CLUTTER_ARRAYS = 5.0
 
 
 def objective_arrays(kind: str, n: int, platform: str, clutter: bool = False) -> float:
-    """Arrays ``[S, H, P·M]`` per trial of the planner's expectations of a program kind.
+    """Arrays ``[S, H, P·M]`` per trial of the planner's expectations of a program kind
+    on the CPU, or of kind ``"all"`` on either platform (a GPU's other kinds:
+    :data:`GPU_OBJECTIVE_ARRAYS`).
 
     ``"none"`` compiles no planner (0). A kind of several informations joined by a
     runtime switch holds the larger of its branches; ``"all"`` (``lax.cond`` on the
@@ -172,9 +181,14 @@ def device_terms(
         state += k * (8 * m + 12)
     state += 2 * KEEP * h * n + 2500  # the kept MPPI samples; keys, clocks, small arrays
     f = float_bytes()
-    terms = {"filter": trials * filt * f, "loop state": trials * state * f}
     if scenario.target_motion:  # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
-        terms["loop state"] += (9 * scenario.timing.steps + 7) * m * f
+        motion = (9 * scenario.timing.steps + 7) * m * f
+    else:
+        motion = 0
+    if platform == "gpu" and kind != "all":
+        tests = occluder_tests(scenario.obstacles) if scenario.obstacles else 0
+        return gpu_terms(scenario, trials, kind, state * trials * f + motion, tests, f)
+    terms = {"filter": trials * filt * f, "loop state": trials * state * f + motion}
     arrays = objective_arrays(kind, n, platform, clutter)
     if arrays:
         terms["planner expectations"] = trials * s * h * (p * m * arrays + 8 * n) * f

@@ -4,7 +4,8 @@ A run far too large for the machine is refused in a second with a line naming wh
 is too big and what to change, not after minutes of compilation with XLA's
 ``RESOURCE_EXHAUSTED`` traceback. :func:`estimate` adds up the device arrays of one
 segment program (:mod:`mjx_radar.engine.memory_model`: planner expectations, MPPI
-sampling, MJX rollouts, filter; within a documented factor of XLA's own figures) and
+sampling, MJX rollouts, filter; within a documented factor of XLA's own figures; on a
+GPU its own terms and the runtime's floor of the device's peak, about 150 MB) and
 the host's kept trajectories: ``T·K·(3D + 6N + 22)`` plus ``T·C·(2N + 2HN + 64·HN +
 64)`` numbers for ``K`` filter steps and ``C`` control steps (controls, plans and the
 32 kept MPPI samples; 12 metrics per step for a study), counted twice (per-segment
@@ -139,7 +140,12 @@ def estimate(
 
     seg = segment_periods(scenario, steps) * scenario.timing.control_every
     per_device = -(-trials // max(1, devices))
-    device = device_terms(scenario, per_device, kind=kind, full=full, segment_steps=seg)
+    plat = _platform()
+    device = device_terms(scenario, per_device, plat, kind, full, seg)
+    # a GPU's runtime floor: the device's peak above XLA's figure of a small program
+    peak = memory_model.device_peak(sum(device.values()), plat)
+    if peak > sum(device.values()):
+        device["GPU runtime"] = peak - sum(device.values())
     per_step = 3 * d + 6 * n + 22 if full else 12
     per_control = 2 * n + 2 * h * n + 2 * KEEP * h * n + 2 * KEEP if full else 0
     traj = 2 * trials * (steps * per_step + c * per_control) * float_bytes()
@@ -252,7 +258,8 @@ def _advice(scenario: Scenario, term: str, batch: str, size: int, kind: str) -> 
             ratio = (
                 device_terms(alt, 1, kind=kind)[term] / device_terms(scenario, 1, kind=kind)[term]
             )
-            fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
+            if ratio <= 1.0:  # not on a GPU's fused joint SFIM, which the bank would exceed
+                fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
         return what, fix
     if term == "filter":
         what = f"{m} targets ({scenario.filter.structure} filter), {batch}"
