@@ -94,7 +94,7 @@ RANGES = {
 }
 
 
-def _in_range(name: str, value, lo, hi, lo_open: bool) -> None:
+def in_range(name: str, value, lo, hi, lo_open: bool) -> None:
     integer = isinstance(lo, int) and isinstance(hi, int)
     kinds = int if integer else int | float
     ok = isinstance(value, kinds) and not isinstance(value, bool)
@@ -122,9 +122,9 @@ def check_config(config: PPOConfig, steps: int) -> None:
     """Raises :class:`ScenarioError` naming the first setting out of range."""
     if not isinstance(config, PPOConfig):
         raise ScenarioError(f"config = {config!r:.40}: must be a PPOConfig")
-    _in_range("steps", steps, 1, MAX_STEPS, False)
+    in_range("steps", steps, 1, MAX_STEPS, False)
     for name, (lo, hi, lo_open) in RANGES.items():
-        _in_range(name, getattr(config, name), lo, hi, lo_open)
+        in_range(name, getattr(config, name), lo, hi, lo_open)
     for name in ("policy_hidden", "value_hidden"):
         sizes = getattr(config, name)
         if not (
