@@ -34,6 +34,7 @@ import jax.numpy as jnp
 from mjx_radar.io.atomic import atomic_write_text
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.learning import distill, distill_ckpt, replay
+from mjx_radar.learning.config import check_out
 from mjx_radar.learning.distill_config import DistillConfig, check_distill, distill_config_of
 from mjx_radar.learning.set_net import init_params
 
@@ -106,7 +107,6 @@ def distill_policy(
     Returns:
         ``DIR/policy.json``'s content.
     """
-    from mjx_radar.learning.train import check_out
     from mjx_radar.task.method import parse_method
 
     if not isinstance(out, str | Path) or not str(out):

@@ -156,10 +156,10 @@ def load_set_policy(checkpoint, state: dict):
 
     hidden = int(state["config"]["hidden"])
     template = init_params(hidden, jax.random.PRNGKey(0))
-    if state["algo"] == "ppo":
+    if (checkpoint / "params.npz").is_file():  # distilled (not fine-tuned yet)
+        params = load_leaves(checkpoint / "params.npz", template)
+    else:
         from mjx_radar.learning.set_ppo import load_ppo_set_params
 
         params = load_ppo_set_params(checkpoint, template)
-    else:
-        params = load_leaves(checkpoint / "params.npz", template)
     return lambda x: policy_action(params, x, hidden)
