@@ -127,7 +127,14 @@ def distill_policy(
     config = distill_config_of(state) if state else (config or DistillConfig())
     check_distill(config, steps, algo)
     out.mkdir(parents=True, exist_ok=True)
-    return _run(scs, steps, out, algo, method, config, state, max_seconds, log)
+    from mjx_radar.engine import compile_cache
+
+    ours = not compile_cache.enabled() and compile_cache.enable(None) is not None
+    try:  # JAX's persistent compilation cache, as train_policy: a resumed chunk reuses it
+        return _run(scs, steps, out, algo, method, config, state, max_seconds, log)
+    finally:
+        if ours:
+            compile_cache.disable()
 
 
 def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict:
