@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Distil DDR-SFIM MPPI into one set policy for paper_3r4t and paper_4r4t (behaviour
+# cloning, then DAgger), optionally fine-tune it with PPO, then evaluate it against MPPI
+# on paper_3r4t and on paper_6r3t (a fleet it never saw): median RMSE, radar-drone pairs
+# inside the keep-out, ms per control call (docs/learning.md, "Distillation").
+# On one GPU, from the repository root, after `source scripts/gpu_setup.sh`:
+#   bash benchmarks/studies/distill_policy.sh
+# Resumable: every stage checkpoints (the policy after each iteration, each evaluation
+# figure as it comes) and is skipped once done; the command stops itself before BUDGET
+# seconds (default 540), so the same command again goes on where it stopped (keep runs/
+# on the machine, or carry runs/distill). It prints "distill_policy: done" at the end.
+# Settings (environment variables): RUN, TRIALS, BUDGET, BC_STEPS, DAGGER_STEPS,
+# PPO_STEPS (0: no fine-tuning), NUM_ENVS, RESULT (the benchmarks/results file).
+set -euo pipefail
+RUN=${RUN:-runs/distill}
+TRIALS=${TRIALS:-500}
+BUDGET=${BUDGET:-540}
+NUM_ENVS=${NUM_ENVS:-256}
+# one iteration = NUM_ENVS trials x 150 periods x 2 scenarios = 76,800 labelled steps at 256
+BC_STEPS=${BC_STEPS:-460800}        # 6 iterations, MPPI driving
+DAGGER_STEPS=${DAGGER_STEPS:-1536000}  # 14 more, the policy driving
+PPO_STEPS=${PPO_STEPS:-0}           # > DAGGER_STEPS: fine-tune on paper_3r4t to this total
+RESULT=${RESULT:-benchmarks/results/distill_policy_h200.json}
+POLICY=$RUN/policy
+START=$(date +%s)
+mkdir -p "$RUN"
+left() { echo $((BUDGET - ($(date +%s) - START))); }
+minutes() { python3 -c "print(max(0.5, ($(left) - ${1:-0}) / 60))"; }
+steps_done() {
+  python3 -c "import json,sys; s=json.load(open('$POLICY/policy.json')); print(s['steps_done'] if s.get('algo') in sys.argv[1:] else 10**15)" "$@" 2>/dev/null || echo 0
+}
+enough() { # enough time left for a stage that needs $1 seconds (compile and one step)?
+  if [ "$(left)" -lt "$1" ]; then
+    echo "distill_policy: $(left) s left, run the same command again to go on"
+    [ -n "${OUT:-}" ] && cp -r "$RUN" "$OUT/" 2>/dev/null
+    exit 0
+  fi
+}
+COMMON=(--num-envs "$NUM_ENVS" --batch-size 512 --updates 300 --hidden 64 --buffer-size 120000 --lr 1e-3)
+if [ "$(steps_done bc)" -lt "$BC_STEPS" ] && [ ! -f "$RUN/bc.done" ]; then
+  enough 150
+  python3 scripts/train_policy.py paper_3r4t,paper_4r4t --algo bc --steps "$BC_STEPS" \
+    --out "$POLICY" "${COMMON[@]}" --max-minutes "$(minutes 20)"
+  [ "$(steps_done bc)" -ge "$BC_STEPS" ] && touch "$RUN/bc.done"
+fi
+enough 150
+[ -f "$RUN/bc.done" ] || { echo "distill_policy: bc not done, run again"; exit 0; }
+if [ "$(steps_done bc dagger)" -lt "$DAGGER_STEPS" ] && [ ! -f "$RUN/dagger.done" ]; then
+  python3 scripts/train_policy.py paper_3r4t,paper_4r4t --algo dagger --steps "$DAGGER_STEPS" \
+    --out "$POLICY" "${COMMON[@]}" --beta 0 --max-minutes "$(minutes 20)"
+  [ "$(steps_done bc dagger)" -ge "$DAGGER_STEPS" ] && touch "$RUN/dagger.done"
+fi
+[ -f "$RUN/dagger.done" ] || { echo "distill_policy: dagger not done, run again"; exit 0; }
+if [ "$PPO_STEPS" -gt "$DAGGER_STEPS" ] && [ ! -f "$RUN/ppo.done" ]; then
+  enough 240
+  python3 scripts/train_policy.py paper_3r4t --algo ppo --steps "$PPO_STEPS" --out "$POLICY" \
+    --num-envs 1024 --batch-size 512 --num-minibatches 16 --unroll-length 10 --lr 1e-4 \
+    --init-noise-std 0.2 --penalty-scale 1 --no-eval --eval-every 2000000 \
+    --max-minutes "$(minutes 20)"
+  [ "$(steps_done ppo)" -ge "$PPO_STEPS" ] && touch "$RUN/ppo.done"
+  [ -f "$RUN/ppo.done" ] || { echo "distill_policy: ppo not done, run again"; exit 0; }
+fi
+enough 120
+timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
+  --scenarios paper_3r4t,paper_6r3t --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
+  --label "Trained on paper_3r4t and paper_4r4t (not paper_6r3t): bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS; curve: $RUN/policy/curve.csv." \
+  --command "bash benchmarks/studies/distill_policy.sh" || {
+  echo "distill_policy: evaluation cut short, run the same command again to go on"
+  [ -n "${OUT:-}" ] && cp -r "$RUN" "$OUT/" 2>/dev/null
+  exit 0
+}
+if [ -n "${OUT:-}" ]; then
+  cp -r "$RUN" "$OUT/" && cp "$RESULT" "$OUT/"
+fi
+echo "distill_policy: done ($RESULT)"
