@@ -10,7 +10,8 @@
 # seconds (default 540), so the same command again goes on where it stopped (keep runs/
 # on the machine, or carry runs/distill). It prints "distill_policy: done" at the end.
 # Settings (environment variables): RUN, TRIALS, BUDGET, BC_STEPS, DAGGER_STEPS,
-# PPO_STEPS (0: no fine-tuning), NUM_ENVS, RESULT (the benchmarks/results file).
+# PPO_STEPS (0: no fine-tuning), NUM_ENVS, UPDATES, RESULT (the benchmarks/results file),
+# TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario).
 set -euo pipefail
 RUN=${RUN:-runs/distill}
 TRIALS=${TRIALS:-500}
@@ -21,13 +22,23 @@ BC_STEPS=${BC_STEPS:-460800}        # 6 iterations, MPPI driving
 DAGGER_STEPS=${DAGGER_STEPS:-1536000}  # 14 more, the policy driving
 PPO_STEPS=${PPO_STEPS:-0}           # > DAGGER_STEPS: fine-tune on paper_3r4t to this total
 RESULT=${RESULT:-benchmarks/results/distill_policy_h200.json}
+TRAIN=${TRAIN:-paper_3r4t,paper_4r4t}
+EVAL=${EVAL:-paper_3r4t,paper_6r3t}
+TUNE=${TUNE:-paper_3r4t}
+UPDATES=${UPDATES:-300}
 POLICY=$RUN/policy
 START=$(date +%s)
 mkdir -p "$RUN"
 left() { echo $((BUDGET - ($(date +%s) - START))); }
 minutes() { python3 -c "print(max(0.5, ($(left) - ${1:-0}) / 60))"; }
-steps_done() {
-  python3 -c "import json,sys; s=json.load(open('$POLICY/policy.json')); print(s['steps_done'] if s.get('algo') in sys.argv[1:] else 10**15)" "$@" 2>/dev/null || echo 0
+stage_steps() { # steps done by stage $1: bc, dagger (a later stage: all), ppo (an earlier: none)
+  python3 - "$POLICY/policy.json" "$1" <<'PY' 2>/dev/null || echo 0
+import json, sys
+order = ["bc", "dagger", "ppo"]
+s = json.load(open(sys.argv[1]))
+now, stage = order.index(s.get("algo", "ppo")), order.index(sys.argv[2])
+print(s["steps_done"] if now == stage else (10**15 if now > stage else 0))
+PY
 }
 enough() { # enough time left for a stage that needs $1 seconds (compile and one step)?
   if [ "$(left)" -lt "$1" ]; then
@@ -36,34 +47,31 @@ enough() { # enough time left for a stage that needs $1 seconds (compile and one
     exit 0
   fi
 }
-COMMON=(--num-envs "$NUM_ENVS" --batch-size 512 --updates 300 --hidden 64 --buffer-size 120000 --lr 1e-3)
-if [ "$(steps_done bc)" -lt "$BC_STEPS" ] && [ ! -f "$RUN/bc.done" ]; then
+COMMON=(--num-envs "$NUM_ENVS" --batch-size 512 --updates "$UPDATES" --hidden 64 --buffer-size 120000 --lr 1e-3)
+if [ "$(stage_steps bc)" -lt "$BC_STEPS" ]; then
   enough 150
-  python3 scripts/train_policy.py paper_3r4t,paper_4r4t --algo bc --steps "$BC_STEPS" \
+  python3 scripts/train_policy.py "$TRAIN" --algo bc --steps "$BC_STEPS" \
     --out "$POLICY" "${COMMON[@]}" --max-minutes "$(minutes 20)"
-  [ "$(steps_done bc)" -ge "$BC_STEPS" ] && touch "$RUN/bc.done"
 fi
-enough 150
-[ -f "$RUN/bc.done" ] || { echo "distill_policy: bc not done, run again"; exit 0; }
-if [ "$(steps_done bc dagger)" -lt "$DAGGER_STEPS" ] && [ ! -f "$RUN/dagger.done" ]; then
-  python3 scripts/train_policy.py paper_3r4t,paper_4r4t --algo dagger --steps "$DAGGER_STEPS" \
+[ "$(stage_steps bc)" -ge "$BC_STEPS" ] || { echo "distill_policy: bc not done, run again"; exit 0; }
+if [ "$(stage_steps dagger)" -lt "$DAGGER_STEPS" ]; then
+  enough 150
+  python3 scripts/train_policy.py "$TRAIN" --algo dagger --steps "$DAGGER_STEPS" \
     --out "$POLICY" "${COMMON[@]}" --beta 0 --max-minutes "$(minutes 20)"
-  [ "$(steps_done bc dagger)" -ge "$DAGGER_STEPS" ] && touch "$RUN/dagger.done"
 fi
-[ -f "$RUN/dagger.done" ] || { echo "distill_policy: dagger not done, run again"; exit 0; }
-if [ "$PPO_STEPS" -gt "$DAGGER_STEPS" ] && [ ! -f "$RUN/ppo.done" ]; then
+[ "$(stage_steps dagger)" -ge "$DAGGER_STEPS" ] || { echo "distill_policy: dagger not done, run again"; exit 0; }
+if [ "$PPO_STEPS" -gt "$DAGGER_STEPS" ] && [ "$(stage_steps ppo)" -lt "$PPO_STEPS" ]; then
   enough 240
-  python3 scripts/train_policy.py paper_3r4t --algo ppo --steps "$PPO_STEPS" --out "$POLICY" \
+  python3 scripts/train_policy.py "$TUNE" --algo ppo --steps "$PPO_STEPS" --out "$POLICY" \
     --num-envs 1024 --batch-size 512 --num-minibatches 16 --unroll-length 10 --lr 1e-4 \
     --init-noise-std 0.2 --penalty-scale 1 --no-eval --eval-every 2000000 \
     --max-minutes "$(minutes 20)"
-  [ "$(steps_done ppo)" -ge "$PPO_STEPS" ] && touch "$RUN/ppo.done"
-  [ -f "$RUN/ppo.done" ] || { echo "distill_policy: ppo not done, run again"; exit 0; }
+  [ "$(stage_steps ppo)" -ge "$PPO_STEPS" ] || { echo "distill_policy: ppo not done, run again"; exit 0; }
 fi
 enough 120
 timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
-  --scenarios paper_3r4t,paper_6r3t --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
-  --label "Trained on paper_3r4t and paper_4r4t (not paper_6r3t): bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS; curve: $RUN/policy/curve.csv." \
+  --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
+  --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS; curve: $RUN/policy/curve.csv." \
   --command "bash benchmarks/studies/distill_policy.sh" || {
   echo "distill_policy: evaluation cut short, run the same command again to go on"
   [ -n "${OUT:-}" ] && cp -r "$RUN" "$OUT/" 2>/dev/null

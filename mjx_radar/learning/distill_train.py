@@ -101,7 +101,8 @@ def distill_policy(
             probability 1 - β, the teacher labels).
         method: the tracker's method and the teacher's objective (``ddr-sfim``).
         config: :class:`DistillConfig` (a resumed directory keeps its own).
-        max_seconds: stop after the iteration past which another would not fit.
+        max_seconds: stop after the iteration past which another would not fit (the
+            longest iteration but the chunk's first, which also compiled).
         log: a function of one progress line.
 
     Returns:
@@ -187,7 +188,7 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
     base = jax.random.PRNGKey(config.seed)
     per_iter = config.num_envs * sum(periods)
     state["chunks"] += 1
-    wall0, longest, last = state["wall_s"], 0.0, t0
+    wall0, longest, last, first = state["wall_s"], 0.0, t0, state["iterations"]
     while state["steps_done"] < steps:
         it = state["iterations"]
         params, opt_state, buffers = full
@@ -208,7 +209,9 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
         state["steps_done"] += per_iter
         state["checkpoint"] = distill_ckpt.save(out, it + 1, params, full)
         now = time.perf_counter()
-        longest, last = max(longest, now - last), now
+        if it > first:  # the chunk's first iteration also compiled: not a measure
+            longest = max(longest, now - last)
+        last = now
         state["wall_s"] = wall0 + now - t0
         row = _curve_row(state, algo, losses, stats)
         _append_curve(out, row)
