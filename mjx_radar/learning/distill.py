@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
+from mjx_radar import precision
 from mjx_radar.env.streams import streams_of
 from mjx_radar.learning import replay
 from mjx_radar.learning.features import action_to_control, control_to_action
@@ -84,6 +85,7 @@ def make_collect(env, teacher, hidden: int, periods: int):
         _, out = jax.lax.scan(period, (state, teacher.init()), None, length=periods)
         return out
 
+    @precision.pinned  # full float32 dots, as the simulator's closed loop (GPUs too)
     def collect(params, keys, beta):
         samples, stats = jax.vmap(trial, in_axes=(None, 0, None))(params, keys, beta)
         flat = jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), samples)

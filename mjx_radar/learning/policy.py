@@ -104,11 +104,12 @@ class PolicyPlanner(Planner):
 
     @staticmethod
     def argument_digest(argument: str) -> str:
-        """A digest of ``DIR/policy.json`` and the files of its latest checkpoint."""
+        """A digest of ``DIR/policy.json`` and the files of its latest checkpoint (a
+        distillation's ``state.npz``, its buffers and optimiser, left out)."""
         path, state = _policy_dir(argument)
         h = hashlib.sha256((path / "policy.json").read_bytes())
         for f in sorted((path / state["checkpoint"]).rglob("*")):
-            if f.is_file():
+            if f.is_file() and f.name != "state.npz":  # a distillation's buffers: not the policy
                 h.update(f.relative_to(path).as_posix().encode())
                 h.update(f.read_bytes())
         return h.hexdigest()[:16]
