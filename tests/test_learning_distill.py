@@ -187,3 +187,32 @@ def test_bc_dagger_ppo_then_policy_on_any_fleet(short, tmp_path):
         assert np.isfinite(run.summary()["rmse_pos"])
     with pytest.raises(ScenarioError, match="not a distillation"):
         distill_policy(short, 100, out, **quiet)
+
+
+def test_algo_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    """--algo bc|dagger: settings, scenarios and folders refused in one line naming the
+    flag, before anything compiles."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "scripts" / "train_policy.py"
+    spec = importlib.util.spec_from_file_location("train_policy_script", path)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    out = str(tmp_path / "p")
+    base = ["smoke", "--steps", "9", "--out", out, "--algo"]
+    cases = [
+        (base + ["bc", "--beta", "2"], "--beta = 2.0: must be a finite number in [0, 1]"),
+        (base + ["dagger", "--hidden", "0"], "--hidden = 0: must be an integer >= 1"),
+        (base + ["bc", "--buffer-size", "0"], "--buffer-size = 0"),
+        (base + ["bc", "--lr", "0"], "--lr = 0.0"),
+        (["smoke,nope", "--steps", "9", "--out", out, "--algo", "bc"], "nope"),
+    ]
+    for argv, message in cases:
+        assert script.main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and "\n" not in err and "Traceback" not in err
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "policy.json").write_text(json.dumps({"scenario": "smoke", "config": {}}))
+    assert script.main(base + ["bc"]) == 2
+    assert "holds a ppo policy, not a distillation" in capsys.readouterr().err
