@@ -9,7 +9,8 @@ start carried along the trajectory. One rollout (``lax.scan`` over control perio
 β and the policy's otherwise::
 
     u_T, carry = MPPI.plan(carry, obs, key)              the label
-    u_π = action_to_control(env, tanh(SetNet(set_features(obs))))
+    u_π = action_to_control(env, tanh(SetNet(set_features(obs))))   (then the shield,
+                                                          if configured)
     u   = u_T if uniform() < β else u_π                  β = 1: behaviour cloning
                                                           β < 1: DAgger (policy drives)
 
@@ -33,6 +34,7 @@ from mjx_radar.learning import replay
 from mjx_radar.learning.features import action_to_control, control_to_action
 from mjx_radar.learning.set_features import SetObs, set_features
 from mjx_radar.learning.set_net import policy_action
+from mjx_radar.learning.shield import shield
 
 
 class Sample(NamedTuple):
@@ -50,7 +52,7 @@ class RolloutStats(NamedTuple):
     gap: jax.Array  # mean squared policy - teacher action difference (before updates)
 
 
-def make_collect(env, teacher, hidden: int, periods: int):
+def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False):
     """``collect(params, keys [E, 2], beta) -> (Sample [E·P], RolloutStats [E, P])``.
 
     Args:
@@ -58,6 +60,7 @@ def make_collect(env, teacher, hidden: int, periods: int):
         teacher: its MPPI planner (``init``, ``plan``).
         hidden: the set network's width.
         periods: control periods per rollout (P).
+        shielded: the policy's control passes the keep-out shield before it is applied.
     """
 
     def trial(params, key, beta):
@@ -72,6 +75,8 @@ def make_collect(env, teacher, hidden: int, periods: int):
             x = set_features(env, obs)
             a_p = policy_action(params, x, hidden)  # [N, 2]
             u_p = action_to_control(env, a_p.reshape(-1)).astype(u_t.dtype)
+            if shielded:
+                u_p = shield(env, obs, u_p)
             coin = jax.random.uniform(jax.random.fold_in(pkey, 0x0DA6)) < beta
             state = env.step(state, jnp.where(coin, u_t, u_p))
             a_t = control_to_action(env, u_t).reshape(-1, 2).astype(jnp.float32)

@@ -32,6 +32,8 @@ class DistillConfig:
         beta: DAgger's probability that a period applies the teacher's control instead
             of the policy's (behaviour cloning: always the teacher's).
         seed: base seed of the trials and of the network's initialisation.
+        shield: pass the policy's control through the keep-out shield
+            (:mod:`mjx_radar.learning.shield`) where it drives, and in ``policy:DIR``.
     """
 
     num_envs: int = 64
@@ -44,6 +46,7 @@ class DistillConfig:
     hidden: int = 64
     beta: float = 0.0
     seed: int = 0
+    shield: bool = False
 
 
 RANGES = {
@@ -69,6 +72,8 @@ def check_distill(config: DistillConfig, steps: int, algo: str) -> None:
     in_range("steps", steps, 1, MAX_STEPS, False)
     for name, (lo, hi, lo_open) in RANGES.items():
         in_range(name, getattr(config, name), lo, hi, lo_open)
+    if not isinstance(config.shield, bool):
+        raise ScenarioError(f"shield = {config.shield!r}: must be True or False")
 
 
 def distill_config_of(state: dict) -> DistillConfig:

@@ -180,7 +180,7 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
     if state["checkpoint"]:
         full = distill_ckpt.load_leaves(out / state["checkpoint"] / "state.npz", full)
     collects = [
-        jax.jit(distill.make_collect(e, t, config.hidden, p))
+        jax.jit(distill.make_collect(e, t, config.hidden, p, config.shield))
         for e, t, p in zip(envs, teachers, periods, strict=True)
     ]
     update = jax.jit(distill.make_update(config.hidden, tx, config.batch_size, config.updates))
