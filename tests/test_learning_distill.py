@@ -153,18 +153,20 @@ def test_resumed_distillation_equals_an_uninterrupted_one(short, tmp_path):
 
 @pytest.mark.slow  # compile-bound: distillation, brax PPO and two closed loops
 def test_bc_dagger_ppo_then_policy_on_any_fleet(short, tmp_path):
-    """bc, then dagger, then PPO fine-tuning (brax, from the clone) resume one DIR; the
-    planner policy:DIR runs the result on 2 and on 3 radars; the distilled clone's first
-    control is its network's action; a PPO run refuses to resume as bc."""
+    """bc, then dagger on two fleet sizes at once (2 and 3 radars), then PPO fine-tuning
+    (brax, from the clone, on the 2-radar one) resume one DIR; the planner policy:DIR runs
+    the result on 2 radars and on 4 (never seen); a PPO folder refuses to resume as bc."""
     import mjx_radar
     from mjx_radar.learning.distill_train import distill_policy
     from mjx_radar.learning.train import PPOConfig, train_policy
 
     out = tmp_path / "p"
     quiet = {"config": dataclasses.replace(CLONE, updates=20), "log": lambda _: None}
-    distill_policy(short, 20, out, **quiet)
-    state = distill_policy(short, 40, out, algo="dagger", **quiet)
-    assert state["schedule"] == [[0, "bc"], [20, "dagger"]]
+    both = [short, dataclasses.replace(short, name="tiny3", n_radars=3)]
+    distill_policy(both, 40, out, **quiet)
+    state = distill_policy(both, 80, out, algo="dagger", **quiet)
+    assert state["schedule"] == [[0, "bc"], [40, "dagger"]]
+    assert state["scenarios"] == ["tiny", "tiny3"] and state["iterations"] == 2
     run = mjx_radar.simulate(short, planner=f"policy:{out}", trials=1)
     assert np.isfinite(run.summary()["rmse_pos"])
     ppo = PPOConfig(
@@ -178,15 +180,15 @@ def test_bc_dagger_ppo_then_policy_on_any_fleet(short, tmp_path):
         evaluate=False,
         init_noise_std=0.3,
     )
-    state = train_policy(short, 80, out, config=ppo, log=lambda _: None)
-    assert state["algo"] == "ppo" and state["steps_done"] >= 80
-    assert state["config"]["network"] == "set" and state["schedule"][-1] == [40, "ppo"]
-    three = dataclasses.replace(short, n_radars=3)
-    for sc in (short, three):
+    state = train_policy(short, 120, out, config=ppo, log=lambda _: None)
+    assert state["algo"] == "ppo" and state["steps_done"] >= 120
+    assert state["config"]["network"] == "set" and state["schedule"][-1] == [80, "ppo"]
+    four = dataclasses.replace(short, n_radars=4)
+    for sc in (short, four):
         run = mjx_radar.simulate(sc, planner=f"policy:{out}", trials=1)
         assert np.isfinite(run.summary()["rmse_pos"])
     with pytest.raises(ScenarioError, match="not a distillation"):
-        distill_policy(short, 100, out, **quiet)
+        distill_policy(both, 200, out, **quiet)
 
 
 def test_algo_bad_input_is_one_line_exit_2(tmp_path, capsys):
