@@ -14,7 +14,9 @@ periods (teacher labels on every visited state, :mod:`~mjx_radar.learning.distil
 adds them to the scenario's replay buffer, then takes ``updates`` Adam steps. Its trials
 and minibatches are keyed by the iteration's number, and the checkpoint holds the
 parameters, Adam's state and the buffers, so a run stopped after any iteration and
-resumed equals an uninterrupted one. ``steps`` counts labelled env steps (control
+resumed equals an uninterrupted one. A checkpoint without ``state.npz`` (e.g. copied
+without its large buffers) resumes from the parameters alone, Adam and the buffers
+afresh. ``steps`` counts labelled env steps (control
 periods over all trials and scenarios), across algorithms: ``--algo bc --steps 2e5``
 then ``--algo dagger --steps 6e5`` goes on from the cloned policy to 6e5 in all.
 """
@@ -177,8 +179,13 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
         act = jax.ShapeDtypeStruct((e.n_radars, 2), jnp.float32)
         buffers.append(replay.empty(distill.Sample(example, act), config.buffer_size))
     full = (params, tx.init(params), buffers)
-    if state["checkpoint"]:
-        full = distill_ckpt.load_leaves(out / state["checkpoint"] / "state.npz", full)
+    ckpt = out / str(state["checkpoint"])
+    if state["checkpoint"] and (ckpt / "state.npz").is_file():
+        full = distill_ckpt.load_leaves(ckpt / "state.npz", full)
+    elif state["checkpoint"]:  # the parameters alone (state.npz not kept): not bit-equal
+        params = distill_ckpt.load_leaves(ckpt / "params.npz", params)
+        full = (params, tx.init(params), buffers)
+        log(f"distill: {ckpt} has no state.npz: Adam and the buffers start afresh")
     collects = [
         jax.jit(distill.make_collect(e, t, config.hidden, p, config.shield))
         for e, t, p in zip(envs, teachers, periods, strict=True)
