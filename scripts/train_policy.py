@@ -1,7 +1,12 @@
-"""Trains a placement policy with brax PPO (issue 34; docs/learning.md).
+"""Trains a placement policy: brax PPO, or distillation of MPPI (docs/learning.md).
 
     python scripts/train_policy.py SCENARIO --steps N --out DIR [--max-minutes 8.5]
-        [--method ddr-sfim] [--num-envs 256] [--eval-every 200000] [--lr 3e-4] ...
+        [--algo ppo|bc|dagger] [--method ddr-sfim] [--num-envs 256] [--lr 3e-4] ...
+
+``--algo bc`` clones MPPI's controls into a set policy (any fleet size; SCENARIO may
+list several, ``paper_3r4t,paper_4r4t``), ``--algo dagger`` goes on with the policy
+driving and MPPI labelling, ``--algo ppo`` on such a DIR fine-tunes it with brax PPO
+(on the first SCENARIO); each resumes the DIR the previous one left.
 
 Writes DIR/policy.json, DIR/checkpoints/<steps>/ (parameters, normaliser, network
 config) and DIR/curve.csv (the learning curve). Run it again with the same DIR to go
@@ -40,11 +45,17 @@ def _count(text: str) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from mjx_radar.learning.distill_config import ALGOS
     from mjx_radar.learning.train import PPOConfig
 
     d = PPOConfig()
     p = _Parser(description=__doc__.splitlines()[0])
-    p.add_argument("scenario", metavar="SCENARIO", help="a bundled scenario name or TOML file")
+    p.add_argument("--algo", choices=ALGOS, default="ppo", help="ppo, or distil MPPI: bc, dagger")
+    p.add_argument(
+        "scenario",
+        metavar="SCENARIO",
+        help="a bundled scenario name or TOML file (bc, dagger: several, joined by commas)",
+    )
     p.add_argument("--steps", type=_count, required=True, help="env steps (control periods) in all")
     p.add_argument("--out", required=True, help="policy directory (resumed when it exists)")
     p.add_argument("--method", default="ddr-sfim", help="the tracker's method (noise model)")
@@ -58,8 +69,13 @@ def _parser() -> argparse.ArgumentParser:
         ("num_eval_envs", "--eval-envs"),
         ("eval_every", "--eval-every"),
         ("seed", "--seed"),
+        ("periods", "--periods"),  # distillation's (DistillConfig) from here on
+        ("buffer_size", "--buffer-size"),
+        ("updates", "--updates"),
+        ("hidden", "--hidden"),
     ):
-        p.add_argument(flag, dest=name, type=_count, default=getattr(d, name))
+        p.add_argument(flag, dest=name, type=_count, default=None)  # the algorithm's default
+    p.add_argument("--beta", type=float, default=None, help="DAgger: P(the teacher drives)")
     for name, flag in (
         ("learning_rate", "--lr"),
         ("entropy_cost", "--entropy-cost"),
@@ -68,7 +84,7 @@ def _parser() -> argparse.ArgumentParser:
         ("init_noise_std", "--init-noise-std"),
         ("keepout_grade", "--keepout-grade"),
     ):
-        p.add_argument(flag, dest=name, type=float, default=getattr(d, name))
+        p.add_argument(flag, dest=name, type=float, default=None)  # the algorithm's default
     p.add_argument(
         "--penalty-scale",
         type=float,
@@ -112,26 +128,50 @@ def _flag_names(message: str) -> str:
     return message
 
 
+def _distill(args) -> dict:
+    """``--algo bc|dagger``: :func:`~mjx_radar.learning.distill_train.distill_policy`."""
+    from mjx_radar.learning.distill_config import DistillConfig
+    from mjx_radar.learning.distill_train import distill_policy
+
+    names = {f.name for f in dataclasses.fields(DistillConfig)}
+    kw = {k: v for k, v in vars(args).items() if k in names and v is not None}
+    return distill_policy(
+        args.scenario,
+        args.steps,
+        args.out,
+        algo=args.algo,
+        method=args.method,
+        config=DistillConfig(**kw),
+        max_seconds=None if args.max_minutes is None else 60.0 * args.max_minutes,
+    )
+
+
+def _ppo(args) -> dict:
+    """``--algo ppo``: :func:`~mjx_radar.learning.train.train_policy` (from a distilled
+    DIR: fine-tuning its set policy)."""
+    from mjx_radar.learning.train import PPOConfig, train_policy
+
+    names = {f.name for f in dataclasses.fields(PPOConfig)} - {"penalty_scale"}
+    kw = {k: v for k, v in vars(args).items() if k in names and v is not None}
+    kw["policy_hidden"] = _sizes(args.policy_hidden, "--policy-hidden")
+    kw["value_hidden"] = _sizes(args.value_hidden, "--value-hidden")
+    return train_policy(
+        args.scenario,
+        args.steps,
+        args.out,
+        method=args.method,
+        config=PPOConfig(**kw),
+        penalty_scale=args.penalty_scale,
+        max_seconds=None if args.max_minutes is None else 60.0 * args.max_minutes,
+    )
+
+
 def main(argv=None) -> int:
     from mjx_radar.io.checks import ScenarioError
-    from mjx_radar.learning.train import PPOConfig, train_policy
 
     args = _parser().parse_args(argv)
     try:
-        names = {f.name for f in dataclasses.fields(PPOConfig)}
-        kw = {k: v for k, v in vars(args).items() if k in names}
-        kw["policy_hidden"] = _sizes(args.policy_hidden, "--policy-hidden")
-        kw["value_hidden"] = _sizes(args.value_hidden, "--value-hidden")
-        budget = None if args.max_minutes is None else 60.0 * args.max_minutes
-        state = train_policy(
-            args.scenario,
-            args.steps,
-            args.out,
-            method=args.method,
-            config=PPOConfig(**{k: v for k, v in kw.items() if k != "penalty_scale"}),
-            penalty_scale=args.penalty_scale,
-            max_seconds=budget,
-        )
+        state = _ppo(args) if args.algo == "ppo" else _distill(args)
     except (ScenarioError, ValueError) as err:  # the settings' names, as the flags say
         print(f"error: {_flag_names(str(err))}", file=sys.stderr)
         return 2

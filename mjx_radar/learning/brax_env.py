@@ -33,6 +33,7 @@ from mjx_radar.learning.features import (
     keepout_depth,
     penalty,
 )
+from mjx_radar.learning.set_features import flat_size, flatten, set_features
 from mjx_radar.learning.shield import shield as keepout_shield
 
 _CLIP = 1e3  # |reward| and |feature| bound (a diverged track gives inf log dets)
@@ -50,6 +51,9 @@ class BraxRadarEnv(Env):
             (:func:`~mjx_radar.learning.features.keepout_depth`; 0: none).
         shield: pass the control through the keep-out shield
             (:func:`mjx_radar.learning.shield.shield`) before it is applied.
+        observation: ``"flat"`` (:func:`~mjx_radar.learning.features.features`) or
+            ``"set"`` (the flattened :func:`~mjx_radar.learning.set_features.set_features`,
+            the set network's input).
 
     ``metrics`` (per period, float32): ``information`` (``-Σ log det P_pos``),
     ``penalty`` (the keep-out terms, unscaled) and the environment's metrics (``rmse_pos``,
@@ -57,9 +61,17 @@ class BraxRadarEnv(Env):
     """
 
     def __init__(
-        self, env, penalty_scale: float = 1.0, keepout_grade: float = 0.0, shield: bool = False
+        self,
+        env,
+        penalty_scale: float = 1.0,
+        keepout_grade: float = 0.0,
+        shield: bool = False,
+        observation: str = "flat",
     ):
+        if observation not in ("flat", "set"):
+            raise ValueError(f"observation = {observation!r}: flat or set")
         self.radar_env = env
+        self.observation = observation
         self.shield = bool(shield)
         self.penalty_scale = float(penalty_scale)
         self.keepout_grade = float(keepout_grade)
@@ -67,7 +79,10 @@ class BraxRadarEnv(Env):
 
     @property
     def observation_size(self) -> int:
-        return feature_size(self.radar_env.n_radars, self.radar_env.n_targets)
+        env = self.radar_env
+        if self.observation == "set":
+            return flat_size(env.n_radars, env.n_tracks)
+        return feature_size(env.n_radars, env.n_targets)
 
     @property
     def action_size(self) -> int:
@@ -111,6 +126,8 @@ class BraxRadarEnv(Env):
         return self.keepout_grade * depth
 
     def _obs(self, s) -> jax.Array:
+        if self.observation == "set":
+            return flatten(set_features(self.radar_env, s.obs))  # already finite, clipped
         f = features(self.radar_env, s.obs)
         return jnp.clip(jnp.nan_to_num(f, nan=0.0), -_CLIP, _CLIP)
 
@@ -175,8 +192,9 @@ def make(
     penalty_scale=1.0,
     keepout_grade=0.0,
     shield=False,
+    observation="flat",
 ) -> BraxRadarEnv:
     """The brax environment of a scenario (``mjx_radar.env.make``'s arguments, the
-    reward's weights and the shield: :class:`BraxRadarEnv`)."""
+    reward's weights, the shield and the observation: :class:`BraxRadarEnv`)."""
     env = make_env(scenario, method, seed, steps)
-    return BraxRadarEnv(env, penalty_scale, keepout_grade, shield)
+    return BraxRadarEnv(env, penalty_scale, keepout_grade, shield, observation)

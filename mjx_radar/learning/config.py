@@ -12,6 +12,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+from pathlib import Path
 
 from mjx_radar.io.checks import ScenarioError
 
@@ -42,6 +44,8 @@ class PPOConfig:
     policy_hidden: tuple[int, ...] = (128, 128)
     value_hidden: tuple[int, ...] = (256, 256)
     seed: int = 0
+    network: str = "mlp"  # "set": the set network (learning.set_ppo), from a distilled policy
+    hidden: int = 64  # the set network's width (network = "set")
 
     def steps_per_update(self) -> int:
         """Env steps of one PPO update: ``batch_size · unroll_length · num_minibatches``."""
@@ -91,10 +95,11 @@ RANGES = {
     "penalty_scale": (0.0, _INF, False),
     "keepout_grade": (0.0, _INF, False),
     "init_noise_std": (0.0, _INF, True),
+    "hidden": (1, 4096, False),
 }
 
 
-def _in_range(name: str, value, lo, hi, lo_open: bool) -> None:
+def in_range(name: str, value, lo, hi, lo_open: bool) -> None:
     integer = isinstance(lo, int) and isinstance(hi, int)
     kinds = int if integer else int | float
     ok = isinstance(value, kinds) and not isinstance(value, bool)
@@ -122,9 +127,9 @@ def check_config(config: PPOConfig, steps: int) -> None:
     """Raises :class:`ScenarioError` naming the first setting out of range."""
     if not isinstance(config, PPOConfig):
         raise ScenarioError(f"config = {config!r:.40}: must be a PPOConfig")
-    _in_range("steps", steps, 1, MAX_STEPS, False)
+    in_range("steps", steps, 1, MAX_STEPS, False)
     for name, (lo, hi, lo_open) in RANGES.items():
-        _in_range(name, getattr(config, name), lo, hi, lo_open)
+        in_range(name, getattr(config, name), lo, hi, lo_open)
     for name in ("policy_hidden", "value_hidden"):
         sizes = getattr(config, name)
         if not (
@@ -138,6 +143,8 @@ def check_config(config: PPOConfig, steps: int) -> None:
             f"num_envs = {config.num_envs}: must divide batch_size * num_minibatches = "
             f"{config.batch_size * config.num_minibatches}"
         )
+    if config.network not in ("mlp", "set"):
+        raise ScenarioError(f"network = {config.network!r}: must be mlp or set")
     for name in ("shield", "evaluate"):
         if not isinstance(getattr(config, name), bool):
             raise ScenarioError(f"{name} = {getattr(config, name)!r}: must be True or False")
@@ -153,3 +160,15 @@ def read_policy_json(path, where: str) -> dict:
     if not isinstance(state, dict):
         raise ScenarioError(f"{where}: {path} is not a policy file (not a JSON object)")
     return state
+
+
+def check_out(out: Path) -> None:
+    """``out`` is a folder or can be made one (one line otherwise; nothing is made)."""
+    if out.exists() and not out.is_dir():
+        raise ScenarioError(f"out = {str(out)!r}: a file, not a folder")
+    parent = next((p for p in out.parents if p.exists()), None)
+    if not out.exists() and (parent is None or not parent.is_dir()):
+        raise ScenarioError(f"out = {str(out)!r}: {parent} is not a folder")
+    target = out if out.exists() else parent
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise ScenarioError(f"out = {str(out)!r}: {target} is not writable")

@@ -66,13 +66,7 @@ def features(env, obs) -> jax.Array:
     d = jnp.sqrt(jnp.sum(dxy**2, -1) + 1e-6)
     bearing = jnp.arctan2(dxy[..., 1], dxy[..., 0]) - th[:, None]
     pairs = jnp.stack([d / big_l, jnp.cos(bearing), jnp.sin(bearing)], -1)  # [N, M, 3]
-    cov = obs.cov.astype(jnp.float32)
-    blocks = jnp.stack([cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
-    var = jnp.maximum(jnp.diagonal(blocks, axis1=1, axis2=2), 1e-12)  # [M, 6]
-    sig = jnp.sqrt(var)
-    corr = blocks / (sig[:, :, None] * sig[:, None, :])
-    iu = np.triu_indices(6, k=1)  # static indices
-    cov_f = jnp.concatenate([jnp.log10(sig), jnp.clip(corr[:, iu[0], iu[1]], -1, 1)], axis=1)
+    cov_f = covariance_features(obs.cov, m)
     return jnp.concatenate(
         [
             radar.reshape(-1),
@@ -83,6 +77,18 @@ def features(env, obs) -> jax.Array:
             obs.detections.astype(jnp.float32).reshape(-1),
         ]
     )
+
+
+def covariance_features(cov, m: int) -> jax.Array:
+    """``[M, 21]``: ``log10 σ_i`` of each target's 6 standard deviations and its 15
+    correlations ``ρ_ij`` (clipped to [-1, 1]) of the ``[6M, 6M]`` covariance ``cov``."""
+    cov = cov.astype(jnp.float32)
+    blocks = jnp.stack([cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
+    var = jnp.maximum(jnp.diagonal(blocks, axis1=1, axis2=2), 1e-12)  # [M, 6]
+    sig = jnp.sqrt(var)
+    corr = blocks / (sig[:, :, None] * sig[:, None, :])
+    iu = np.triu_indices(6, k=1)  # static indices
+    return jnp.concatenate([jnp.log10(sig), jnp.clip(corr[:, iu[0], iu[1]], -1, 1)], axis=1)
 
 
 def action_to_control(env, action) -> jax.Array:

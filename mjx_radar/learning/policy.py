@@ -13,8 +13,12 @@ One control call is one small MLP evaluation: no rollouts, no objective. The
 parameters are read on the host when the planner is made and enter the compiled
 program as constants; :meth:`PolicyPlanner.argument_digest` (a digest of the
 directory's policy files) is part of the program cache key, so a retrained policy
-recompiles. The policy must have been trained with the same numbers of radars and
-targets (the features' size); other scenario settings may differ (generalisation).
+recompiles. An MLP policy (PPO from scratch) must have been trained with the same
+numbers of radars and targets (the features' size; one line otherwise); other scenario
+settings may differ (generalisation). A set policy (``network: "set"``, distilled or
+fine-tuned from one: :mod:`mjx_radar.learning.set_net`) runs on any numbers::
+
+    a = tanh(SetNet_θ(set_features(obs)))             [N, 2] in [-1, 1]
 """
 
 from __future__ import annotations
@@ -25,11 +29,14 @@ from pathlib import Path
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.learning.config import read_policy_json
 from mjx_radar.learning.features import action_to_control, feature_size, features
+from mjx_radar.learning.set_features import set_features
 from mjx_radar.learning.shield import shield
 from mjx_radar.planners.base import Planner
 
 #: what ``policy.json`` holds (train_policy.py writes it)
 KEYS = ("checkpoint", "n_radars", "n_targets", "observation_size", "action_size", "config")
+#: what the ``policy.json`` of a set network holds (any fleet size)
+SET_KEYS = ("checkpoint", "network", "algo", "scenarios", "config")
 
 
 def _policy_dir(argument: str) -> tuple[Path, dict]:
@@ -44,7 +51,8 @@ def _policy_dir(argument: str) -> tuple[Path, dict]:
     state = read_policy_json(meta, where)
     if not state.get("checkpoint"):
         raise ScenarioError(f"{where}: no checkpoint saved yet")
-    missing = [k for k in KEYS if k not in state]
+    need = SET_KEYS if state.get("network") == "set" else KEYS
+    missing = [k for k in need if k not in state]
     if missing:
         raise ScenarioError(f"{where}: {meta} lacks {', '.join(missing)} (damaged or edited)")
     if not (path / str(state["checkpoint"])).is_dir():
@@ -68,6 +76,11 @@ class PolicyPlanner(Planner):
     def __init__(self, env, argument: str):
         super().__init__(env)
         path, state = _policy_dir(argument)
+        self.source, self.state = str(path), state
+        if state.get("network") == "set":  # any fleet size (learning.set_net)
+            self.shielded = bool(state["config"].get("shield", False))
+            self._policy = load_set_policy(path / state["checkpoint"], state)
+            return
         n, m = env.n_radars, env.n_targets
         if (state["n_radars"], state["n_targets"]) != (n, m):
             raise ScenarioError(
@@ -76,12 +89,14 @@ class PolicyPlanner(Planner):
             )
         if state["observation_size"] != feature_size(n, m):
             raise ScenarioError(f"planner policy:{argument}: features of another version")
-        self.source, self.state = str(path), state
         self.shielded = bool(state["config"].get("shield", False))  # as trained
         self._policy = load_policy(path / state["checkpoint"], state)
 
     def plan(self, carry, obs, key):
-        a, _ = self._policy(features(self.env, obs), key)
+        if self.state.get("network") == "set":
+            a = self._policy(set_features(self.env, obs)).reshape(-1)
+        else:
+            a, _ = self._policy(features(self.env, obs), key)
         u = action_to_control(self.env, a)
         if self.shielded:
             u = shield(self.env, obs, u)
@@ -89,11 +104,12 @@ class PolicyPlanner(Planner):
 
     @staticmethod
     def argument_digest(argument: str) -> str:
-        """A digest of ``DIR/policy.json`` and the files of its latest checkpoint."""
+        """A digest of ``DIR/policy.json`` and the files of its latest checkpoint (a
+        distillation's ``state.npz``, its buffers and optimiser, left out)."""
         path, state = _policy_dir(argument)
         h = hashlib.sha256((path / "policy.json").read_bytes())
         for f in sorted((path / state["checkpoint"]).rglob("*")):
-            if f.is_file():
+            if f.is_file() and f.name != "state.npz":  # a distillation's buffers: not the policy
                 h.update(f.relative_to(path).as_posix().encode())
                 h.update(f.read_bytes())
         return h.hexdigest()[:16]
@@ -128,3 +144,23 @@ def load_policy(checkpoint, state: dict):
             f"{str(err).splitlines()[0] if str(err) else ''})"
         ) from None
     return networks.make_inference_fn(network)(params, deterministic=True)
+
+
+def load_set_policy(checkpoint, state: dict):
+    """``policy(SetObs) -> action [N, 2]`` of a set network's checkpoint (a distilled
+    one, ``params.npz``, or a PPO fine-tuned one, brax's), deterministic, its parameters
+    as constants."""
+    import jax
+
+    from mjx_radar.learning.distill_ckpt import load_leaves
+    from mjx_radar.learning.set_net import init_params, policy_action
+
+    hidden = int(state["config"]["hidden"])
+    template = init_params(hidden, jax.random.PRNGKey(0))
+    if (checkpoint / "params.npz").is_file():  # distilled (not fine-tuned yet)
+        params = load_leaves(checkpoint / "params.npz", template)
+    else:
+        from mjx_radar.learning.set_ppo import load_ppo_set_params
+
+        params = load_ppo_set_params(checkpoint, template)
+    return lambda x: policy_action(params, x, hidden)

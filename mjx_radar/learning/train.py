@@ -28,9 +28,11 @@ from pathlib import Path
 
 from mjx_radar.io.atomic import atomic_write_text
 from mjx_radar.io.checks import ScenarioError
+from mjx_radar.learning import finetune
 from mjx_radar.learning.config import (
     PPOConfig,
     check_config,
+    check_out,
     config_of,
     network_factory,
     read_policy_json,
@@ -77,18 +79,6 @@ def read_state(out, scenario: str | None = None, method: str | None = None) -> d
             "(restore it, or train into a new folder)"
         )
     return state
-
-
-def check_out(out: Path) -> None:
-    """``out`` is a folder or can be made one (one line otherwise; nothing is made)."""
-    if out.exists() and not out.is_dir():
-        raise ScenarioError(f"out = {str(out)!r}: a file, not a folder")
-    parent = next((p for p in out.parents if p.exists()), None)
-    if not out.exists() and (parent is None or not parent.is_dir()):
-        raise ScenarioError(f"out = {str(out)!r}: {parent} is not a folder")
-    target = out if out.exists() else parent
-    if not os.access(target, os.W_OK | os.X_OK):
-        raise ScenarioError(f"out = {str(out)!r}: {target} is not writable")
 
 
 def train_policy(
@@ -141,7 +131,9 @@ def train_policy(
         isinstance(max_seconds, int | float) and 0 < max_seconds < math.inf
     ):
         raise ScenarioError(f"max_seconds = {max_seconds!r}: must be a number > 0 (or None)")
-    state = read_state(out, sc.name, method)
+    state = finetune.start_state(out, sc, method, config or PPOConfig())  # PPO from BC
+    if state is None:
+        state = read_state(out, sc.name, method)
     if state is not None:
         config = config_of(state)
     config = config or PPOConfig()
@@ -170,8 +162,12 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
         penalty_scale=config.penalty_scale,
         keepout_grade=config.keepout_grade,
         shield=config.shield,
+        observation="set" if config.network == "set" else "flat",
     )
-    factory = network_factory(config)
+    factory, restore_params = network_factory(config), None
+    normalize = config.network != "set"  # set features are O(1) by construction
+    if config.network == "set":
+        factory, restore_params = finetune.set_start(out, state, config, sc)
     if state is None:
         state = {
             "format": FORMAT,
@@ -208,7 +204,7 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
     ckpt_config = ppo_ckpt.network_config(
         observation_size=env.observation_size,
         action_size=env.action_size,
-        normalize_observations=True,
+        normalize_observations=normalize,
         network_factory=factory,
     )
 
@@ -237,6 +233,8 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
 
     state["chunks"] += 1
     restore = out / state["checkpoint"] if state["checkpoint"] else None
+    if restore_params is not None:  # the distilled policy: its parameters, not brax's
+        restore = None
     try:
         ppo.train(
             environment=env,
@@ -255,7 +253,7 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
             clipping_epsilon=config.clipping_epsilon,
             reward_scaling=config.reward_scaling,
             max_grad_norm=config.max_grad_norm,
-            normalize_observations=True,
+            normalize_observations=normalize,
             num_evals=n_iters + 1,
             num_eval_envs=config.num_eval_envs,
             deterministic_eval=True,
@@ -265,6 +263,8 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
             progress_fn=progress,
             policy_params_fn=keep_params,
             restore_checkpoint_path=None if restore is None else str(restore),
+            restore_params=restore_params,
+            restore_value_fn=restore_params is None,
         )
     except _OutOfTime:
         log(f"train: stopped at {state['steps_done']} of {steps} steps (time budget)")

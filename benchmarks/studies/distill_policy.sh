@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# Distil DDR-SFIM MPPI into one set policy for paper_3r4t and paper_4r4t (behaviour
+# cloning, then DAgger), optionally fine-tune it with PPO, then evaluate it against MPPI
+# on paper_3r4t and on paper_6r3t (a fleet it never saw): median RMSE, radar-drone pairs
+# inside the keep-out, ms per control call (docs/learning.md, "Distillation").
+# On one GPU, from the repository root, after `source scripts/gpu_setup.sh`:
+#   bash benchmarks/studies/distill_policy.sh
+# Resumable: every stage checkpoints (the policy after each iteration, each evaluation
+# figure as it comes) and is skipped once done; the command stops itself before BUDGET
+# seconds (default 540), so the same command again goes on where it stopped (keep runs/
+# on the machine, or carry runs/distill: without its state.npz files, a resume starts
+# Adam and the replay buffers afresh from the saved network). With $OUT set, all of RUN
+# but state.npz and the result file are copied there. It prints "distill_policy: done".
+# Settings (environment variables): RUN, TRIALS, BUDGET, BC_STEPS, DAGGER_STEPS,
+# PPO_STEPS (0: no fine-tuning), NUM_ENVS, UPDATES, RESULT (the benchmarks/results file),
+# TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario).
+set -euo pipefail
+RUN=${RUN:-runs/distill}
+TRIALS=${TRIALS:-500}
+BUDGET=${BUDGET:-540}
+NUM_ENVS=${NUM_ENVS:-256}
+# one iteration = NUM_ENVS trials x 150 periods x 2 scenarios = 76,800 labelled steps at 256
+BC_STEPS=${BC_STEPS:-460800}        # 6 iterations, MPPI driving
+DAGGER_STEPS=${DAGGER_STEPS:-1536000}  # 14 more, the policy driving
+PPO_STEPS=${PPO_STEPS:-0}           # > DAGGER_STEPS: fine-tune on paper_3r4t to this total
+RESULT=${RESULT:-benchmarks/results/distill_policy_h200.json}
+TRAIN=${TRAIN:-paper_3r4t,paper_4r4t}
+EVAL=${EVAL:-paper_3r4t,paper_6r3t}
+TUNE=${TUNE:-paper_3r4t}
+UPDATES=${UPDATES:-300}
+POLICY=$RUN/policy
+START=$(date +%s)
+mkdir -p "$RUN"
+left() { echo $((BUDGET - ($(date +%s) - START))); }
+minutes() { python3 -c "print(max(0.5, ($(left) - ${1:-0}) / 60))"; }
+stage_steps() { # steps done by stage $1: bc, dagger (a later stage: all), ppo (an earlier: none)
+  python3 - "$POLICY/policy.json" "$1" <<'PY' 2>/dev/null || echo 0
+import json, sys
+order = ["bc", "dagger", "ppo"]
+s = json.load(open(sys.argv[1]))
+now, stage = order.index(s.get("algo", "ppo")), order.index(sys.argv[2])
+print(s["steps_done"] if now == stage else (10**15 if now > stage else 0))
+PY
+}
+save_out() { # what comes back from a device run: all of RUN but the buffers (state.npz)
+  [ -n "${OUT:-}" ] || return 0
+  mkdir -p "$OUT/distill"
+  (cd "$RUN" && find . -type f ! -name state.npz -print0 | tar --null -cf - -T -) |
+    tar -xf - -C "$OUT/distill"
+  if [ -f "$RESULT" ]; then cp "$RESULT" "$OUT/"; fi
+}
+enough() { # enough time left for a stage that needs $1 seconds (compile and one step)?
+  if [ "$(left)" -lt "$1" ]; then
+    echo "distill_policy: $(left) s left, run the same command again to go on"
+    save_out
+    exit 0
+  fi
+}
+COMMON=(--num-envs "$NUM_ENVS" --batch-size 512 --updates "$UPDATES" --hidden 64 --buffer-size 120000 --lr 1e-3)
+if [ "$(stage_steps bc)" -lt "$BC_STEPS" ]; then
+  enough 150
+  python3 scripts/train_policy.py "$TRAIN" --algo bc --steps "$BC_STEPS" \
+    --out "$POLICY" "${COMMON[@]}" --max-minutes "$(minutes 20)"
+fi
+[ "$(stage_steps bc)" -ge "$BC_STEPS" ] || { echo "distill_policy: bc not done, run again"; save_out; exit 0; }
+if [ "$(stage_steps dagger)" -lt "$DAGGER_STEPS" ]; then
+  enough 150
+  python3 scripts/train_policy.py "$TRAIN" --algo dagger --steps "$DAGGER_STEPS" \
+    --out "$POLICY" "${COMMON[@]}" --beta 0 --max-minutes "$(minutes 20)"
+fi
+[ "$(stage_steps dagger)" -ge "$DAGGER_STEPS" ] || { echo "distill_policy: dagger not done, run again"; save_out; exit 0; }
+if [ "$PPO_STEPS" -gt "$DAGGER_STEPS" ] && [ "$(stage_steps ppo)" -lt "$PPO_STEPS" ]; then
+  enough 240
+  python3 scripts/train_policy.py "$TUNE" --algo ppo --steps "$PPO_STEPS" --out "$POLICY" \
+    --num-envs 1024 --batch-size 512 --num-minibatches 16 --unroll-length 10 --lr 1e-4 \
+    --init-noise-std 0.2 --penalty-scale 1 --no-eval --eval-every 2000000 \
+    --max-minutes "$(minutes 20)"
+  [ "$(stage_steps ppo)" -ge "$PPO_STEPS" ] || { echo "distill_policy: ppo not done, run again"; save_out; exit 0; }
+fi
+enough 120
+timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
+  --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
+  --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS; curve: $RUN/policy/curve.csv." \
+  --command "bash benchmarks/studies/distill_policy.sh" || {
+  echo "distill_policy: evaluation cut short, run the same command again to go on"
+  save_out
+  exit 0
+}
+save_out
+echo "distill_policy: done ($RESULT)"

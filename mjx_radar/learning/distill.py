@@ -1,0 +1,137 @@
+"""Distillation of the MPPI planner into a set policy: rollouts labelled by the teacher,
+and the cloning loss's gradient steps (pure functions; the driver is
+:mod:`mjx_radar.learning.distill_train`).
+
+The teacher is the scenario's MPPI planner (``planners.make("mppi", env)``, the
+planner the simulator runs) called on the observation of every visited state, its warm
+start carried along the trajectory. One rollout (``lax.scan`` over control periods,
+``vmap`` over trials) applies in each period the teacher's control with probability
+β and the policy's otherwise::
+
+    u_T, carry = MPPI.plan(carry, obs, key)              the label
+    u_π = action_to_control(env, tanh(SetNet(set_features(obs))))   (then the shield,
+                                                          if configured)
+    u   = u_T if uniform() < β else u_π                  β = 1: behaviour cloning
+                                                          β < 1: DAgger (policy drives)
+
+and keeps ``(set_features(obs), control_to_action(u_T))`` of every period. The loss is
+the mean squared difference of the policy's action ``tanh(loc)`` and the teacher's, in
+``[-1, 1]`` action units, over the real radars (``radar_mask``), averaged over the
+scenarios (each its own buffer: fleets of several sizes train one network).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from mjx_radar import precision
+from mjx_radar.env.streams import streams_of
+from mjx_radar.learning import replay
+from mjx_radar.learning.features import action_to_control, control_to_action
+from mjx_radar.learning.set_features import SetObs, set_features
+from mjx_radar.learning.set_net import policy_action
+from mjx_radar.learning.shield import shield
+
+
+class Sample(NamedTuple):
+    """One labelled state: the policy's input and the teacher's action."""
+
+    obs: SetObs
+    action: jax.Array  # [N, 2] the teacher's control in [-1, 1] action units
+
+
+class RolloutStats(NamedTuple):
+    """Per period and trial (``[E, P]``): what the rollout's controls did."""
+
+    rmse_pos: jax.Array  # the tracker's position RMSE [m]
+    inside: jax.Array  # fraction of radar-target pairs inside R2T (estimates)
+    gap: jax.Array  # mean squared policy - teacher action difference (before updates)
+
+
+def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False):
+    """``collect(params, keys [E, 2], beta) -> (Sample [E·P], RolloutStats [E, P])``.
+
+    Args:
+        env: the :class:`~mjx_radar.env.environment.RadarEnv`.
+        teacher: its MPPI planner (``init``, ``plan``).
+        hidden: the set network's width.
+        periods: control periods per rollout (P).
+        shielded: the policy's control passes the keep-out shield before it is applied.
+    """
+
+    def trial(params, key, beta):
+        state = env.reset(key)
+
+        def period(carry, _):
+            state, tcarry = carry
+            obs = state.obs
+            pkey = jax.random.fold_in(streams_of(state.info["key"]).planner, state.info["period"])
+            u_t, tcarry = teacher.plan(tcarry, obs, pkey)
+            u_t = env.clip_action(u_t)
+            x = set_features(env, obs)
+            a_p = policy_action(params, x, hidden)  # [N, 2]
+            u_p = action_to_control(env, a_p.reshape(-1)).astype(u_t.dtype)
+            if shielded:
+                u_p = shield(env, obs, u_p)
+            coin = jax.random.uniform(jax.random.fold_in(pkey, 0x0DA6)) < beta
+            state = env.step(state, jnp.where(coin, u_t, u_p))
+            a_t = control_to_action(env, u_t).reshape(-1, 2).astype(jnp.float32)
+            stats = RolloutStats(
+                state.metrics["rmse_pos"].astype(jnp.float32),
+                jnp.mean((x.pair[..., 4] < 0).astype(jnp.float32)),
+                jnp.mean((a_p - a_t) ** 2),
+            )
+            return (state, tcarry), (Sample(x, a_t), stats)
+
+        _, out = jax.lax.scan(period, (state, teacher.init()), None, length=periods)
+        return out
+
+    @precision.pinned  # full float32 dots, as the simulator's closed loop (GPUs too)
+    def collect(params, keys, beta):
+        samples, stats = jax.vmap(trial, in_axes=(None, 0, None))(params, keys, beta)
+        flat = jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), samples)
+        return flat, stats
+
+    return collect
+
+
+def optimizer(learning_rate: float, max_grad_norm: float):
+    """Adam after a global gradient-norm clip."""
+    return optax.chain(optax.clip_by_global_norm(max_grad_norm), optax.adam(learning_rate))
+
+
+def clone_loss(params, batch: Sample, hidden: int) -> jax.Array:
+    """``[]`` mean squared action difference over the real radars of ``batch`` ``[B, ...]``."""
+    pred = policy_action(params, batch.obs, hidden)  # [B, N, 2]
+    mask = batch.obs.radar_mask[..., None]
+    return jnp.sum(mask * (pred - batch.action) ** 2) / (2.0 * jnp.maximum(jnp.sum(mask), 1.0))
+
+
+def make_update(hidden: int, tx, batch_size: int, updates: int):
+    """``update(params, opt_state, buffers, key) -> (params, opt_state, losses [updates])``:
+    ``updates`` Adam steps, each on ``batch_size`` samples of every buffer."""
+
+    def loss_fn(params, batches):
+        return jnp.mean(jnp.stack([clone_loss(params, b, hidden) for b in batches]))
+
+    def update(params, opt_state, buffers, key):
+        def step(carry, k):
+            params, opt = carry
+            keys = jax.random.split(k, len(buffers))
+            batches = [
+                replay.sample(b, kk, batch_size) for b, kk in zip(buffers, keys, strict=True)
+            ]
+            loss, grad = jax.value_and_grad(loss_fn)(params, batches)
+            upd, opt = tx.update(grad, opt, params)
+            return (optax.apply_updates(params, upd), opt), loss
+
+        (params, opt_state), losses = jax.lax.scan(
+            step, (params, opt_state), jax.random.split(key, updates)
+        )
+        return params, opt_state, losses
+
+    return update
