@@ -13,6 +13,7 @@
 # but state.npz and the result file are copied there. It prints "distill_policy: done".
 # Settings (environment variables): RUN, TRIALS, BUDGET, BC_STEPS, DAGGER_STEPS,
 # PPO_STEPS (0: no fine-tuning), NUM_ENVS, UPDATES, RESULT (the benchmarks/results file),
+# SHIELD (1: the keep-out shield on the policy's controls, in training and in policy:DIR),
 # TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario).
 set -euo pipefail
 RUN=${RUN:-runs/distill}
@@ -57,6 +58,7 @@ enough() { # enough time left for a stage that needs $1 seconds (compile and one
   fi
 }
 COMMON=(--num-envs "$NUM_ENVS" --batch-size 512 --updates "$UPDATES" --hidden 64 --buffer-size 120000 --lr 1e-3)
+if [ "${SHIELD:-0}" = 1 ]; then COMMON+=(--shield); fi
 if [ "$(stage_steps bc)" -lt "$BC_STEPS" ]; then
   enough 150
   python3 scripts/train_policy.py "$TRAIN" --algo bc --steps "$BC_STEPS" \
@@ -80,7 +82,7 @@ fi
 enough 120
 timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
   --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
-  --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS; curve: $RUN/policy/curve.csv." \
+  --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS, shield ${SHIELD:-0}; curve: $RUN/policy/curve.csv." \
   --command "bash benchmarks/studies/distill_policy.sh" || {
   echo "distill_policy: evaluation cut short, run the same command again to go on"
   save_out
