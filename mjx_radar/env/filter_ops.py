@@ -12,7 +12,8 @@ is what the metrics, the lost-track detector and the planner see; a tracker's ow
 state rides along as ``modes`` (the IMM's :class:`~mjx_radar.estimation.imm.ImmState`;
 ``()`` for the others, so their programs and numbers are the same as before). ``"jpda"``
 and ``"gnn"`` (joint association of cluttered scans, ``[tracker]``) are in
-:mod:`mjx_radar.env.association_ops`.
+:mod:`mjx_radar.env.association_ops`, ``"mht"`` (K association histories across scans)
+in :mod:`mjx_radar.env.mht_ops`.
 """
 
 from __future__ import annotations

@@ -34,7 +34,8 @@ The rules (docs/scenarios.md, "Plausibility"):
   JPDA, GNN) at most ``MAX_EVENTS``, times ``M!`` for JPDA* at most ``MAX_STAR_WORK``;
   JPDA* needs ``tracker.marginals = "exact"``; the multi-sensor JPDA's radar tuples
   ``(candidates + 1)^N`` at most ``MAX_TUPLES`` and its events ``tuples^M`` at most
-  ``MAX_EVENTS``.
+  ``MAX_EVENTS``; the MHT (``"mht"``) needs clutter, and its children per radar
+  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``.
 """
 
 from __future__ import annotations
@@ -44,7 +45,12 @@ import math
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.scenario import schema_tracker
 from mjx_radar.scenario.schema import Scenario
-from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
+from mjx_radar.scenario.schema_tracker import (
+    MAX_CHILDREN,
+    MAX_EVENTS,
+    MAX_STAR_WORK,
+    MAX_TUPLES,
+)
 
 SPEED_OF_LIGHT = 299792458.0  # c [m/s] (same as estimation.sensing)
 MAX_SPEED = 1e3  # initial target speed [m/s]
@@ -252,13 +258,19 @@ def _check_tracker(s: Scenario) -> None:
         )
     if t.association == "jpda" and t.marginals == "multisensor":
         _check_multisensor(t, s.n_radars, m)
-    exact = t.association == "gnn" or t.marginals == "exact"
+    exact = t.association in ("gnn", "mht") or t.marginals == "exact"
     events = (t.candidates + 1) ** m
     if exact and events > MAX_EVENTS:
         raise ScenarioError(
             f"tracker.candidates = {t.candidates}: (candidates + 1)^M = {events} joint events "
             f"for M = {m} targets exceed {MAX_EVENTS}; lower it, or use "
             f'tracker.marginals = "lbp" (jpda)'
+        )
+    if t.association == "mht" and events * t.hypotheses > MAX_CHILDREN:
+        raise ScenarioError(
+            f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
+            f"{events * t.hypotheses} children per radar and scan exceed {MAX_CHILDREN}; "
+            f"lower it or tracker.candidates"
         )
     if t.jpda_star and (t.association != "jpda" or t.marginals != "exact"):
         raise ScenarioError(

@@ -22,6 +22,7 @@ from mjx_radar.io.checks import ScenarioError, choice, flag, rule
 MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
 MAX_STAR_WORK = 500_000  # events x M! target permutations of JPDA*
 MAX_TUPLES = 4096  # (G + 1)^N radar tuples per target of the multi-sensor JPDA
+MAX_CHILDREN = 1_000_000  # K (G + 1)^M children per radar and scan of the MHT
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,9 @@ class TrackerConfig:
 
     ``association``: "pda" (each target on its own: the neighbours' returns count as
     clutter), "jpda" (joint probabilistic data association over all targets, per radar
-    and scan) or "gnn" (global nearest neighbour: the best joint assignment, hard).
+    and scan), "gnn" (global nearest neighbour: the best joint assignment, hard) or "mht"
+    (the ``hypotheses`` most probable association histories, each a bank, kept across
+    scans; the estimate is the heaviest one's; events over ``candidates`` per target).
     ``marginals``: JPDA's marginals, "exact" (enumeration of the joint events over each
     target's ``candidates`` best gated measurements) or "lbp" (loopy belief propagation,
     ``lbp_iterations`` sweeps, over every measurement) or "multisensor" (every radar's
@@ -48,7 +51,11 @@ class TrackerConfig:
             "pda",
             "jpda",
             "gnn",
-            doc="association of cluttered scans: per-target PDA, joint JPDA, or GNN assignment",
+            "mht",
+            doc=(
+                "association of cluttered scans: per-target PDA, joint JPDA, GNN assignment, "
+                "or mht (the K best association histories across scans)"
+            ),
         ),
     )
     marginals: str = field(
@@ -79,6 +86,10 @@ class TrackerConfig:
         metadata=rule(
             int, 2, 64, doc="jpda multisensor: radar tuples kept per target, K (K^M joint events)"
         ),
+    )
+    hypotheses: int = field(
+        default=16,
+        metadata=rule(int, 1, 1024, doc="mht: global hypotheses kept across scans, K"),
     )
     management: str = field(
         default="known",
