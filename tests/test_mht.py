@@ -187,3 +187,40 @@ def test_scenario_selects_and_refuses_mht():
         s.replace(tracker={"association": "mht", "hypotheses": 1024, "candidates": 5})
     with pytest.raises(ScenarioError, match='tracker.association = "mht": needs clutter'):
         s.replace(tracker={"association": "mht"}, detection={"clutter_density": 0.0})
+
+
+def _merge_reference(means, covs, logw, tau):
+    """Plain loops: each child joins the first heavier kept child it nearly duplicates
+    (the first heavier one it duplicates, followed to a kept one)."""
+    c = len(logw)
+    var = np.diagonal(covs, axis1=-2, axis2=-1)
+    owner = list(range(c))
+    for j in range(c):
+        for i in range(j):
+            d2 = np.max(np.sum((means[i] - means[j]) ** 2 / (var[i] + var[j]), -1))
+            if np.isfinite(logw[i]) and np.isfinite(logw[j]) and d2 < tau:
+                owner[j] = owner[i]
+                break
+    out = np.full(c, -np.inf)
+    for j in range(c):
+        if np.isfinite(logw[j]):
+            out[owner[j]] = np.logaddexp(out[owner[j]], logw[j])
+    return out
+
+
+def test_merge_matches_a_loop_reference_and_keeps_the_mass():
+    from mjx_radar.estimation.mht_merge import merge_duplicates
+
+    rng = np.random.default_rng(11)
+    c, m = 24, 3
+    base = rng.normal(0, 3, (4, m, 6))  # 4 distinct banks, each copied with small offsets
+    means = base[rng.integers(0, 4, c)] + rng.normal(0, 0.3, (c, m, 6))
+    covs = np.stack([np.eye(6) * rng.uniform(0.5, 2.0)] * m)[None].repeat(c, 0)
+    logw = np.sort(rng.normal(0, 2, c))[::-1].copy()
+    logw[-3:] = -np.inf  # empty children
+    with jax.enable_x64(True):
+        got = np.asarray(merge_duplicates(jnp.asarray(means), jnp.asarray(covs), logw, 1.0))
+    ref = _merge_reference(means, covs, logw, 1.0)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
+    assert 4 <= np.isfinite(got).sum() < c - 3  # merged, down to at least the 4 banks
+    np.testing.assert_allclose(np.logaddexp.reduce(got), np.logaddexp.reduce(logw), atol=1e-12)

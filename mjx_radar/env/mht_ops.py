@@ -44,6 +44,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     a6, q6 = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
     ccr = params.method.ccr
     dt = sc.timing.dt_filter
+    merge = (float(t.merge_distance), int(t.merge_screen))
 
     def joint(hyp):
         return filter_bank.bank_to_joint(*mht.best(hyp))
@@ -58,7 +59,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
             pd = detection.pair_probability(det.model, dp, d2)
             return pd if los is None else jnp.where(los[:, None, :], pd, 0.0)
 
-        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates)
+        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates, merge)
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
         if sc.filter.ground_prior:

@@ -35,7 +35,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import association, filter_bank, linalg, pda
+from mjx_radar.estimation import association, filter_bank, linalg, mht_merge, pda
 
 __all__ = ["HypState", "init", "predict", "radar_update", "update_bank", "best"]
 
@@ -85,7 +85,9 @@ def _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual):
     return hyp.logw[:, None] + miss[:, None] + ev_w, (K, S, nu, idx)
 
 
-def radar_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, residual=None):
+def radar_update(
+    hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, residual=None, merge=(0.0, 1)
+):
     """One radar's scan: the K best children of every hypothesis and joint event.
 
     Args:
@@ -96,6 +98,9 @@ def radar_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, r
         density, gate, pg: clutter density λ, gate γ, gate probability P_G.
         g: candidates per target G (static, ``≤ L``).
         residual: optional measurement residual (angles wrapped).
+        merge: ``(τ, screen)`` static: with τ > 0 the ``screen · K`` heaviest children are
+            merged (:func:`~mjx_radar.estimation.mht_merge.merge_duplicates`) before the K
+            heaviest are kept; τ = 0: no merging (the exact K best).
 
     Returns:
         The K heaviest children (:class:`HypState`, weights renormalised) and each one's
@@ -104,7 +109,9 @@ def radar_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, r
     k, m = hyp.logw.shape[0], hyp.means.shape[1]
     score, (K, S, nu, idx) = _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual)
     n_ev = score.shape[1]
-    top, flat = jax.lax.top_k(score.reshape(-1), k)
+    tau, screen = merge
+    n_c = min(k * screen, score.size) if tau > 0 else k
+    top, flat = jax.lax.top_k(score.reshape(-1), n_c)
     parent, ev = flat // n_ev, flat % n_ev
     slot = jnp.asarray(association.event_table(m, g))[ev]  # [K, M]: 0 missed, s: s-th best
     tgt = jnp.arange(m)[None, :]
@@ -115,6 +122,9 @@ def radar_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, r
     means = x0 + jnp.where(hit, jnp.einsum("kmnp,kmp->kmn", gain, innov), 0.0)
     kskt = jnp.einsum("kmnp,kmpq,kmrq->kmnr", gain, S[parent[:, None], tgt], gain)
     covs = linalg.symmetrize(P0 - jnp.where(hit[..., None], kskt, 0.0))
+    if n_c > k:  # merge near-duplicates, then the K heaviest
+        top, keep = jax.lax.top_k(mht_merge.merge_duplicates(means, covs, top, tau), k)
+        means, covs, parent = means[keep], covs[keep], parent[keep]
     return _clean(HypState(means, covs, top)), parent
 
 
@@ -130,7 +140,19 @@ def _clean(hyp: HypState) -> HypState:
 
 
 def update_bank(
-    hyp: HypState, zs, valid, radar_pos, model, noise, ccr, pd_fn, density, gate, pg, g
+    hyp: HypState,
+    zs,
+    valid,
+    radar_pos,
+    model,
+    noise,
+    ccr,
+    pd_fn,
+    density,
+    gate,
+    pg,
+    g,
+    merge=(0.0, 1),
 ):
     """Every radar's scan, radar after radar, each pruned to the K best.
 
@@ -142,6 +164,7 @@ def update_bank(
             at the predicted positions (each child keeps its parent's).
         density, gate, pg: clutter density λ, gate γ, gate probability P_G.
         g: candidates per target G (static; capped at L).
+        merge: ``(τ, screen)`` (:func:`radar_update`).
 
     Returns:
         The posterior :class:`HypState`.
@@ -150,7 +173,7 @@ def update_bank(
     pd = pd_fn(hyp.means[..., :3])  # [N, K, M], as the PDA and JPDA banks: at the prediction
     for i in range(radar_pos.shape[0]):  # radar after radar (static N)
         h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
-        args = (zs[i], valid[i], h, R, pd[i], density, gate, pg, g, model.residual)
+        args = (zs[i], valid[i], h, R, pd[i], density, gate, pg, g, model.residual, merge)
         hyp, parent = radar_update(hyp, *args)
         pd = pd[:, parent]
     return hyp

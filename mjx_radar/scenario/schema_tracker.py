@@ -91,6 +91,19 @@ class TrackerConfig:
         default=16,
         metadata=rule(int, 1, 1024, doc="mht: global hypotheses kept across scans, K"),
     )
+    merge_distance: float = field(
+        default=1.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e6,
+            doc="mht: merge threshold on the banks' largest diagonal d^2 (0: no merging)",
+        ),
+    )
+    merge_screen: int = field(
+        default=4,
+        metadata=rule(int, 1, 64, doc="mht: children screened for merging, in units of K"),
+    )
     management: str = field(
         default="known",
         metadata=choice(
