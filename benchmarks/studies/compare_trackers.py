@@ -61,8 +61,12 @@ def variant(scenario, name: str):
     return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **VARIANTS[name])
 
 
-def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
-    """Per method: lost trials, median final-step / time-mean RMSE over trials."""
+def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:
+    """Per method: lost trials, median final-step / time-mean RMSE over trials; with
+    ``upto`` the first ``upto`` steps only (a run's prefix is the shorter run: the same
+    draws step by step; the summary's median is then NaN)."""
+    if upto is not None:
+        metrics = metrics[metrics["step"] <= upto]
     last = metrics["step"].max()
     out = []
     for method, g in metrics.groupby("method"):
@@ -76,6 +80,7 @@ def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
         s = summary[summary["method"] == method].iloc[0]
         out.append(
             {
+                "steps": int(last),
                 "method": method,
                 "trials": len(trial),
                 "lost_trials": int(trial["lost"].sum()),
@@ -83,7 +88,7 @@ def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
                 "median_final_rmse": float(np.median(final)),
                 "median_trial_rmse": float(np.median(trial["mean"])),
                 "median_trial_gospa": float(np.median(trial["gospa"])),
-                "summary_median_rmse": float(s["median_rmse_pos"]),
+                "summary_median_rmse": float(s["median_rmse_pos"]) if upto is None else np.nan,
             }
         )
     return pd.DataFrame(out)
@@ -100,6 +105,7 @@ def main(argv=None) -> int:
     p.add_argument("--trials", type=int, default=200)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--chunk", type=int, default=200)
+    p.add_argument("--prefix", type=int, default=None, help="also the first N steps' figures")
     p.add_argument("--result", default=None, help="also write benchmarks/results/ID.json")
     args = p.parse_args(argv)
     unknown = set(args.variants.split(",")) - set(VARIANTS)
@@ -120,15 +126,17 @@ def main(argv=None) -> int:
                 resume=(out / "study.json").exists(),
                 progress=False,
             )
-            frame = rows(study.metrics, study.summary())
+            parts = [rows(study.metrics, study.summary())]
+            if args.prefix:
+                parts.insert(0, rows(study.metrics, study.summary(), args.prefix))
+            frame = pd.concat(parts, ignore_index=True)
             frame.insert(0, "scenario", name)
             frame.insert(1, "variant", v)
             frames.append(frame)
             table = pd.concat(frames, ignore_index=True)
-            known = table[table["variant"] == "known"].set_index(["scenario", "method"])
-            ref = table.set_index(["scenario", "method"]).index.map(
-                known["median_trial_rmse"].to_dict()
-            )
+            keys = ["scenario", "steps", "method"]
+            known = table[table["variant"] == "known"].set_index(keys)
+            ref = table.set_index(keys).index.map(known["median_trial_rmse"].to_dict())
             table["ratio_to_known"] = table["median_trial_rmse"] / np.asarray(ref, float)
             table.to_csv(args.out / "trackers.csv", index=False)
             print(frame.to_string(index=False, header=len(frames) == 1), flush=True)
@@ -142,6 +150,7 @@ def main(argv=None) -> int:
 
 COLUMNS = {
     "scenario": "scenario",
+    "steps": "steps",
     "variant": "variant",
     "method": "method",
     "trials": "trials",

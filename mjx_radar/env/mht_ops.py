@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
+from mjx_radar.errors import ScenarioError
 from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, mht
 from mjx_radar.physics import target_motion
 from mjx_radar.task.task import RadarTask
@@ -40,6 +41,11 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     """``"mht"``: the K-best multiple-hypothesis tracker (module docstring)."""
     sc, model = task.scenario, task.measurement
     t, det = sc.tracker, sc.detection
+    if not det.clutter:  # filter.tracker = "mht" by name: the scans must be unlabelled
+        raise ScenarioError(
+            'filter.tracker = "mht": needs clutter (detection.clutter_density > 0); without '
+            "it the returns are labelled"
+        )
     dp = params.detection
     a6, q6 = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
     ccr = params.method.ccr
