@@ -15,6 +15,7 @@ for every variant) of the given methods. The variants are the scenario with
     gnn        association = "gnn"
     mht        association = "mht" (K = tracker.hypotheses = 16 association histories)
     mht-64     mht with K = 64
+    mht-256    mht with K = 256 (merge_screen = 2)
 
 Prints one line per variant and method as each study finishes, and rewrites
 ``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
@@ -27,7 +28,7 @@ trial whose tracks are good but swap labels is lost and not unmatched. A study a
 ``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
 
     python benchmarks/studies/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
-        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn,mht,mht-64]
+        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn,mht,mht-64,mht-256]
         [--methods ddr-sfim,stationary] [--trials 200] [--steps 600] [--chunk 200] [--result ID]
 
 ``--result ID`` also writes ``benchmarks/results/ID.json`` (benchmarks/README.md) with the
@@ -53,6 +54,7 @@ VARIANTS = {
     "gnn": {"tracker": {"association": "gnn"}},
     "mht": {"tracker": {"association": "mht"}},
     "mht-64": {"tracker": {"association": "mht", "hypotheses": 64}},
+    "mht-256": {"tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2}},
 }
 
 

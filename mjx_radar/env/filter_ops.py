@@ -67,7 +67,7 @@ def tracker_name(scenario) -> str:
         return "managed"
     if name != "auto":
         return name
-    if scenario.detection.clutter:  # [tracker] association: pda, jpda or gnn
+    if scenario.detection.clutter:  # [tracker] association: pda, jpda, gnn or mht
         return scenario.tracker.association
     if scenario.filter.motion == "imm":
         return "imm"
