@@ -189,15 +189,20 @@ def test_scenario_selects_and_refuses_mht():
         s.replace(tracker={"association": "mht"}, detection={"clutter_density": 0.0})
 
 
-def _merge_reference(means, covs, logw, tau):
+def _merge_reference(means, covs, logw, tau, labels=False):
     """Plain loops: each child joins the first heavier kept child it nearly duplicates
-    (the first heavier one it duplicates, followed to a kept one)."""
-    c = len(logw)
+    (the first heavier one it duplicates, followed to a kept one); with ``labels`` in any
+    order of its targets."""
+    c, m = len(logw), means.shape[1]
     var = np.diagonal(covs, axis1=-2, axis2=-1)
+    orders = list(itertools.permutations(range(m))) if labels else [tuple(range(m))]
     owner = list(range(c))
     for j in range(c):
         for i in range(j):
-            d2 = np.max(np.sum((means[i] - means[j]) ** 2 / (var[i] + var[j]), -1))
+            d2 = min(
+                np.max(np.sum((means[i] - means[j][list(p)]) ** 2 / (var[i] + var[j][list(p)]), -1))
+                for p in orders
+            )
             if np.isfinite(logw[i]) and np.isfinite(logw[j]) and d2 < tau:
                 owner[j] = owner[i]
                 break
@@ -208,19 +213,25 @@ def _merge_reference(means, covs, logw, tau):
     return out
 
 
-def test_merge_matches_a_loop_reference_and_keeps_the_mass():
+@pytest.mark.parametrize("labels", [False, True])
+def test_merge_matches_a_loop_reference_and_keeps_the_mass(labels):
+    from mjx_radar.estimation.association import permutations
     from mjx_radar.estimation.mht_merge import merge_duplicates
 
     rng = np.random.default_rng(11)
     c, m = 24, 3
     base = rng.normal(0, 3, (4, m, 6))  # 4 distinct banks, each copied with small offsets
     means = base[rng.integers(0, 4, c)] + rng.normal(0, 0.3, (c, m, 6))
+    means = np.stack([x[rng.permutation(m)] for x in means])  # in any target order
     covs = np.stack([np.eye(6) * rng.uniform(0.5, 2.0)] * m)[None].repeat(c, 0)
     logw = np.sort(rng.normal(0, 2, c))[::-1].copy()
     logw[-3:] = -np.inf  # empty children
     with jax.enable_x64(True):
-        got = np.asarray(merge_duplicates(jnp.asarray(means), jnp.asarray(covs), logw, 1.0))
-    ref = _merge_reference(means, covs, logw, 1.0)
+        perms = permutations(m) if labels else None
+        got = merge_duplicates(jnp.asarray(means), jnp.asarray(covs), logw, 1.0, perms)
+    got = np.asarray(got)
+    ref = _merge_reference(means, covs, logw, 1.0, labels)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
-    assert 4 <= np.isfinite(got).sum() < c - 3  # merged, down to at least the 4 banks
+    kept = np.isfinite(got).sum()
+    assert 4 <= kept < c - 3  # merged, down to at least the 4 banks
     np.testing.assert_allclose(np.logaddexp.reduce(got), np.logaddexp.reduce(logw), atol=1e-12)

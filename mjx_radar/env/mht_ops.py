@@ -50,7 +50,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     a6, q6 = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
     ccr = params.method.ccr
     dt = sc.timing.dt_filter
-    merge = (float(t.merge_distance), int(t.merge_screen))
+    merge = (float(t.merge_distance), int(t.merge_screen), bool(t.merge_labels))
 
     def joint(hyp):
         return filter_bank.bank_to_joint(*mht.best(hyp))

@@ -86,7 +86,18 @@ def _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual):
 
 
 def radar_update(
-    hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, residual=None, merge=(0.0, 1)
+    hyp: HypState,
+    z,
+    valid,
+    h,
+    R,
+    pd,
+    density,
+    gate,
+    pg,
+    g: int,
+    residual=None,
+    merge=(0.0, 1, False),
 ):
     """One radar's scan: the K best children of every hypothesis and joint event.
 
@@ -98,9 +109,10 @@ def radar_update(
         density, gate, pg: clutter density λ, gate γ, gate probability P_G.
         g: candidates per target G (static, ``≤ L``).
         residual: optional measurement residual (angles wrapped).
-        merge: ``(τ, screen)`` static: with τ > 0 the ``screen · K`` heaviest children are
-            merged (:func:`~mjx_radar.estimation.mht_merge.merge_duplicates`) before the K
-            heaviest are kept; τ = 0: no merging (the exact K best).
+        merge: ``(τ, screen, labels)`` static: with τ > 0 the ``screen · K`` heaviest
+            children are merged (:func:`~mjx_radar.estimation.mht_merge.merge_duplicates`,
+            label-free with ``labels``) before the K heaviest are kept; τ = 0: no merging
+            (the exact K best).
 
     Returns:
         The K heaviest children (:class:`HypState`, weights renormalised) and each one's
@@ -109,7 +121,7 @@ def radar_update(
     k, m = hyp.logw.shape[0], hyp.means.shape[1]
     score, (K, S, nu, idx) = _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual)
     n_ev = score.shape[1]
-    tau, screen = merge
+    tau, screen, labels = merge
     n_c = min(k * screen, score.size) if tau > 0 else k
     top, flat = jax.lax.top_k(score.reshape(-1), n_c)
     parent, ev = flat // n_ev, flat % n_ev
@@ -123,7 +135,8 @@ def radar_update(
     kskt = jnp.einsum("kmnp,kmpq,kmrq->kmnr", gain, S[parent[:, None], tgt], gain)
     covs = linalg.symmetrize(P0 - jnp.where(hit[..., None], kskt, 0.0))
     if n_c > k:  # merge near-duplicates, then the K heaviest
-        top, keep = jax.lax.top_k(mht_merge.merge_duplicates(means, covs, top, tau), k)
+        perms = association.permutations(m) if labels else None
+        top, keep = jax.lax.top_k(mht_merge.merge_duplicates(means, covs, top, tau, perms), k)
         means, covs, parent = means[keep], covs[keep], parent[keep]
     return _clean(HypState(means, covs, top)), parent
 
@@ -164,7 +177,7 @@ def update_bank(
             at the predicted positions (each child keeps its parent's).
         density, gate, pg: clutter density λ, gate γ, gate probability P_G.
         g: candidates per target G (static; capped at L).
-        merge: ``(τ, screen)`` (:func:`radar_update`).
+        merge: ``(τ, screen, labels)`` (:func:`radar_update`).
 
     Returns:
         The posterior :class:`HypState`.

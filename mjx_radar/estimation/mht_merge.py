@@ -13,7 +13,12 @@ the heaviest earlier one whose bank it nearly duplicates (Blackman, IEEE AES Mag
 
 The merged hypothesis keeps the heavier bank and the sum of the weights (mass is kept
 where the evidence put it; a chain b → a → a' ends at the first kept one). τ = 0 merges
-nothing. Pure JAX, static shapes (``[C, C, M]`` distances).
+nothing. With ``perms`` (the M! target permutations π) the distance is label-free,
+``min_π max_t Σ_i (x_{a,t,i} − x_{b,π(t),i})² / (P_{a,t,ii} + P_{b,π(t),ii})``: two
+hypotheses that put the same tracks on the drones in another order are one position set,
+and the heavier labelling is kept (range-only scans fix positions long before labels, so
+the early hypotheses are largely label permutations of each other). Pure JAX, static
+shapes (``[C, C, P, M]`` distances).
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import jax.numpy as jnp
 __all__ = ["merge_duplicates"]
 
 
-def merge_duplicates(means, covs, logw, tau: float):
+def merge_duplicates(means, covs, logw, tau: float, perms=None):
     """Log weights after merging near-duplicates (module doc).
 
     Args:
@@ -33,15 +38,19 @@ def merge_duplicates(means, covs, logw, tau: float):
         logw: ``[C]`` their log weights, sorted descending (``lax.top_k``), ``logw[0]``
             finite; −inf for an empty child.
         tau: the merge threshold τ (static, > 0).
+        perms: optional ``[P, M]`` int target permutations (label-free distance).
 
     Returns:
         ``[C]`` log weights: a kept child's the log of its own weight plus those merged
         into it, a merged child's −inf.
     """
-    c = logw.shape[0]
+    c, m = logw.shape[0], means.shape[1]
     var = jnp.diagonal(covs, axis1=-2, axis2=-1)  # [C, M, 6]
-    diff = means[:, None] - means[None, :]
-    d2 = jnp.max(jnp.sum(diff**2 / (var[:, None] + var[None, :]), -1), -1)  # [C, C]
+    perms = jnp.arange(m)[None] if perms is None else jnp.asarray(perms)  # [P, M]
+    xb, vb = means[:, perms], var[:, perms]  # [C, P, M, 6]: b's targets in order π
+    diff = means[:, None, None] - xb[None]  # [C, C, P, M, 6]
+    d2 = jnp.sum(diff**2 / (var[:, None, None] + vb[None]), -1)
+    d2 = jnp.min(jnp.max(d2, -1), -1)  # [C, C]
     order = jnp.arange(c)
     alive = jnp.isfinite(logw)
     hit = (d2 < tau) & (order[:, None] < order[None, :]) & alive[:, None] & alive[None, :]

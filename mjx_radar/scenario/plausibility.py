@@ -272,6 +272,11 @@ def _check_tracker(s: Scenario) -> None:
             f"{events * t.hypotheses} children per radar and scan exceed {MAX_CHILDREN}; "
             f"lower it or tracker.candidates"
         )
+    if t.association == "mht" and t.merge_labels and m > 6:
+        raise ScenarioError(
+            f"tracker.merge_labels = true: compares M! = {math.factorial(m)} target orders "
+            f"for M = {m} targets; at most 6 targets (set it false)"
+        )
     if t.jpda_star and (t.association != "jpda" or t.marginals != "exact"):
         raise ScenarioError(
             f'tracker.jpda_star = true: needs tracker.association = "jpda" and '

@@ -104,6 +104,10 @@ class TrackerConfig:
         default=4,
         metadata=rule(int, 1, 64, doc="mht: children screened for merging, in units of K"),
     )
+    merge_labels: bool = field(
+        default=False,
+        metadata=flag("mht: merge hypotheses that are label permutations of each other (M <= 6)"),
+    )
     management: str = field(
         default="known",
         metadata=choice(
