@@ -185,6 +185,12 @@ def test_scenario_selects_and_refuses_mht():
         s.replace(tracker={"association": "mht", "hypotheses": 0})
     with pytest.raises(ScenarioError, match="tracker.hypotheses = 1024"):
         s.replace(tracker={"association": "mht", "hypotheses": 1024, "candidates": 5})
+    seven = [[30.0 * i, 0.0, 55.0, 10.0, 0.0, 0.0] for i in range(7)]
+    with pytest.raises(ScenarioError, match="tracker.merge_labels = true"):
+        s.replace(
+            targets=seven,
+            tracker={"association": "mht", "merge_labels": True, "candidates": 2},
+        )
     with pytest.raises(ScenarioError, match='tracker.association = "mht": needs clutter'):
         s.replace(tracker={"association": "mht"}, detection={"clutter_density": 0.0})
 
