@@ -16,6 +16,8 @@ for every variant) of the given methods. The variants are the scenario with
     mht        association = "mht" (K = tracker.hypotheses = 16 association histories)
     mht-64     mht with K = 64
     mht-256    mht with K = 256 (merge_screen = 2)
+    mht-1024   mht with K = 1024 (no merging: merge_screen = 1)
+    mht-16-labels, mht-64-labels   mht with K = 16, 64 and label-free merging
 
 Prints one line per variant and method as each study finishes, and rewrites
 ``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
@@ -28,7 +30,7 @@ trial whose tracks are good but swap labels is lost and not unmatched. A study a
 ``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
 
     python benchmarks/studies/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
-        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn,mht,mht-64,mht-256]
+        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn,mht,mht-64,...]
         [--methods ddr-sfim,stationary] [--trials 200] [--steps 600] [--chunk 200] [--result ID]
 
 ``--result ID`` also writes ``benchmarks/results/ID.json`` (benchmarks/README.md) with the
@@ -55,6 +57,9 @@ VARIANTS = {
     "mht": {"tracker": {"association": "mht"}},
     "mht-64": {"tracker": {"association": "mht", "hypotheses": 64}},
     "mht-256": {"tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2}},
+    "mht-1024": {"tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 1}},
+    "mht-16-labels": {"tracker": {"association": "mht", "merge_labels": True}},
+    "mht-64-labels": {"tracker": {"association": "mht", "hypotheses": 64, "merge_labels": True}},
 }
 
 

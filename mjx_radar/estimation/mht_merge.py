@@ -18,13 +18,14 @@ nothing. With ``perms`` (the M! target permutations π) the distance is label-fr
 hypotheses that put the same tracks on the drones in another order are one position set,
 and the heavier labelling is kept (range-only scans fix positions long before labels, so
 the early hypotheses are largely label permutations of each other). Pure JAX, static
-shapes (``[C, C, P, M]`` distances).
+shapes (``[C, C, M]`` distances per order, the orders in a ``lax.map``).
 """
 
 from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 
 __all__ = ["merge_duplicates"]
@@ -47,10 +48,12 @@ def merge_duplicates(means, covs, logw, tau: float, perms=None):
     c, m = logw.shape[0], means.shape[1]
     var = jnp.diagonal(covs, axis1=-2, axis2=-1)  # [C, M, 6]
     perms = jnp.arange(m)[None] if perms is None else jnp.asarray(perms)  # [P, M]
-    xb, vb = means[:, perms], var[:, perms]  # [C, P, M, 6]: b's targets in order π
-    diff = means[:, None, None] - xb[None]  # [C, C, P, M, 6]
-    d2 = jnp.sum(diff**2 / (var[:, None, None] + vb[None]), -1)
-    d2 = jnp.min(jnp.max(d2, -1), -1)  # [C, C]
+
+    def order(pi):  # [C, C]: b's targets in the order π (one order at a time: memory C² M)
+        diff = means[:, None] - means[None, :, pi]
+        return jnp.max(jnp.sum(diff**2 / (var[:, None] + var[None, :, pi]), -1), -1)
+
+    d2 = jnp.min(jax.lax.map(order, perms), 0)  # [C, C]
     order = jnp.arange(c)
     alive = jnp.isfinite(logw)
     hit = (d2 < tau) & (order[:, None] < order[None, :]) & alive[:, None] & alive[None, :]
