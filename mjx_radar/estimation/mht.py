@@ -165,7 +165,7 @@ def update_bank(
     gate,
     pg,
     g,
-    merge=(0.0, 1),
+    merge=(0.0, 1, False),
 ):
     """Every radar's scan, radar after radar, each pruned to the K best.
 
