@@ -45,12 +45,7 @@ import math
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.scenario import schema_tracker
 from mjx_radar.scenario.schema import Scenario
-from mjx_radar.scenario.schema_tracker import (
-    MAX_CHILDREN,
-    MAX_EVENTS,
-    MAX_STAR_WORK,
-    MAX_TUPLES,
-)
+from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
 
 SPEED_OF_LIGHT = 299792458.0  # c [m/s] (same as estimation.sensing)
 MAX_SPEED = 1e3  # initial target speed [m/s]
@@ -266,17 +261,8 @@ def _check_tracker(s: Scenario) -> None:
             f"for M = {m} targets exceed {MAX_EVENTS}; lower it, or use "
             f'tracker.marginals = "lbp" (jpda)'
         )
-    if t.association == "mht" and events * t.hypotheses > MAX_CHILDREN:
-        raise ScenarioError(
-            f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
-            f"{events * t.hypotheses} children per radar and scan exceed {MAX_CHILDREN}; "
-            f"lower it or tracker.candidates"
-        )
-    if t.association == "mht" and t.merge_labels and m > 6:
-        raise ScenarioError(
-            f"tracker.merge_labels = true: compares M! = {math.factorial(m)} target orders "
-            f"for M = {m} targets; at most 6 targets (set it false)"
-        )
+    if t.association == "mht":
+        schema_tracker.check_mht(t, m)
     if t.jpda_star and (t.association != "jpda" or t.marginals != "exact"):
         raise ScenarioError(
             f'tracker.jpda_star = true: needs tracker.association = "jpda" and '

@@ -15,6 +15,7 @@ management's in :func:`check`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import ScenarioError, choice, flag, rule
@@ -202,6 +203,24 @@ class TrackerConfig:
 
 #: the earlier name of the table's class (track management)
 TrackManagementConfig = TrackerConfig
+
+
+def check_mht(t: TrackerConfig, m: int) -> None:
+    """The MHT's limits (``association = "mht"``, M targets): its children per radar and
+    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; label-free merging
+    (M! target orders) for M <= 6."""
+    children = t.hypotheses * (t.candidates + 1) ** m
+    if children > MAX_CHILDREN:
+        raise ScenarioError(
+            f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
+            f"{children} children per radar and scan exceed {MAX_CHILDREN}; "
+            f"lower it or tracker.candidates"
+        )
+    if t.merge_labels and m > 6:
+        raise ScenarioError(
+            f"tracker.merge_labels = true: compares M! = {math.factorial(m)} target orders "
+            f"for M = {m} targets; at most 6 targets (set it false)"
+        )
 
 
 def check(s) -> None:
