@@ -23,7 +23,10 @@ heaviest survive (``lax.top_k``: the exact K best, no Murty needed at this size)
 the weights are renormalised (log-sum-exp). With K no smaller than the number of
 feasible histories and G no smaller than the returns, this is the exact Bayesian
 posterior over association histories (``tests/test_mht.py`` enumerates it); with K = 1
-it is the sequential GNN. The estimate is the heaviest hypothesis's bank (MAP).
+it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened
+and near-duplicates merged before the K heaviest are kept
+(:mod:`~mjx_radar.estimation.mht_merge`). The estimate is the heaviest hypothesis's bank
+(MAP).
 
 Pure JAX on pytrees, static shapes (K, M, G, L), ``vmap``-able over trials.
 """
