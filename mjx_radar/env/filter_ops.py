@@ -101,7 +101,7 @@ def register_tracker(name: str, factory=None):
     """Registers a tracker: ``factory(task, params) -> FilterOps`` (usable as a decorator).
 
     Select it in a scenario with ``[filter] tracker = "name"``. Its code is part of the
-    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda``, ``jpda``, ``gnn``
+    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda``, ``jpda``, ``gnn``, ``mht``
     (docs/extending.md).
     """
 
