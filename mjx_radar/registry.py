@@ -230,6 +230,7 @@ TRACKERS = Registry(
         "pda": "mjx_radar.env.filter_ops:pda_bank",
         "jpda": "mjx_radar.env.association_ops:jpda_bank",
         "gnn": "mjx_radar.env.association_ops:gnn_bank",
+        "mht": "mjx_radar.env.mht_ops:mht_bank",
         "managed": "mjx_radar.env.managed:managed_tracker",
     },
 )

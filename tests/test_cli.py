@@ -45,7 +45,7 @@ BAD_ARGS = {
     "steps_not_multiple": (["--steps", "6"], "--steps"),
     "bad_seed": (["--seed", "x"], "--seed"),
     "unknown_option": (["--colour", "red"], "unrecognized"),
-    "bad_association": (["--association", "mht"], "--association: tracker.association"),
+    "bad_association": (["--association", "pmbm"], "--association: tracker.association"),
     "association_no_clutter": (["--association", "jpda"], "needs clutter"),
 }
 

@@ -27,6 +27,7 @@ BUNDLED = [
     "city_4r4t",
     "forest_4r4t",
     "clutter_3r4t",
+    "clutter_spread_3r4t",
 ]
 
 

@@ -38,14 +38,14 @@ def test_tracker_table_in_toml_and_through_the_cli(clutter, tmp_path):
     back = load_scenario(path)
     assert back.tracker == s.tracker and tracker_name(back) == "jpda"
     assert main(["validate", str(path)]) == 0
-    path.write_text(path.read_text().replace('association = "jpda"', 'association = "mht"'))
+    path.write_text(path.read_text().replace('association = "jpda"', 'association = "pmbm"'))
     assert main(["validate", str(path)]) == 2
 
 
 @pytest.mark.parametrize(
     ("table", "start"),
     [
-        ({"association": "mht"}, "tracker.association"),
+        ({"association": "pmbm"}, "tracker.association"),
         ({"marginals": "mc"}, "tracker.marginals"),
         ({"candidates": 0}, "tracker.candidates"),
         ({"lbp_iterations": 0}, "tracker.lbp_iterations"),
@@ -92,4 +92,4 @@ def test_run_option_association_sets_the_table():
     req = run_case.request("clutter_3r4t", association="gnn")
     assert req.scenario.tracker.association == "gnn" and tracker_name(req.scenario) == "gnn"
     with pytest.raises(ScenarioError, match="^--association: tracker.association"):
-        run_case.request("clutter_3r4t", cli=True, association="mht")
+        run_case.request("clutter_3r4t", cli=True, association="pmbm")

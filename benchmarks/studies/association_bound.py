@@ -163,6 +163,8 @@ def trial_metrics(est: dict, truth_pos: np.ndarray, cutoff: float = 50.0) -> dic
             every = np.ones(truth_pos.shape[:2], bool)
             gospa = set_metrics(truth_pos, every, pos, every, cutoff, order=2.0)
             out["unmatched_map"] = bool((gospa.missed > 0).any())
+            # the closed loop's GOSPA ([metrics] defaults: c = 50 m, p = 1), time mean
+            out["gospa_map"] = float(set_metrics(truth_pos, every, pos, every, cutoff).gospa.mean())
     p = np.asarray(est["p_true"])
     for s in (20, 80, 200, len(p)):
         out[f"p_true_{s}"] = float(p[min(s, len(p)) - 1])
@@ -235,6 +237,7 @@ def main(argv=None) -> int:
         "ratio_map_to_true": med["map"] / med["true"],
         "lost": {k: int(df[f"lost_{k}"].sum()) for k in ("true", "mmse", "map")},
         "unmatched_map": int(df["unmatched_map"].sum()),
+        "median_trial_gospa_map": float(df["gospa_map"].median()),
         "median_final": {k: float(df[f"final_{k}"].median()) for k in ("true", "mmse", "map")},
         "mean_p_true": {c[7:]: float(df[c].mean()) for c in df if c.startswith("p_true")},
     }  # fmt: skip

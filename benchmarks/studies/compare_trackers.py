@@ -13,10 +13,16 @@ for every variant) of the given methods. The variants are the scenario with
     jpda-lbp   jpda with marginals = "lbp" (loopy belief propagation)
     jpda-ms    jpda with marginals = "multisensor" (radar tuples, all radars jointly)
     gnn        association = "gnn"
+    mht        association = "mht" (K = tracker.hypotheses = 16 association histories)
+    mht-64     mht with K = 64
+    mht-256    mht with K = 256 (merge_screen = 2)
+    mht-1024   mht with K = 1024 (no merging: merge_screen = 1)
+    mht-16-labels, mht-64-labels   mht with K = 16, 64 and label-free merging
 
 Prints one line per variant and method as each study finishes, and rewrites
 ``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
-final-step and of the time-mean position RMSE, the summary's median RMSE, and the ratio of
+final-step and of the time-mean position RMSE, of the time-mean GOSPA (``[metrics]``: c = 50 m,
+p = 1), the summary's median RMSE, and the ratio of
 the median time-mean RMSE to the known-association run's). *Unmatched* is the label-free
 counterpart of lost: trials in which at some step a drone has no track within the GOSPA
 cutoff (50 m) under the best assignment of tracks to drones (``gospa_missed > 0``), so a
@@ -24,8 +30,11 @@ trial whose tracks are good but swap labels is lost and not unmatched. A study a
 ``DIR/SCENARIO/VARIANT`` is read back, so an interrupted run resumes::
 
     python benchmarks/studies/compare_trackers.py --out DIR [--scenarios clutter_3r4t]
-        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn] [--methods ddr-sfim,stationary]
-        [--trials 200] [--steps 600] [--chunk 200]
+        [--variants known,pda,jpda,jpda-star,jpda-lbp,jpda-ms,gnn,mht,mht-64,...]
+        [--methods ddr-sfim,stationary] [--trials 200] [--steps 600] [--chunk 200] [--result ID]
+
+``--result ID`` also writes ``benchmarks/results/ID.json`` (benchmarks/README.md) with the
+table, the command and the device's name.
 """
 
 from __future__ import annotations
@@ -45,6 +54,12 @@ VARIANTS = {
     "jpda-lbp": {"tracker": {"association": "jpda", "marginals": "lbp"}},
     "jpda-ms": {"tracker": {"association": "jpda", "marginals": "multisensor"}},
     "gnn": {"tracker": {"association": "gnn"}},
+    "mht": {"tracker": {"association": "mht"}},
+    "mht-64": {"tracker": {"association": "mht", "hypotheses": 64}},
+    "mht-256": {"tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2}},
+    "mht-1024": {"tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 1}},
+    "mht-16-labels": {"tracker": {"association": "mht", "merge_labels": True}},
+    "mht-64-labels": {"tracker": {"association": "mht", "hypotheses": 64, "merge_labels": True}},
 }
 
 
@@ -53,25 +68,34 @@ def variant(scenario, name: str):
     return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **VARIANTS[name])
 
 
-def rows(metrics: pd.DataFrame, summary: pd.DataFrame) -> pd.DataFrame:
-    """Per method: lost trials, median final-step / time-mean RMSE over trials."""
+def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:
+    """Per method: lost trials, median final-step / time-mean RMSE over trials; with
+    ``upto`` the first ``upto`` steps only (a run's prefix is the shorter run: the same
+    draws step by step; the summary's median is then NaN)."""
+    if upto is not None:
+        metrics = metrics[metrics["step"] <= upto]
     last = metrics["step"].max()
     out = []
     for method, g in metrics.groupby("method"):
         trial = g.groupby("trial").agg(
-            mean=("rmse_pos", "mean"), lost=("lost", "max"), far=("gospa_missed", "max")
+            mean=("rmse_pos", "mean"),
+            lost=("lost", "max"),
+            far=("gospa_missed", "max"),
+            gospa=("gospa", "mean"),
         )
         final = g[g["step"] == last].set_index("trial")["rmse_pos"]
         s = summary[summary["method"] == method].iloc[0]
         out.append(
             {
+                "steps": int(last),
                 "method": method,
                 "trials": len(trial),
                 "lost_trials": int(trial["lost"].sum()),
                 "unmatched_trials": int((trial["far"] > 0).sum()),
                 "median_final_rmse": float(np.median(final)),
                 "median_trial_rmse": float(np.median(trial["mean"])),
-                "summary_median_rmse": float(s["median_rmse_pos"]),
+                "median_trial_gospa": float(np.median(trial["gospa"])),
+                "summary_median_rmse": float(s["median_rmse_pos"]) if upto is None else np.nan,
             }
         )
     return pd.DataFrame(out)
@@ -88,6 +112,8 @@ def main(argv=None) -> int:
     p.add_argument("--trials", type=int, default=200)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--chunk", type=int, default=200)
+    p.add_argument("--prefix", type=int, default=None, help="also the first N steps' figures")
+    p.add_argument("--result", default=None, help="also write benchmarks/results/ID.json")
     args = p.parse_args(argv)
     unknown = set(args.variants.split(",")) - set(VARIANTS)
     if unknown:
@@ -107,20 +133,68 @@ def main(argv=None) -> int:
                 resume=(out / "study.json").exists(),
                 progress=False,
             )
-            frame = rows(study.metrics, study.summary())
+            parts = [rows(study.metrics, study.summary())]
+            if args.prefix:
+                parts.insert(0, rows(study.metrics, study.summary(), args.prefix))
+            frame = pd.concat(parts, ignore_index=True)
             frame.insert(0, "scenario", name)
             frame.insert(1, "variant", v)
             frames.append(frame)
             table = pd.concat(frames, ignore_index=True)
-            known = table[table["variant"] == "known"].set_index(["scenario", "method"])
-            ref = table.set_index(["scenario", "method"]).index.map(
-                known["median_trial_rmse"].to_dict()
-            )
+            keys = ["scenario", "steps", "method"]
+            known = table[table["variant"] == "known"].set_index(keys)
+            ref = table.set_index(keys).index.map(known["median_trial_rmse"].to_dict())
             table["ratio_to_known"] = table["median_trial_rmse"] / np.asarray(ref, float)
             table.to_csv(args.out / "trackers.csv", index=False)
             print(frame.to_string(index=False, header=len(frames) == 1), flush=True)
     print(table.to_string(index=False), flush=True)
+    if args.result:
+        write(
+            args.result, table, args, sys.argv if argv is None else ["compare_trackers.py", *argv]
+        )
     return 0
+
+
+COLUMNS = {
+    "scenario": "scenario",
+    "steps": "steps",
+    "variant": "variant",
+    "method": "method",
+    "trials": "trials",
+    "lost_trials": "lost trials",
+    "unmatched_trials": "unmatched trials",
+    "median_trial_gospa": "median per-trial mean GOSPA [m]",
+    "median_trial_rmse": "median per-trial mean RMSE [m]",
+    "median_final_rmse": "median final RMSE [m]",
+}
+
+
+def write(ident: str, table: pd.DataFrame, args, argv) -> None:
+    """``benchmarks/results/ID.json``: the table's main columns, the command, the device."""
+    import jax
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from results import write_result
+
+    dev = jax.devices()[0]
+    hardware = dev.device_kind if dev.platform == "gpu" else "CPU"
+    steps = args.steps if args.steps is not None else "scenario's"
+    rows = [[_plain(r[c]) for c in COLUMNS] for _, r in table.iterrows()]
+    title = f"Trackers in clutter: {args.trials} trials x {steps} steps, {args.methods}"
+    command = "python benchmarks/studies/" + " ".join(
+        str(a) for a in [Path(argv[0]).name, *argv[1:]]
+    )
+    path = write_result(ident, title, command, hardware, list(COLUMNS.values()), rows)
+    print(f"wrote {path}", flush=True)
+
+
+def _plain(v):
+    """numpy scalars as Python numbers (JSON), floats to 4 significant digits."""
+    if isinstance(v, (np.integer, int)):
+        return int(v)
+    if isinstance(v, (np.floating, float)):
+        return float(f"{float(v):.4g}")
+    return str(v)
 
 
 if __name__ == "__main__":

@@ -114,7 +114,7 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
         cli: name the options in messages as the command line does (``--steps``).
         **options: ``method``, ``planner``, ``trials``, ``steps``, ``seed``, ``rollouts``,
-            ``association`` (``[tracker] association``: pda, jpda, gnn), ``precision``,
+            ``association`` (``[tracker] association``: pda, jpda, gnn, mht), ``precision``,
             ``deterministic``, ``cache``, ``cache_dir``, ``plugins``, ``masks``,
             ``gospa_cutoff``, ``gospa_order`` (override the scenario's ``[metrics]``).
 

@@ -64,7 +64,7 @@ def simulate(
             (``run --planner``; :func:`mjx_radar.register_planner`).
         rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (``run --rollouts``;
             default the scenario's).
-        association: ``"pda"``, ``"jpda"`` or ``"gnn"``: the scenario's ``[tracker]
+        association: ``"pda"``, ``"jpda"``, ``"gnn"`` or ``"mht"``: the scenario's ``[tracker]
             association`` for this run (``run --association``; docs/tracking.md).
         precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
         deterministic: deterministic GPU kernels, the same numbers from every

@@ -58,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--association",
         default=None,
         metavar="NAME",
-        help="association of cluttered scans: pda, jpda or gnn (the scenario's [tracker] "
+        help="association of cluttered scans: pda, jpda, gnn or mht (the scenario's [tracker] "
         "association; its other options in the TOML file, docs/tracking.md)",
     )
     p.add_argument(

@@ -12,7 +12,8 @@ is what the metrics, the lost-track detector and the planner see; a tracker's ow
 state rides along as ``modes`` (the IMM's :class:`~mjx_radar.estimation.imm.ImmState`;
 ``()`` for the others, so their programs and numbers are the same as before). ``"jpda"``
 and ``"gnn"`` (joint association of cluttered scans, ``[tracker]``) are in
-:mod:`mjx_radar.env.association_ops`.
+:mod:`mjx_radar.env.association_ops`, ``"mht"`` (K association histories across scans)
+in :mod:`mjx_radar.env.mht_ops`.
 """
 
 from __future__ import annotations
@@ -66,7 +67,7 @@ def tracker_name(scenario) -> str:
         return "managed"
     if name != "auto":
         return name
-    if scenario.detection.clutter:  # [tracker] association: pda, jpda or gnn
+    if scenario.detection.clutter:  # [tracker] association: pda, jpda, gnn or mht
         return scenario.tracker.association
     if scenario.filter.motion == "imm":
         return "imm"
@@ -100,7 +101,7 @@ def register_tracker(name: str, factory=None):
     """Registers a tracker: ``factory(task, params) -> FilterOps`` (usable as a decorator).
 
     Select it in a scenario with ``[filter] tracker = "name"``. Its code is part of the
-    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda``, ``jpda``, ``gnn``
+    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda``, ``jpda``, ``gnn``, ``mht``
     (docs/extending.md).
     """
 

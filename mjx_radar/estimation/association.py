@@ -56,6 +56,7 @@ __all__ = [  # noqa: RUF022
     "gnn_weights",
     "star_mask",
     "n_events",
+    "permutations",
 ]
 
 
@@ -83,7 +84,8 @@ def event_table(m: int, g: int) -> np.ndarray:
 
 
 @functools.cache
-def _permutations(m: int) -> np.ndarray:
+def permutations(m: int) -> np.ndarray:
+    """``[M!, M]`` int32: every permutation of M targets (the identity first)."""
     return np.asarray(list(itertools.permutations(range(m))), np.int32).reshape(-1, m)
 
 
@@ -122,7 +124,7 @@ def star_mask(logw, meas, logr):
         logw: ``[E]`` event log weights; meas: ``[E, M]`` (−1 missed); logr: ``[M, L]``.
     """
     m = meas.shape[1]
-    perms = jnp.asarray(_permutations(m))  # [P, M]
+    perms = jnp.asarray(permutations(m))  # [P, M]
     sib = meas[:, perms]  # [E, P, M]: target t takes the measurement of target perms[p, t]
     same_set = jnp.all((sib >= 0) == (meas[:, None, :] >= 0), axis=-1)  # [E, P]
     rows = jnp.arange(m)[None, None, :]

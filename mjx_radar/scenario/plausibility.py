@@ -34,7 +34,8 @@ The rules (docs/scenarios.md, "Plausibility"):
   JPDA, GNN) at most ``MAX_EVENTS``, times ``M!`` for JPDA* at most ``MAX_STAR_WORK``;
   JPDA* needs ``tracker.marginals = "exact"``; the multi-sensor JPDA's radar tuples
   ``(candidates + 1)^N`` at most ``MAX_TUPLES`` and its events ``tuples^M`` at most
-  ``MAX_EVENTS``.
+  ``MAX_EVENTS``; the MHT (``"mht"``) needs clutter, and its children per radar
+  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``.
 """
 
 from __future__ import annotations
@@ -252,7 +253,7 @@ def _check_tracker(s: Scenario) -> None:
         )
     if t.association == "jpda" and t.marginals == "multisensor":
         _check_multisensor(t, s.n_radars, m)
-    exact = t.association == "gnn" or t.marginals == "exact"
+    exact = t.association in ("gnn", "mht") or t.marginals == "exact"
     events = (t.candidates + 1) ** m
     if exact and events > MAX_EVENTS:
         raise ScenarioError(
@@ -260,6 +261,8 @@ def _check_tracker(s: Scenario) -> None:
             f"for M = {m} targets exceed {MAX_EVENTS}; lower it, or use "
             f'tracker.marginals = "lbp" (jpda)'
         )
+    if t.association == "mht":
+        schema_tracker.check_mht(t, m)
     if t.jpda_star and (t.association != "jpda" or t.marginals != "exact"):
         raise ScenarioError(
             f'tracker.jpda_star = true: needs tracker.association = "jpda" and '

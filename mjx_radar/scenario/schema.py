@@ -264,7 +264,7 @@ class Scenario:
     )
     tracker: TrackerConfig = field(
         default_factory=TrackerConfig,
-        metadata=table("multi-target association: pda, jpda, gnn (docs/tracking.md)"),
+        metadata=table("multi-target association: pda, jpda, gnn, mht (docs/tracking.md)"),
     )
 
     @property

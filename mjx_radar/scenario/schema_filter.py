@@ -81,7 +81,7 @@ class FilterConfig:
             registry=TRACKERS,
             doc=(
                 "the tracker: auto (by the options above, [detection] and [tracker]: ckf, bank, "
-                "imm, pda, jpda or gnn), a built-in one, or one registered with "
+                "imm, pda, jpda, gnn or mht), a built-in one, or one registered with "
                 "mjx_radar.register_tracker"
             ),
         ),

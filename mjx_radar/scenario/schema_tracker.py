@@ -15,6 +15,7 @@ management's in :func:`check`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import ScenarioError, choice, flag, rule
@@ -22,6 +23,7 @@ from mjx_radar.io.checks import ScenarioError, choice, flag, rule
 MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
 MAX_STAR_WORK = 500_000  # events x M! target permutations of JPDA*
 MAX_TUPLES = 4096  # (G + 1)^N radar tuples per target of the multi-sensor JPDA
+MAX_CHILDREN = 1_000_000  # K (G + 1)^M children per radar and scan of the MHT
 
 
 @dataclass(frozen=True)
@@ -30,7 +32,9 @@ class TrackerConfig:
 
     ``association``: "pda" (each target on its own: the neighbours' returns count as
     clutter), "jpda" (joint probabilistic data association over all targets, per radar
-    and scan) or "gnn" (global nearest neighbour: the best joint assignment, hard).
+    and scan), "gnn" (global nearest neighbour: the best joint assignment, hard) or "mht"
+    (the ``hypotheses`` most probable association histories, each a bank, kept across
+    scans; the estimate is the heaviest one's; events over ``candidates`` per target).
     ``marginals``: JPDA's marginals, "exact" (enumeration of the joint events over each
     target's ``candidates`` best gated measurements) or "lbp" (loopy belief propagation,
     ``lbp_iterations`` sweeps, over every measurement) or "multisensor" (every radar's
@@ -48,7 +52,11 @@ class TrackerConfig:
             "pda",
             "jpda",
             "gnn",
-            doc="association of cluttered scans: per-target PDA, joint JPDA, or GNN assignment",
+            "mht",
+            doc=(
+                "association of cluttered scans: per-target PDA, joint JPDA, GNN assignment, "
+                "or mht (the K best association histories across scans)"
+            ),
         ),
     )
     marginals: str = field(
@@ -79,6 +87,27 @@ class TrackerConfig:
         metadata=rule(
             int, 2, 64, doc="jpda multisensor: radar tuples kept per target, K (K^M joint events)"
         ),
+    )
+    hypotheses: int = field(
+        default=16,
+        metadata=rule(int, 1, 1024, doc="mht: global hypotheses kept across scans, K"),
+    )
+    merge_distance: float = field(
+        default=1.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e6,
+            doc="mht: merge threshold on the banks' largest diagonal d^2 (0: no merging)",
+        ),
+    )
+    merge_screen: int = field(
+        default=4,
+        metadata=rule(int, 1, 64, doc="mht: children screened for merging, in units of K"),
+    )
+    merge_labels: bool = field(
+        default=False,
+        metadata=flag("mht: merge hypotheses that are label permutations of each other (M <= 6)"),
     )
     management: str = field(
         default="known",
@@ -174,6 +203,24 @@ class TrackerConfig:
 
 #: the earlier name of the table's class (track management)
 TrackManagementConfig = TrackerConfig
+
+
+def check_mht(t: TrackerConfig, m: int) -> None:
+    """The MHT's limits (``association = "mht"``, M targets): its children per radar and
+    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; label-free merging
+    (M! target orders) for M <= 6."""
+    children = t.hypotheses * (t.candidates + 1) ** m
+    if children > MAX_CHILDREN:
+        raise ScenarioError(
+            f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
+            f"{children} children per radar and scan exceed {MAX_CHILDREN}; "
+            f"lower it or tracker.candidates"
+        )
+    if t.merge_labels and m > 6:
+        raise ScenarioError(
+            f"tracker.merge_labels = true: compares M! = {math.factorial(m)} target orders "
+            f"for M = {m} targets; at most 6 targets (set it false)"
+        )
 
 
 def check(s) -> None:

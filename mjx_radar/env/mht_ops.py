@@ -1,0 +1,89 @@
+"""The ``"mht"`` tracker: K association histories kept across scans (docs/tracking.md).
+
+Selected by ``[tracker] association = "mht"`` (cluttered scans only). Its own state
+(``modes``) is a :class:`~mjx_radar.estimation.mht.HypState`: ``hypotheses`` (K) global
+hypotheses, each a per-target bank (covariance form) with its log weight. Per scan
+every hypothesis is predicted, then every radar's scan makes the children of every
+hypothesis and joint event over each target's ``candidates`` best returns, pruned to
+the K heaviest (:func:`mjx_radar.estimation.mht.update_bank`). The joint estimate the
+loop carries (``mean [6M]``, ``cov [6M, 6M]``: metrics, lost-track detector, planner)
+is the heaviest hypothesis's bank, so the planner plans for the best hypothesis. The
+filter's Pd of a pair is the model's at each hypothesis's predicted range (0 where the
+line of sight is blocked), as in the PDA and JPDA banks.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.env.filter_ops import FilterOps
+from mjx_radar.errors import ScenarioError
+from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, mht
+from mjx_radar.physics import target_motion
+from mjx_radar.task.task import RadarTask
+
+__all__ = ["mht_bank"]
+
+
+def _ground(hyp: mht.HypState) -> mht.HypState:
+    """Every hypothesis's targets below ground reflected (``filter.ground_prior``)."""
+
+    def one(means, covs):
+        mean, cov = ground_prior.apply_ground_prior(*filter_bank.bank_to_joint(means, covs))
+        return filter_bank.joint_to_bank(mean, cov)
+
+    means, covs = jax.vmap(one)(hyp.means, hyp.covs)
+    return hyp._replace(means=means, covs=covs)
+
+
+def mht_bank(task: RadarTask, params) -> FilterOps:
+    """``"mht"``: the K-best multiple-hypothesis tracker (module docstring)."""
+    sc, model = task.scenario, task.measurement
+    t, det = sc.tracker, sc.detection
+    if not det.clutter:  # filter.tracker = "mht" by name: the scans must be unlabelled
+        raise ScenarioError(
+            'filter.tracker = "mht": needs clutter (detection.clutter_density > 0); without '
+            "it the returns are labelled"
+        )
+    dp = params.detection
+    a6, q6 = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
+    ccr = params.method.ccr
+    dt = sc.timing.dt_filter
+    merge = (float(t.merge_distance), int(t.merge_screen), bool(t.merge_labels))
+
+    def joint(hyp):
+        return filter_bank.bank_to_joint(*mht.best(hyp))
+
+    def predict(mean, cov, modes):
+        modes = mht.predict(modes, a6, q6)
+        return (*joint(modes), modes)
+
+    def update(mean, cov, modes, z, radar_pos, scan_, los=None):
+        def pd_fn(pos):  # [K, M, 3] -> [N, K, M]
+            d2 = jnp.sum((pos[None] - radar_pos[:, None, None, :]) ** 2, -1)
+            pd = detection.pair_probability(det.model, dp, d2)
+            return pd if los is None else jnp.where(los[:, None, :], pd, 0.0)
+
+        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates, merge)
+        args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
+        modes = mht.update_bank(modes, *args, *tail)
+        if sc.filter.ground_prior:
+            modes = _ground(modes)
+        return (*joint(modes), modes)
+
+    def begin(modes, mean, cov, k):  # appearing targets restart in every hypothesis
+        if params.motion is None:
+            return modes
+        new = target_motion.appears_between(params.motion, (k - 1) * dt, k * dt)  # [M]
+        means, covs = filter_bank.joint_to_bank(mean, cov)
+        sel = lambda a, b: jnp.where(new.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
+        return modes._replace(
+            means=jax.vmap(sel, (None, 0))(means, modes.means),
+            covs=jax.vmap(sel, (None, 0))(covs, modes.covs),
+        )
+
+    def init(mean, cov):
+        return mht.init(*filter_bank.joint_to_bank(mean, cov), t.hypotheses)
+
+    return FilterOps(predict, update, begin, init)

@@ -1,0 +1,195 @@
+"""Hypothesis-oriented multiple-hypothesis tracking with a fixed budget of K hypotheses.
+
+A global hypothesis h is one association history of every return so far (which return
+of each radar's scan each target took, or none); given it, the M targets' posteriors
+are independent CKFs (the per-target bank). The tracker keeps the K most probable
+hypotheses, each a full bank ``(x_{h,t}, P_{h,t})`` with its log weight ``log w_h``,
+across scans (Reid, IEEE TAC 24(6), 1979; Cox & Hingorani's K-best pruning, IEEE PAMI
+18(2), 1996; Blackman, IEEE AES Magazine 19(1), 2004).
+
+Radar after radar (sequential, like the JPDA bank), every hypothesis h and joint event
+θ (each target one of its ``G`` best gated returns or none, no return twice:
+:func:`mjx_radar.estimation.association.event_table`) make a child with
+
+    log w_{h,θ} = log w_h + Σ_t log(1 − P_D,ht P_G) + Σ_{t detected in θ} log r_{ht θ(t)}
+
+where ``r_htj = P_D,ht N(ν_htj; 0, S_ht) / (λ (1 − P_D,ht P_G))`` is the JPDA's likelihood
+ratio under hypothesis h (:func:`~mjx_radar.estimation.association.log_ratios`), so
+``w_{h,θ} ∝ w_h p(Z_n, θ | h)`` up to a factor every child of the scan shares (Poisson
+clutter ``λ^L``). The ``(Π_t (1 − P_D,ht P_G))`` term differs between parents and is
+kept. Each child's targets take the Kalman update with their return (``x + K ν_j``,
+``P − K S Kᵀ``) or the prediction (missed). Of the ``K · (G + 1)^M`` children the K
+heaviest survive (``lax.top_k``: the exact K best, no Murty needed at this size), and
+the weights are renormalised (log-sum-exp). With K no smaller than the number of
+feasible histories and G no smaller than the returns, this is the exact Bayesian
+posterior over association histories (``tests/test_mht.py`` enumerates it); with K = 1
+it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened
+and near-duplicates merged before the K heaviest are kept
+(:mod:`~mjx_radar.estimation.mht_merge`). The estimate is the heaviest hypothesis's bank
+(MAP).
+
+Pure JAX on pytrees, static shapes (K, M, G, L), ``vmap``-able over trials.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_radar.estimation import association, filter_bank, linalg, mht_merge, pda
+
+__all__ = ["HypState", "init", "predict", "radar_update", "update_bank", "best"]
+
+
+class HypState(NamedTuple):
+    """K global hypotheses: ``means [K, M, 6]``, ``covs [K, M, 6, 6]``, ``logw [K]``
+    (normalised, ``logsumexp(logw) = 0``; −inf for an empty slot)."""
+
+    means: jax.Array
+    covs: jax.Array
+    logw: jax.Array
+
+
+def init(means, covs, k: int) -> HypState:
+    """One hypothesis (the prior bank ``means [M, 6]``, ``covs [M, 6, 6]``) and K − 1 empty
+    slots (copies with weight −inf)."""
+    means = jnp.asarray(means)
+    rep = lambda a: jnp.broadcast_to(a, (k, *a.shape))  # noqa: E731
+    logw = jnp.full((k,), -jnp.inf, means.dtype).at[0].set(0.0)
+    return HypState(rep(means), rep(jnp.asarray(covs, means.dtype)), logw)
+
+
+def predict(hyp: HypState, A6, Q6) -> HypState:
+    """CKF time update of every target of every hypothesis (weights unchanged)."""
+    means, covs = jax.vmap(filter_bank.predict_bank, (0, 0, None, None))(
+        hyp.means, hyp.covs, A6, Q6
+    )
+    return hyp._replace(means=means, covs=covs)
+
+
+def best(hyp: HypState):
+    """The heaviest hypothesis's bank ``(means [M, 6], covs [M, 6, 6])``."""
+    i = jnp.argmax(hyp.logw)
+    return hyp.means[i], hyp.covs[i]
+
+
+def _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual):
+    """Every child's log weight ``[K, E]`` and what it needs to build its bank."""
+    moments = jax.vmap(jax.vmap(lambda x, P: pda.innovations(x, P, z, h, R, residual)))
+    K, S, nu, d2, logdet = moments(hyp.means, hyp.covs)  # [K, M, ...]
+    b, seen = pda.miss_ratio(pd, density, logdet, pg)  # [K, M]
+    logr = jax.vmap(association.log_ratios, (0, None, 0, 0, None))(d2, valid, b, seen, gate)
+    idx, top = association.candidates(logr, g)  # [K, M, G] (top_k on the last axis)
+    events = association.event_table(hyp.means.shape[1], g)
+    ev_w, _ = jax.vmap(association.event_log_weights, (0, 0, None))(top, idx, events)  # [K, E]
+    miss = jnp.sum(jnp.where(seen, jnp.log1p(-jnp.where(seen, pd, 0.0) * pg), 0.0), -1)
+    return hyp.logw[:, None] + miss[:, None] + ev_w, (K, S, nu, idx)
+
+
+def radar_update(
+    hyp: HypState,
+    z,
+    valid,
+    h,
+    R,
+    pd,
+    density,
+    gate,
+    pg,
+    g: int,
+    residual=None,
+    merge=(0.0, 1, False),
+):
+    """One radar's scan: the K best children of every hypothesis and joint event.
+
+    Args:
+        hyp: :class:`HypState` (predicted).
+        z: ``[L, p]`` the scan; valid: ``[L]`` bool.
+        h: ``h(x[6]) -> [p]``; R: ``[p, p]`` or ``R(ẑ) -> [p, p]`` (the radar's).
+        pd: ``[K, M]`` each hypothesis's detection probability of each target (0: unseen).
+        density, gate, pg: clutter density λ, gate γ, gate probability P_G.
+        g: candidates per target G (static, ``≤ L``).
+        residual: optional measurement residual (angles wrapped).
+        merge: ``(τ, screen, labels)`` static: with τ > 0 the ``screen · K`` heaviest
+            children are merged (:func:`~mjx_radar.estimation.mht_merge.merge_duplicates`,
+            label-free with ``labels``) before the K heaviest are kept; τ = 0: no merging
+            (the exact K best).
+
+    Returns:
+        The K heaviest children (:class:`HypState`, weights renormalised) and each one's
+        parent ``[K]`` int32.
+    """
+    k, m = hyp.logw.shape[0], hyp.means.shape[1]
+    score, (K, S, nu, idx) = _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual)
+    n_ev = score.shape[1]
+    tau, screen, labels = merge
+    n_c = min(k * screen, score.size) if tau > 0 else k
+    top, flat = jax.lax.top_k(score.reshape(-1), n_c)
+    parent, ev = flat // n_ev, flat % n_ev
+    slot = jnp.asarray(association.event_table(m, g))[ev]  # [K, M]: 0 missed, s: s-th best
+    tgt = jnp.arange(m)[None, :]
+    j = idx[parent[:, None], tgt, jnp.maximum(slot - 1, 0)]  # [K, M] return index
+    gain, innov = K[parent[:, None], tgt], nu[parent[:, None], tgt, j]  # [K,M,6,p], [K,M,p]
+    x0, P0 = hyp.means[parent], hyp.covs[parent]
+    hit = (slot > 0)[..., None]
+    means = x0 + jnp.where(hit, jnp.einsum("kmnp,kmp->kmn", gain, innov), 0.0)
+    kskt = jnp.einsum("kmnp,kmpq,kmrq->kmnr", gain, S[parent[:, None], tgt], gain)
+    covs = linalg.symmetrize(P0 - jnp.where(hit[..., None], kskt, 0.0))
+    if n_c > k:  # merge near-duplicates, then the K heaviest
+        perms = association.permutations(m) if labels else None
+        top, keep = jax.lax.top_k(mht_merge.merge_duplicates(means, covs, top, tau, perms), k)
+        means, covs, parent = means[keep], covs[keep], parent[keep]
+    return _clean(HypState(means, covs, top)), parent
+
+
+def _clean(hyp: HypState) -> HypState:
+    """Renormalised weights; a hypothesis with a non-finite bank is dropped (−inf) and
+    holds the heaviest finite one's (so no NaN reaches the loop)."""
+    ok = jnp.all(jnp.isfinite(hyp.means), (1, 2)) & jnp.all(jnp.isfinite(hyp.covs), (1, 2, 3))
+    logw = jnp.where(ok, hyp.logw, -jnp.inf)
+    logw = logw - jax.scipy.special.logsumexp(logw)
+    i = jnp.argmax(logw)
+    sel = lambda a: jnp.where(ok.reshape((-1,) + (1,) * (a.ndim - 1)), a, a[i][None])  # noqa: E731
+    return HypState(sel(hyp.means), sel(hyp.covs), logw)
+
+
+def update_bank(
+    hyp: HypState,
+    zs,
+    valid,
+    radar_pos,
+    model,
+    noise,
+    ccr,
+    pd_fn,
+    density,
+    gate,
+    pg,
+    g,
+    merge=(0.0, 1, False),
+):
+    """Every radar's scan, radar after radar, each pruned to the K best.
+
+    Args:
+        hyp: :class:`HypState` (predicted).
+        zs: ``[N, L, p]`` scans; valid: ``[N, L]``; radar_pos: ``[N, 3]``.
+        model, noise, ccr: the filter's measurement model (as :func:`pda.update_bank`).
+        pd_fn: ``pd_fn(pos [K, M, 3]) -> [N, K, M]`` the radars' detection probabilities
+            at the predicted positions (each child keeps its parent's).
+        density, gate, pg: clutter density λ, gate γ, gate probability P_G.
+        g: candidates per target G (static; capped at L).
+        merge: ``(τ, screen, labels)`` (:func:`radar_update`).
+
+    Returns:
+        The posterior :class:`HypState`.
+    """
+    g = min(g, zs.shape[1])
+    pd = pd_fn(hyp.means[..., :3])  # [N, K, M], as the PDA and JPDA banks: at the prediction
+    for i in range(radar_pos.shape[0]):  # radar after radar (static N)
+        h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
+        args = (zs[i], valid[i], h, R, pd[i], density, gate, pg, g, model.residual, merge)
+        hyp, parent = radar_update(hyp, *args)
+        pd = pd[:, parent]
+    return hyp
