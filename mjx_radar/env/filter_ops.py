@@ -26,7 +26,7 @@ import jax.numpy as jnp
 from mjx_radar.contracts import PluginError
 from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement_filter
 from mjx_radar.physics import target_motion
-from mjx_radar.plugin_errors import failure
+from mjx_radar.plugin_errors import failure, guarded_call
 from mjx_radar.registry import TRACKERS
 from mjx_radar.task.task import RadarTask, process_noise
 
@@ -77,7 +77,8 @@ def make(task: RadarTask, params) -> FilterOps:
     """The scenario's tracker (:func:`tracker_name`) with the noise model of ``params.method``.
 
     A registered tracker's factory must return a :class:`FilterOps` (one-line
-    :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception)."""
+    :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception, in the
+    factory or in one of its functions while the loop is traced)."""
     name = tracker_name(task.scenario)
     factory = TRACKERS.get(name)
     if name.lower() not in TRACKERS.registered():
@@ -93,7 +94,8 @@ def make(task: RadarTask, params) -> FilterOps:
             f"tracker {name!r}: its factory returned {type(ops).__name__}, not FilterOps"
             " (predict, update, begin[, init, tracks])"
         )
-    return ops
+    calls = {c: getattr(ops, c) for c in FilterOps._fields if callable(getattr(ops, c))}
+    return ops._replace(**{c: guarded_call("tracker", name, c, f) for c, f in calls.items()})
 
 
 def register_tracker(name: str, factory=None):
