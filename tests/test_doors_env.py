@@ -133,3 +133,18 @@ def test_brax_step_inside_jit_flags_a_nan_action():
     assert np.isfinite(float(nan.reward)) and np.isfinite(np.asarray(nan.obs)).all()
     with pytest.raises(ScenarioError, match="action holds NaN or inf"):
         b.step(s, jnp.array([jnp.nan, 0.0, 0.0, 0.0]))  # outside jit: refused
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"penalty_scale": -1}, "penalty_scale = -1: must be a finite number >= 0"),
+        ({"penalty_scale": float("nan")}, "penalty_scale = nan"),
+        ({"keepout_grade": float("inf")}, "keepout_grade = inf"),
+    ],
+)
+def test_brax_reward_weights_are_checked(env, kwargs, message):
+    from mjx_radar.learning.brax_env import BraxRadarEnv
+
+    with pytest.raises(ScenarioError, match=message):
+        BraxRadarEnv(env, **kwargs)

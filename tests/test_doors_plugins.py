@@ -166,3 +166,31 @@ def _smoke_toml() -> str:
     from pathlib import Path
 
     return (Path(__file__).resolve().parents[1] / "scenarios" / "smoke.toml").read_text()
+
+
+def test_a_tracker_returning_two_values_is_named(cleanup):
+    from mjx_radar.env.filter_ops import joint_ckf
+
+    def factory(task, params):
+        ops = joint_ckf(task, params)
+        return ops._replace(update=lambda m, c, modes, *a: ops.update(m, c, modes, *a)[:2])
+
+    mjx_radar.register_tracker("door_update", factory)
+    s = mjx_radar.load_scenario("smoke").replace(filter={"tracker": "door_update"})
+    env = radar_env.make(s)
+    state = jax.eval_shape(env.reset, env.trial_key(0, 0))
+    with pytest.raises(PluginError, match=r"'door_update': update\(\) returned 2 values; exp"):
+        jax.eval_shape(env.step, state, jnp.zeros((2, 2)))
+
+
+def test_a_cost_terms_shape_and_arguments_are_checked(cleanup):
+    with pytest.raises(PluginError, match=r"cost term 'door_cost': <lambda>\(\) must take \(h"):
+        mjx_radar.register_cost_term("door_cost", lambda h, task: 0.0)
+    with pytest.raises(PluginError, match=r"<lambda>\(\) must take \(scenario\)"):
+        mjx_radar.register_cost_term("door_cost", lambda h, t, p: 0.0, enabled=lambda: True)
+    mjx_radar.register_cost_term("door_cost", lambda h, task, params: h.radar[..., 0])
+    env = radar_env.make("smoke", steps=8)
+    obs = env.reset(env.trial_key(0, 0)).obs
+    u = jnp.zeros((env.scenario.mpc.horizon, 2 * env.n_radars))
+    with pytest.raises(PluginError, match=r"returned shape \[8, 2\]; expected \[8\] \(one cost"):
+        jax.eval_shape(env.objective(obs), u)

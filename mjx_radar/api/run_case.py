@@ -268,8 +268,10 @@ def execute(
 
     Raises:
         InputError: the radars cannot be placed or the run does not fit in memory.
+        PluginError: a registered planner returned NaN or inf controls.
     """
     from mjx_radar.engine import resources, runner
+    from mjx_radar.planners import guard
 
     deterministic = process_options(req)
     with precision_scope(req):
@@ -289,4 +291,5 @@ def execute(
             programs=programs,
             **view,
         )
+        guard.check_controls(req.method.name, res.get("control"), req.trials)
         return res | {"deterministic": deterministic}

@@ -95,7 +95,32 @@ def make(task: RadarTask, params) -> FilterOps:
             " (predict, update, begin[, init, tracks])"
         )
     calls = {c: getattr(ops, c) for c in FilterOps._fields if callable(getattr(ops, c))}
-    return ops._replace(**{c: guarded_call("tracker", name, c, f) for c, f in calls.items()})
+    calls = {c: guarded_call("tracker", name, c, f) for c, f in calls.items()}
+    for c in ("predict", "update"):
+        calls[c] = _checked(name, c, calls[c])
+    return ops._replace(**calls)
+
+
+def _checked(name: str, call: str, fn: Callable) -> Callable:
+    """A registered tracker's ``predict`` or ``update``, whose result must be
+    ``(mean, cov, modes)`` with the given mean's and cov's shapes (checked where traced)."""
+
+    def checked(mean, cov, modes, *args, **kwargs):
+        out = fn(mean, cov, modes, *args, **kwargs)
+        if not (isinstance(out, tuple | list) and len(out) == 3):
+            got = f"{len(out)} values" if isinstance(out, tuple | list) else type(out).__name__
+            raise PluginError(
+                f"tracker {name!r}: {call}() returned {got}; expected (mean, cov, modes)"
+            )
+        for what, given, got in (("mean", mean, out[0]), ("cov", cov, out[1])):
+            if jnp.shape(got) != jnp.shape(given):
+                raise PluginError(
+                    f"tracker {name!r}: {call}() returned a {what} of shape "
+                    f"{list(jnp.shape(got))}; expected {list(jnp.shape(given))}"
+                )
+        return out
+
+    return checked
 
 
 def register_tracker(name: str, factory=None):

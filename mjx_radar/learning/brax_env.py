@@ -29,6 +29,7 @@ from brax.envs.wrappers.training import EpisodeWrapper, VmapWrapper
 from mjx_radar.env.environment import METRICS
 from mjx_radar.env.environment import make as make_env
 from mjx_radar.env.inputs import finite_controls
+from mjx_radar.learning.config import check_setting
 from mjx_radar.learning.features import (
     action_to_control,
     feature_size,
@@ -62,6 +63,8 @@ class BraxRadarEnv(Env):
     def __init__(
         self, env, penalty_scale: float = 1.0, keepout_grade: float = 0.0, shield: bool = False
     ):
+        check_setting("penalty_scale", penalty_scale)
+        check_setting("keepout_grade", keepout_grade)
         self.radar_env = env
         self.shield = bool(shield)
         self.penalty_scale = float(penalty_scale)

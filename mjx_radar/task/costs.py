@@ -223,12 +223,26 @@ def register_cost_term(
         raise ValueError(f"cost term name {name!r}: must be an identifier, not a built-in term")
     if not callable(fn) or (enabled is not None and not callable(enabled)):
         raise TypeError(f"cost term {name!r}: fn and enabled must be callables")
+    from mjx_radar.contracts import PluginError, takes
     from mjx_radar.plugin_errors import guarded_call
 
+    for f, n, args in ((fn, 3, "(h, task, params)"), (enabled, 1, "(scenario)")):
+        if f is not None and not takes(f, n):
+            what = getattr(f, "__name__", type(f).__name__)
+            raise PluginError(f"cost term {name!r}: {what}() must take {args}")
     enabled = enabled or (lambda scenario: True)
-    call = getattr(fn, "__name__", name)
-    guard = guarded_call("cost term", name, call, fn)
-    _REGISTERED[name] = (fn, enabled, guard, guarded_call("cost term", name, "enabled", enabled))
+    guard = guarded_call("cost term", name, getattr(fn, "__name__", name), fn)
+
+    def term(h: Horizon, task, params) -> jax.Array:  # one cost per horizon step
+        out = guard(h, task, params)
+        if jnp.shape(out) != jnp.shape(h.controls)[:1]:
+            raise PluginError(
+                f"cost term {name!r}: returned shape {list(jnp.shape(out))}; expected "
+                f"[{jnp.shape(h.controls)[0]}] (one cost per horizon step)"
+            )
+        return out
+
+    _REGISTERED[name] = (fn, enabled, term, guarded_call("cost term", name, "enabled", enabled))
 
 
 def unregister_cost_term(name: str) -> None:
