@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import sys
 
 
@@ -122,6 +123,8 @@ def main(argv=None) -> int:
         kw = {k: v for k, v in vars(args).items() if k in names}
         kw["policy_hidden"] = _sizes(args.policy_hidden, "--policy-hidden")
         kw["value_hidden"] = _sizes(args.value_hidden, "--value-hidden")
+        if args.max_minutes is not None and not 0 < args.max_minutes < math.inf:
+            raise ScenarioError(f"--max-minutes = {args.max_minutes:g}: must be a number > 0")
         budget = None if args.max_minutes is None else 60.0 * args.max_minutes
         state = train_policy(
             args.scenario,

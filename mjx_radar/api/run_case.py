@@ -75,7 +75,8 @@ def load_plugins(paths) -> None:
             )
         p = Path(path)
         if not p.is_file():
-            raise ScenarioError(f"plugin = {str(path)!r}: no such file")
+            what = "a folder, not a Python file" if p.is_dir() else "no such file"
+            raise ScenarioError(f"plugin = {str(path)!r}: {what}")
         try:
             runpy.run_path(str(p), run_name=f"mjx_radar_plugin_{p.stem}")
         except SystemExit as err:  # the file ends the process: refused, nothing is run
