@@ -148,3 +148,12 @@ def test_brax_reward_weights_are_checked(env, kwargs, message):
 
     with pytest.raises(ScenarioError, match=message):
         BraxRadarEnv(env, **kwargs)
+
+
+def test_a_text_action_is_refused_without_a_warning(env, state):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # jnp.asarray of text warned before refusing
+        with pytest.raises(ScenarioError, match=r"must be an array \[2, 2\] .* not list"):
+            env.step(state, [["a", "b"], ["c", "d"]])

@@ -89,7 +89,10 @@ def check_action(action, n: int, where: str = "step") -> jax.Array:
     """``action`` as ``[N, 2]``: given ``[N, 2]`` or ``[2N]``, floating point, finite
     when concrete. Anything else is refused, never reshaped."""
     try:
-        a = action if isinstance(action, jax.Array) else jnp.asarray(action)
+        a = action if isinstance(action, jax.Array) else np.asarray(action)
+        if a.dtype.kind in "OSUV":  # text or objects: jnp would warn before refusing
+            raise TypeError
+        a = jnp.asarray(a)
     except (TypeError, ValueError):
         raise ScenarioError(
             f"{where}: action = {show(action, 40)}: must be an array [{n}, 2] of "
