@@ -81,7 +81,7 @@ def placeholder(fn):
     return fn
 
 
-def _takes(fn, n: int) -> bool:
+def takes(fn, n: int) -> bool:
     """Whether ``fn`` can be called with ``n`` positional arguments (and ``argument=``,
     for an entry selected as ``name:ARGUMENT``)."""
     extra = {"argument": ""} if getattr(fn, "takes_argument", False) else {}
@@ -104,7 +104,7 @@ def _check_methods(kind: str, name: str, cls: type) -> None:
                 f"{kind} {name!r}: {cls.__name__} has no {method}() (a {kind} defines "
                 f"{', '.join(f'{m}()' for m in METHODS[kind])}; missing: {', '.join(missing)})"
             )
-        if not _takes(getattr(cls, method), n + 1):
+        if not takes(getattr(cls, method), n + 1):
             args = "self" + "".join(", x" for _ in range(n))
             raise PluginError(
                 f"{kind} {name!r}: {cls.__name__}.{method}{inspect.signature(fn)} must take "
@@ -128,13 +128,13 @@ def check(kind: str, name: str, obj: Any) -> None:
     if kind == "planner":
         if inspect.isclass(obj):
             _check_methods("planner", name, obj)
-            if not _takes(obj, 1):
+            if not takes(obj, 1):
                 raise PluginError(
                     f"planner {name!r}: {obj.__name__}{inspect.signature(obj)} must be made "
                     "with the environment: def __init__(self, env)"
                 )
         elif inspect.isfunction(obj) or inspect.ismethod(obj):
-            if not _takes(obj, 1):
+            if not takes(obj, 1):
                 raise PluginError(
                     f"planner {name!r}: the factory {obj.__name__}{inspect.signature(obj)} "
                     "must take the environment: factory(env) -> planner"
@@ -149,7 +149,7 @@ def check(kind: str, name: str, obj: Any) -> None:
             raise PluginError(
                 f"tracker {name!r}: a factory(task, params) -> FilterOps, not a {what}"
             )
-        if not _takes(obj, 2):
+        if not takes(obj, 2):
             raise PluginError(
                 f"tracker {name!r}: the factory {getattr(obj, '__name__', what)}"
                 f"{inspect.signature(obj)} must take (task, params)"

@@ -7,11 +7,13 @@ the call (``plan``, ``init``, ``record``, ...) and the error; its ``frames`` are
 traceback lines of the user's own files only (not this package's, JAX's or the standard
 library's). The command line prints the frames, then ``error: LINE`` (exit 2); from
 Python they are a note on the exception. An ``AttributeError`` on a named tuple (the
-planner's ``Observation``) lists the fields it has.
+planner's ``Observation``) lists the fields it has. :func:`guarded_call` wraps one of a
+plug-in's functions so (a tracker's ``FilterOps``, a sensor's methods, a cost term).
 """
 
 from __future__ import annotations
 
+import functools
 import sysconfig
 import traceback
 from pathlib import Path
@@ -57,3 +59,19 @@ def failure(kind: str, name: str, call: str, err: BaseException) -> PluginError:
     if out.frames:
         out.add_note(out.frames)
     return out
+
+
+def guarded_call(kind: str, name: str, call: str, fn):
+    """``fn`` unchanged, except that its own exception becomes :func:`failure`'s
+    :class:`PluginError` (one already explained passes through)."""
+
+    @functools.wraps(fn)
+    def guarded(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except PluginError:
+            raise
+        except Exception as err:  # noqa: BLE001 -- the user's code: one line and its frames
+            raise failure(kind, name, call, err) from None
+
+    return guarded

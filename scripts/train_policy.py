@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import sys
 
 
@@ -171,6 +172,8 @@ def main(argv=None) -> int:
 
     args = _parser().parse_args(argv)
     try:
+        if args.max_minutes is not None and not 0 < args.max_minutes < math.inf:
+            raise ScenarioError(f"--max-minutes = {args.max_minutes:g}: must be a number > 0")
         state = _ppo(args) if args.algo == "ppo" else _distill(args)
     except (ScenarioError, ValueError) as err:  # the settings' names, as the flags say
         print(f"error: {_flag_names(str(err))}", file=sys.stderr)

@@ -57,6 +57,7 @@ def test_names_are_case_insensitive():
         (["--planners", ""], "--planners = '': give one or more planner names"),
         (["--planners", " , "], "give one or more planner names"),
         (["--planners", "policy"], "give policy:DIR"),
+        (["--methods", "stationary", "--planners", "cem"], "no method of stationary plans"),
     ],
 )
 def test_study_flags(tmp_path, capsys, extra, message):
@@ -85,3 +86,10 @@ def test_managed_tracker_refuses_an_association_it_ignores():
             filter={"structure": "per-target"},
             tracker={"management": "managed", "association": "jpda"},
         )
+
+
+def test_a_plugin_folder_is_named_as_a_folder(tmp_path):
+    from mjx_radar.api.run_case import load_plugins
+
+    with pytest.raises(ScenarioError, match="a folder, not a Python file"):
+        load_plugins([tmp_path])

@@ -99,3 +99,61 @@ def test_brax_action_is_checked_not_reshaped(env):
     with pytest.raises(ScenarioError, match=r"action of shape \[3\]"):
         action_to_control(env, jnp.zeros(3))
     assert action_to_control(env, jnp.zeros(4)).shape == (2, 2)
+
+
+def test_a_nonfinite_action_inside_jit_is_applied_as_zero_and_flagged(env, state):
+    assert not bool(state.obs.nonfinite_action)
+    step = jax.jit(env.step)
+    bad = step(state, jnp.array([[jnp.nan, 0.0], [jnp.inf, 0.0]]))
+    zero = step(state, jnp.zeros((2, 2)))
+    assert bool(bad.obs.nonfinite_action) and not bool(zero.obs.nonfinite_action)
+    for a, b in zip(jax.tree.leaves(bad.loop), jax.tree.leaves(zero.loop), strict=True):
+        np.testing.assert_array_equal(a, b)  # what the radars did: no acceleration
+    assert np.isfinite(float(bad.reward)) and float(bad.reward) == float(zero.reward)
+    assert not bool(step(bad, jnp.zeros((2, 2))).obs.nonfinite_action)  # the last action's
+
+
+def test_a_finite_action_is_applied_unchanged(env, state):
+    a = jnp.array([[0.3, -0.1], [5.0, 0.2]])  # 5.0 beyond the limits: clipped as before
+    s = jax.jit(env.step)(state, a)
+    runner = jax.jit(lambda s, a: env.transition(s, a, keep_nonfinite=True)[0])(state, a)
+    for x, y in zip(jax.tree.leaves(s), jax.tree.leaves(runner), strict=True):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_brax_step_inside_jit_flags_a_nan_action():
+    from mjx_radar.learning import brax_env
+
+    b = brax_env.make("smoke", steps=8)
+    s = jax.jit(b.reset)(radar_env.RadarEnv.trial_key(0, 0))
+    nan = jax.jit(b.step)(s, jnp.array([jnp.nan, 0.0, 0.0, 0.0]))
+    ok = jax.jit(b.step)(s, jnp.zeros(4))
+    assert bool(nan.pipeline_state.obs.nonfinite_action)
+    assert not bool(ok.pipeline_state.obs.nonfinite_action)
+    assert np.isfinite(float(nan.reward)) and np.isfinite(np.asarray(nan.obs)).all()
+    with pytest.raises(ScenarioError, match="action holds NaN or inf"):
+        b.step(s, jnp.array([jnp.nan, 0.0, 0.0, 0.0]))  # outside jit: refused
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"penalty_scale": -1}, "penalty_scale = -1: must be a finite number >= 0"),
+        ({"penalty_scale": float("nan")}, "penalty_scale = nan"),
+        ({"keepout_grade": float("inf")}, "keepout_grade = inf"),
+    ],
+)
+def test_brax_reward_weights_are_checked(env, kwargs, message):
+    from mjx_radar.learning.brax_env import BraxRadarEnv
+
+    with pytest.raises(ScenarioError, match=message):
+        BraxRadarEnv(env, **kwargs)
+
+
+def test_a_text_action_is_refused_without_a_warning(env, state):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # jnp.asarray of text warned before refusing
+        with pytest.raises(ScenarioError, match=r"must be an array \[2, 2\] .* not list"):
+            env.step(state, [["a", "b"], ["c", "d"]])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import pytest
 
 import mjx_radar
@@ -173,3 +174,20 @@ def test_a_plugin_file_calling_sys_exit_is_refused(tmp_path):
         load_plugins([f])
     with pytest.raises(mjx_radar.ScenarioError, match="quits.py"):  # one path, not letters
         load_plugins(str(f))
+
+
+def test_a_registered_planners_nan_controls_are_refused_by_name(registered):
+    from mjx_radar.planners.guard import check_controls
+
+    class Nan(Planner):
+        def plan(self, carry, obs, key):
+            return jnp.full((2, 2), jnp.nan), carry
+
+    registered("door_nan", Nan)
+    u = np.zeros((3, 4, 2, 2))
+    check_controls("ddr-sfim+door_nan", u, np.arange(3))  # finite: nothing to say
+    u[1, 2, 0, 1] = np.inf
+    with pytest.raises(PluginError, match=r"planner 'door_nan': plan\(\) returned NaN or inf "
+                       r"controls \(first at trial 11, control period 2\)"):  # fmt: skip
+        check_controls("ddr-sfim+door_nan", u, np.arange(10, 13))
+    check_controls("ddr-sfim+cem", u, np.arange(3))  # a built-in's divergence is reported

@@ -83,6 +83,8 @@ def test_script_flags_one_line(script, tmp_path, capsys):
         (["--steps", "1000", "--discounting", "1.5"], "--discounting = 1.5"),
         (["--steps", "1000", "--updates-per-batch", "0"], "--updates-per-batch = 0"),
         (["--steps", "2.5"], "'2.5' is not a whole number"),
+        (["--steps", "1000", "--max-minutes", "-1"], "--max-minutes = -1: must be a number > 0"),
+        (["--steps", "1000", "--max-minutes", "nan"], "--max-minutes = nan"),
     ):
         with pytest.raises(SystemExit) if "2.5" in argv else _no_raise() as caught:
             code = script.main(["smoke", *argv, "--out", str(out)])

@@ -69,7 +69,8 @@ def test_observation_holds_no_truth_and_reward_is_minus_log_det(tiny):
         truth = jax.jit(lambda d: plant.target_state(env.task.truth, d))(state.loop.data)
         obs_vector = jax.jit(env.observation_vector)(state.obs)
     assert set(Observation._fields) == {
-        "radar_state", "mean", "cov", "target_weight", "detections", "time", "period"
+        "radar_state", "mean", "cov", "target_weight", "detections", "time", "period",
+        "nonfinite_action",
     }  # fmt: skip
     # the planner sees the tracker's estimate (mpc.aligned), never the truth
     np.testing.assert_array_equal(state.obs.mean, state.loop.mean)

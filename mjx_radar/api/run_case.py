@@ -75,7 +75,8 @@ def load_plugins(paths) -> None:
             )
         p = Path(path)
         if not p.is_file():
-            raise ScenarioError(f"plugin = {str(path)!r}: no such file")
+            what = "a folder, not a Python file" if p.is_dir() else "no such file"
+            raise ScenarioError(f"plugin = {str(path)!r}: {what}")
         try:
             runpy.run_path(str(p), run_name=f"mjx_radar_plugin_{p.stem}")
         except SystemExit as err:  # the file ends the process: refused, nothing is run
@@ -268,8 +269,10 @@ def execute(
 
     Raises:
         InputError: the radars cannot be placed or the run does not fit in memory.
+        PluginError: a registered planner returned NaN or inf controls.
     """
     from mjx_radar.engine import resources, runner
+    from mjx_radar.planners import guard
 
     deterministic = process_options(req)
     with precision_scope(req):
@@ -289,4 +292,5 @@ def execute(
             programs=programs,
             **view,
         )
+        guard.check_controls(req.method.name, res.get("control"), req.trials)
         return res | {"deterministic": deterministic}

@@ -11,7 +11,9 @@ import numpy as np
 from mjx_radar.errors import EXIT_FAILURE, EXIT_INTERRUPTED
 
 
-def diverged_line(diverged, trials, out: Path, keep: bool, method: str = "") -> str | None:
+def diverged_line(
+    diverged, trials, out: Path, keep: bool, method: str = "", controls=None
+) -> str | None:
     """The one-line report of diverged trials (``None`` if none diverged).
 
     Args:
@@ -21,6 +23,7 @@ def diverged_line(diverged, trials, out: Path, keep: bool, method: str = "") -> 
         out: the run directory.
         keep: ``--keep-diverged`` (a warning instead of an error).
         method: the run's method; a ``METHOD+PLANNER`` one names its planner.
+        controls: ``[T, J, N, 2]`` the applied controls (a planner's NaN is named).
     """
     if diverged is None:
         return None
@@ -33,6 +36,11 @@ def diverged_line(diverged, trials, out: Path, keep: bool, method: str = "") -> 
     where = f"first at trial {int(trials[bad[j]])}, step {int(first_step[j]) + 1}"
     if "+" in method:  # a planner of the user's choice: name it (a NaN action diverges)
         where += f"; method {method}, planner {method.partition('+')[2]!r}"
+        if controls is not None:
+            u = ~np.isfinite(np.asarray(controls)).reshape(len(trials), -1)
+            if u.any():
+                t = int(np.flatnonzero(u.any(axis=1))[0])
+                where += f", whose plan() returned NaN or inf controls (trial {int(trials[t])})"
     head = f"{bad.size} of {len(trials)} trials diverged ({where}); results in {out}"
     if keep:
         return f"warning: {head}; kept (--keep-diverged)"
@@ -47,7 +55,9 @@ def finish(out: Path, args, s, seed_, trials, steps, res) -> int:
         print("interrupted: no results written", file=sys.stderr)
         return EXIT_INTERRUPTED
     summary(s, args, res, out)
-    line = diverged_line(res.get("diverged"), trials, out, args.keep_diverged, args.method)
+    line = diverged_line(
+        res.get("diverged"), trials, out, args.keep_diverged, args.method, res.get("control")
+    )
     if line:
         print(line, file=sys.stderr)
     if args.video:

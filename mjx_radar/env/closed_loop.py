@@ -68,7 +68,7 @@ def rollout(env: RadarEnv, planner, carry: LoopCarry, periods: int):
         action, pc = planner.plan(lc.planner, state.obs, key)
         action = env.clip_action(action)  # what the radars apply (and the records show)
         crec = planner.record(pc, action)
-        state, srec = env.transition(state, action)
+        state, srec = env.transition(state, action, keep_nonfinite=True)
         return LoopCarry(state, pc), (srec, crec)
 
     carry, (srec, crec) = jax.lax.scan(control_period, carry, None, length=periods)

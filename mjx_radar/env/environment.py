@@ -104,15 +104,19 @@ class RadarEnv:
         The reward is ``-Σ_m log det P_m,pos`` over the targets present at the period's end
         (``P_m,pos`` the 3x3 position block of target m's posterior covariance [m²]): the
         information the radars hold about where the drones are. A wrongly shaped action
-        (or, outside ``jit``, a non-finite one) is refused in one line (:mod:`.inputs`).
+        (or, outside ``jit``, a non-finite one) is refused in one line (:mod:`.inputs`);
+        inside ``jit`` each NaN or inf control is applied as 0 and the next observation's
+        ``nonfinite_action`` is True.
         """
         inputs.check_state(state, State)
         return self.transition(state, action)[0]
 
-    def transition(self, state: State, action):
+    def transition(self, state: State, action, keep_nonfinite: bool = False):
         """:meth:`step` and the period's per-filter-step records (``StepRecord``, leading
-        size ``control_every``): what the simulator's runner writes."""
-        return precision.pinned(self._transition)(state, action)
+        size ``control_every``): what the simulator's runner writes. ``keep_nonfinite``
+        (the runner's loop) applies a planner's NaN as given (flagged too), so the trial
+        diverges and the run names the planner instead of going on with zeros."""
+        return precision.pinned(self._transition)(state, action, keep_nonfinite)
 
     # -- helpers for planners -----------------------------------------------------------
 
@@ -167,7 +171,7 @@ class RadarEnv:
         metrics = {k: zero for k in METRICS}
         return State(
             loop=loop,
-            obs=self._observe(loop, period, none_seen),
+            obs=self._observe(loop, period, none_seen, jnp.asarray(False)),
             reward=self._reward(loop, period),
             done=jnp.asarray(False),
             metrics=metrics,
@@ -179,8 +183,10 @@ class RadarEnv:
         lower, upper = self.action_bounds
         return jnp.clip(inputs.check_action(action, self.n_radars), lower, upper)
 
-    def _transition(self, state: State, action):
-        u = self.clip_action(action)
+    def _transition(self, state: State, action, keep_nonfinite: bool = False):
+        a = inputs.check_action(action, self.n_radars)
+        a_safe, bad = inputs.finite_controls(a)
+        u = jnp.clip(a if keep_nonfinite else a_safe, *self.action_bounds)
         j = state.info["period"]
         key = state.info["key"]
         filter_step = make_filter_step(self.task, self.params, key, self._tracker)
@@ -190,7 +196,7 @@ class RadarEnv:
         metrics = {k: getattr(srec, k)[-1].astype(state.reward.dtype) for k in METRICS}
         new = state._replace(
             loop=loop,
-            obs=self._observe(loop, j1, seen[-1]),
+            obs=self._observe(loop, j1, seen[-1], bad),
             reward=self._reward(loop, j1),
             done=j1 >= self.episode_length,
             metrics=metrics,
@@ -198,12 +204,13 @@ class RadarEnv:
         )
         return new, srec
 
-    def _observe(self, loop: LoopState, j, seen) -> Observation:
-        """What the planner of control period ``j`` knows (the loop after ``j`` periods)."""
+    def _observe(self, loop: LoopState, j, seen, bad) -> Observation:
+        """What the planner of control period ``j`` knows (the loop after ``j`` periods;
+        ``bad``: the last action held NaN or inf)."""
         sc = self.scenario
         t = j * self.every * sc.timing.dt_filter
         if self._table is not None:
-            return self._observe_table(loop, j, t)
+            return self._observe_table(loop, j, t, bad)
         pm, pc = loop.mean, loop.cov
         if not sc.mpc.aligned:  # the paper code's one-filter-step lead of the targets
             pm, pc = self._tracker.predict(loop.mean, loop.cov, loop.modes)[:2]
@@ -218,9 +225,10 @@ class RadarEnv:
             detections=seen,
             time=jnp.asarray(t, pm.dtype),
             period=j,
+            nonfinite_action=bad,
         )
 
-    def _observe_table(self, loop: LoopState, j, t) -> Observation:
+    def _observe_table(self, loop: LoopState, j, t, bad) -> Observation:
         """What the planner knows with a track table: its K slots (never the truth)."""
         modes = loop.modes
         if not self.scenario.mpc.aligned:
@@ -235,6 +243,7 @@ class RadarEnv:
             detections=v.seen,
             time=jnp.asarray(t, v.mean.dtype),
             period=j,
+            nonfinite_action=bad,
         )
 
     def _reward(self, loop: LoopState, j):

@@ -27,7 +27,7 @@ import jax.numpy as jnp
 from mjx_radar.contracts import PluginError
 from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement_filter
 from mjx_radar.physics import target_motion
-from mjx_radar.plugin_errors import failure
+from mjx_radar.plugin_errors import failure, guarded_call
 from mjx_radar.registry import TRACKERS
 from mjx_radar.task.task import RadarTask, process_noise
 
@@ -78,7 +78,8 @@ def make(task: RadarTask, params) -> FilterOps:
     """The scenario's tracker (:func:`tracker_name`) with the noise model of ``params.method``.
 
     A registered tracker's factory must return a :class:`FilterOps` (one-line
-    :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception)."""
+    :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception, in the
+    factory or in one of its functions while the loop is traced)."""
     name = tracker_name(task.scenario)
     factory = TRACKERS.get(name)
     if name.lower() not in TRACKERS.registered():
@@ -94,7 +95,33 @@ def make(task: RadarTask, params) -> FilterOps:
             f"tracker {name!r}: its factory returned {type(ops).__name__}, not FilterOps"
             " (predict, update, begin[, init, tracks])"
         )
-    return ops
+    calls = {c: getattr(ops, c) for c in FilterOps._fields if callable(getattr(ops, c))}
+    calls = {c: guarded_call("tracker", name, c, f) for c, f in calls.items()}
+    for c in ("predict", "update"):
+        calls[c] = _checked(name, c, calls[c])
+    return ops._replace(**calls)
+
+
+def _checked(name: str, call: str, fn: Callable) -> Callable:
+    """A registered tracker's ``predict`` or ``update``, whose result must be
+    ``(mean, cov, modes)`` with the given mean's and cov's shapes (checked where traced)."""
+
+    def checked(mean, cov, modes, *args, **kwargs):
+        out = fn(mean, cov, modes, *args, **kwargs)
+        if not (isinstance(out, tuple | list) and len(out) == 3):
+            got = f"{len(out)} values" if isinstance(out, tuple | list) else type(out).__name__
+            raise PluginError(
+                f"tracker {name!r}: {call}() returned {got}; expected (mean, cov, modes)"
+            )
+        for what, given, got in (("mean", mean, out[0]), ("cov", cov, out[1])):
+            if jnp.shape(got) != jnp.shape(given):
+                raise PluginError(
+                    f"tracker {name!r}: {call}() returned a {what} of shape "
+                    f"{list(jnp.shape(got))}; expected {list(jnp.shape(given))}"
+                )
+        return out
+
+    return checked
 
 
 def register_tracker(name: str, factory=None):

@@ -5,7 +5,9 @@ Each check is one line naming the argument and what it must be
 under ``jit``/``vmap``, so the shape checks run once, when the call is traced, and
 cost nothing in the compiled loop; the finiteness of an action is checked only for a
 concrete array (a call outside ``jit``: a host value, never a device round trip inside
-a traced loop). An action is never reshaped except ``[2N]`` to ``[N, 2]``.
+a traced loop); inside ``jit`` :func:`finite_controls` applies each NaN or inf control
+as 0 and says so (``Observation.nonfinite_action``). An action is never reshaped except
+``[2N]`` to ``[N, 2]``.
 """
 
 from __future__ import annotations
@@ -87,7 +89,10 @@ def check_action(action, n: int, where: str = "step") -> jax.Array:
     """``action`` as ``[N, 2]``: given ``[N, 2]`` or ``[2N]``, floating point, finite
     when concrete. Anything else is refused, never reshaped."""
     try:
-        a = action if isinstance(action, jax.Array) else jnp.asarray(action)
+        a = action if isinstance(action, jax.Array) else np.asarray(action)
+        if a.dtype.kind in "OSUV":  # text or objects: jnp would warn before refusing
+            raise TypeError
+        a = jnp.asarray(a)
     except (TypeError, ValueError):
         raise ScenarioError(
             f"{where}: action = {show(action, 40)}: must be an array [{n}, 2] of "
@@ -103,3 +108,11 @@ def check_action(action, n: int, where: str = "step") -> jax.Array:
     if not isinstance(a, jax.core.Tracer) and not bool(np.isfinite(np.asarray(a)).all()):
         raise ScenarioError(f"{where}: action holds NaN or inf: every control must be finite")
     return a.reshape(n, 2)
+
+
+def finite_controls(a: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """``(a, flag)``: ``a`` with each NaN or inf control replaced by 0 (no acceleration)
+    and ``flag`` (``[]`` bool) whether any was. Finite controls are unchanged (bit for
+    bit); under ``jit`` this is how ``env.step`` treats a non-finite action."""
+    ok = jnp.isfinite(a)
+    return jnp.where(ok, a, jnp.zeros_like(a)), ~jnp.all(ok)

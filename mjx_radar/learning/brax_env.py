@@ -9,8 +9,10 @@ reward are those of :mod:`mjx_radar.learning.features`::
     u      = action_to_control(env, a)                      a in [-1, 1]^{2N}
     reward = -Σ_m log det P_m,pos  -  c · penalty(...)  -  g · keepout_depth(...)
 
-The base environment never ends (``done = 0``); the episode length, truncation and
-auto-reset are wrappers (:func:`wrap_for_training`, the ``wrap_env_fn`` of
+A NaN or inf control of a traced action is applied as 0 (the reward and features stay
+finite) and flagged in ``pipeline_state.obs.nonfinite_action``; outside ``jit`` it is
+refused in one line. The base environment never ends (``done = 0``); the episode
+length, truncation and auto-reset are wrappers (:func:`wrap_for_training`, the ``wrap_env_fn`` of
 ``brax.training.agents.ppo.train``). Every episode draws a new trial: the auto-reset
 calls ``reset`` with a fresh key (radar placement, drone states and noise follow the
 scenario's sampling: the domain randomisation), unlike brax's ``AutoResetWrapper``
@@ -26,6 +28,8 @@ from brax.envs.wrappers.training import EpisodeWrapper, VmapWrapper
 
 from mjx_radar.env.environment import METRICS
 from mjx_radar.env.environment import make as make_env
+from mjx_radar.env.inputs import finite_controls
+from mjx_radar.learning.config import check_setting
 from mjx_radar.learning.features import (
     action_to_control,
     feature_size,
@@ -70,6 +74,8 @@ class BraxRadarEnv(Env):
     ):
         if observation not in ("flat", "set"):
             raise ValueError(f"observation = {observation!r}: flat or set")
+        check_setting("penalty_scale", penalty_scale)
+        check_setting("keepout_grade", keepout_grade)
         self.radar_env = env
         self.observation = observation
         self.shield = bool(shield)
@@ -106,10 +112,11 @@ class BraxRadarEnv(Env):
 
     def step(self, state: State, action: jax.Array) -> State:
         env = self.radar_env
-        u = action_to_control(env, action)
+        u, bad = finite_controls(action_to_control(env, action))  # a NaN control: 0
         if self.shield:
             u = keepout_shield(env, state.pipeline_state.obs, u)
         s = env.step(state.pipeline_state, u)
+        s = s._replace(obs=s.obs._replace(nonfinite_action=bad | s.obs.nonfinite_action))
         info = jnp.clip(jnp.nan_to_num(s.reward.astype(jnp.float32), nan=-_CLIP), -_CLIP, _CLIP)
         pen = jnp.clip(penalty(env, state.pipeline_state.obs, s.obs, u), 0.0, _CLIP)
         return state.replace(

@@ -113,6 +113,11 @@ def in_range(name: str, value, lo, hi, lo_open: bool) -> None:
         raise ScenarioError(f"{name} = {value!r}: must be {what} in {left}{_fmt(lo)}, {_fmt(hi)}]")
 
 
+def check_setting(name: str, value) -> None:
+    """One setting of :data:`RANGES` checked (a one-line :class:`ScenarioError`)."""
+    _in_range(name, value, *RANGES[name])
+
+
 def _fmt(bound) -> str:
     return f"{bound:g}" if isinstance(bound, float) else str(bound)
 

@@ -43,6 +43,9 @@ class Observation(NamedTuple):
             and detection; all False before the first scan).
         time: ``[]`` the control instant [s].
         period: ``[]`` int32, the control period index j (time = j * dt_control).
+        nonfinite_action: ``[]`` bool, the last period's action held NaN or inf (inside
+            ``jit`` each such control is applied as 0; outside it ``step`` refuses it);
+            None in an observation made by hand.
     """
 
     radar_state: jax.Array
@@ -52,6 +55,7 @@ class Observation(NamedTuple):
     detections: jax.Array
     time: jax.Array
     period: jax.Array
+    nonfinite_action: jax.Array | None = None
 
 
 class ControlRecord(NamedTuple):

@@ -10,6 +10,9 @@ nothing at run time and never alter a number:
 * the returned carry has the structure, shapes and dtypes of ``init()``'s (what
   ``lax.scan`` needs of a loop carry).
 
+After a run, :func:`check_controls` refuses a registered planner's NaN or inf controls
+(before anything is written: its trials would only diverge).
+
 A mistake is a one-line :class:`~mjx_radar.contracts.PluginError` naming the planner,
 what was expected and what was received. A registered planner's own exception (in
 ``__init__``, ``init``, ``plan``, ``record``) becomes one line naming the planner and
@@ -22,6 +25,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar.contracts import PluginError
 from mjx_radar.plugin_errors import failure
@@ -144,3 +148,19 @@ def guarded(name: str, env) -> GuardedPlanner:
             "not a planner with init() and plan()"
         )
     return GuardedPlanner(name, inner, env, True)
+
+
+def check_controls(method: str, controls, trials) -> None:
+    """Refuses NaN or inf in the controls ``[T, J, N, 2]`` of a registered planner (method
+    ``METHOD+NAME``): one :class:`PluginError` line naming the planner, trial and period."""
+    name = method.partition("+")[2] if isinstance(method, str) else ""
+    if controls is None or name.partition(":")[0].lower() not in PLANNERS.registered():
+        return
+    c = np.asarray(controls)
+    bad = ~np.isfinite(c.reshape(c.shape[0], c.shape[1], -1)).all(axis=-1)  # [T, J]
+    if bad.any():
+        t, j = (int(i[0]) for i in np.nonzero(bad))
+        raise PluginError(
+            f"planner {name!r}: plan() returned NaN or inf controls (first at trial "
+            f"{int(np.asarray(trials)[t])}, control period {j}); every control must be finite"
+        )

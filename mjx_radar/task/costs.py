@@ -182,8 +182,10 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
     return task.scenario.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
 
 
-#: terms registered from scripts: name -> (fn, enabled(scenario) -> bool)
-_REGISTERED: dict[str, tuple[Callable, Callable[[Any], bool]]] = {}
+#: terms registered from scripts: name -> (fn, enabled(scenario) -> bool, guarded fn,
+#: guarded enabled): the guarded ones raise a one-line PluginError for the term's own
+#: exception (mjx_radar.plugin_errors), made once so a task's terms stay equal
+_REGISTERED: dict[str, tuple[Callable, ...]] = {}
 BUILT_IN = (
     "information",
     "radar_radar",
@@ -221,7 +223,26 @@ def register_cost_term(
         raise ValueError(f"cost term name {name!r}: must be an identifier, not a built-in term")
     if not callable(fn) or (enabled is not None and not callable(enabled)):
         raise TypeError(f"cost term {name!r}: fn and enabled must be callables")
-    _REGISTERED[name] = (fn, enabled or (lambda scenario: True))
+    from mjx_radar.contracts import PluginError, takes
+    from mjx_radar.plugin_errors import guarded_call
+
+    for f, n, args in ((fn, 3, "(h, task, params)"), (enabled, 1, "(scenario)")):
+        if f is not None and not takes(f, n):
+            what = getattr(f, "__name__", type(f).__name__)
+            raise PluginError(f"cost term {name!r}: {what}() must take {args}")
+    enabled = enabled or (lambda scenario: True)
+    guard = guarded_call("cost term", name, getattr(fn, "__name__", name), fn)
+
+    def term(h: Horizon, task, params) -> jax.Array:  # one cost per horizon step
+        out = guard(h, task, params)
+        if jnp.shape(out) != jnp.shape(h.controls)[:1]:
+            raise PluginError(
+                f"cost term {name!r}: returned shape {list(jnp.shape(out))}; expected "
+                f"[{jnp.shape(h.controls)[0]}] (one cost per horizon step)"
+            )
+        return out
+
+    _REGISTERED[name] = (fn, enabled, term, guarded_call("cost term", name, "enabled", enabled))
 
 
 def unregister_cost_term(name: str) -> None:
@@ -248,7 +269,7 @@ def _code_digest(fn: Callable) -> str:
 def registry_key() -> tuple:
     """``((name, code digest), ...)`` of the registered terms: part of every cache key."""
     return tuple(
-        (name, _code_digest(fn), _code_digest(en)) for name, (fn, en) in _REGISTERED.items()
+        (name, _code_digest(fn), _code_digest(en)) for name, (fn, en, *_) in _REGISTERED.items()
     )
 
 
@@ -268,5 +289,5 @@ def cost_terms(scenario) -> tuple[CostTerm, ...]:
         terms.append(CostTerm("terrain_slope", terrain_slope))
     if scenario.mpc.alpha_effort > 0:
         terms.append(CostTerm("control_effort", control_effort))
-    terms += [CostTerm(n, fn) for n, (fn, en) in _REGISTERED.items() if en(scenario)]
+    terms += [CostTerm(n, fn) for n, (_, _, fn, en) in _REGISTERED.items() if en(scenario)]
     return tuple(terms)

@@ -194,8 +194,14 @@ def with_planners(names, planners) -> list[str]:
 
     A method that never moves its radars (``stationary``) is kept once, as it is; the
     planner ``mppi`` keeps the paper's names. Raises one-line ``ValueError`` as
-    :func:`parse_method`.
+    :func:`parse_method`, and when planners are given but no method plans (they would
+    be dropped).
     """
+    if planners and names and not any(parse_method(n).plans for n in names):
+        raise ValueError(
+            f"{', '.join(map(str, planners))} given, but no method of {', '.join(names)} "
+            "plans ('stationary' radars never move); add a planning method (e.g. ddr-sfim)"
+        )
     out = []
     for name in names:
         method = parse_method(name)
