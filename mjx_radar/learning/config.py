@@ -115,7 +115,7 @@ def in_range(name: str, value, lo, hi, lo_open: bool) -> None:
 
 def check_setting(name: str, value) -> None:
     """One setting of :data:`RANGES` checked (a one-line :class:`ScenarioError`)."""
-    _in_range(name, value, *RANGES[name])
+    in_range(name, value, *RANGES[name])
 
 
 def _fmt(bound) -> str:
