@@ -9,11 +9,8 @@ floors below it. Every import counts: top-level ones and those inside functions,
 a.b``, ``from a import b`` with b a submodule, relative imports. Reported:
 
 * each upward import (``A imports B (floor i > j)``);
-* each cycle between packages (every import counts) and each cycle between modules (an
-  import of a package's ``__init__`` is no module edge, nor is an import inside a function
-  from a module of the same package: it runs only once both modules are loaded, so it
-  cannot break an import; ``Scenario.replace`` in ``scenario.schema`` calls
-  ``scenario.edit``, whose validation builds a ``Scenario`` through the reader);
+* each cycle (circle) between packages and between modules, every import counted, those
+  inside functions too (an import of a package's ``__init__`` is no module edge);
 * library modules importing the CLI or ``scripts``;
 * private names (``_x``) imported across modules;
 * modules over :data:`MAX_LINES` lines, and any ``# fmt: skip`` (code packed by hand to
@@ -185,7 +182,7 @@ def check(root: Path) -> tuple[list[str], str]:
         here = floor_of(mod, pkg, subpackages)
         lib = here not in ("cli", "facade")
         seen: set[str] = set()
-        for target, names, lazy in imports(path, mod, pkg, modules):
+        for target, names, _lazy in imports(path, mod, pkg, modules):
             n_imports += 1
             if target.split(".")[0] == "scripts":
                 problems.append(f"{mod}: imports {target} (scripts are not part of the package)")
@@ -194,11 +191,8 @@ def check(root: Path) -> tuple[list[str], str]:
                 problems.append(f"{mod}: imports {target}, not a module of {pkg}")
                 continue
             there = floor_of(target, pkg, subpackages)
-            # a module edge: every import, except one inside a function between two modules
-            # of one package (it runs after both are loaded: Scenario.replace -> edit)
-            same_package = target.rsplit(".", 1)[0] == mod.rsplit(".", 1)[0]
-            deferred = lazy and same_package
-            if target != mod and files[target].name != "__init__.py" and not deferred:
+            # a module edge: every import, those inside functions too
+            if target != mod and files[target].name != "__init__.py":
                 graph[mod].add(target)
             if there != here:
                 pgraph.setdefault(here, set()).add(there)
@@ -215,11 +209,12 @@ def check(root: Path) -> tuple[list[str], str]:
             if private and target != mod:
                 problems.append(f"{mod}: imports private {', '.join(private)} from {target}")
     problems += [f"package cycle: {' <-> '.join(c)}" for c in cycles(pgraph)]
-    problems += [f"module cycle: {' <-> '.join(c)}" for c in cycles(graph)]
+    circles = cycles(graph)
+    problems += [f"module cycle: {' <-> '.join(c)}" for c in circles]
     edges = sum(map(len, graph.values()))
     summary = (
         f"{len(files)} modules in {len(FLOORS)} floors, {n_imports} imports "
-        f"({edges} module edges), {len(problems)} problems"
+        f"({edges} module edges), {len(circles)} circles, {len(problems)} problems"
     )
     return problems, summary
 

@@ -35,6 +35,26 @@ def test_package_layout_is_clean():
     assert proc.stdout.strip().endswith("0 problems")
 
 
+def test_package_has_no_circle():
+    """No cycle between modules, imports inside functions counted (within a package too)."""
+    problems, summary = _checker().check(REPO / "mjx_radar")
+    assert [p for p in problems if "cycle" in p] == []
+    assert ", 0 circles," in summary
+
+
+def test_function_level_circle_is_reported(tmp_path):
+    pkg = _tree(
+        tmp_path,
+        {
+            "world/a.py": "from mjx_radar.world import b\n",
+            "world/b.py": "def f():\n    from mjx_radar.world import a\n    return a\n",
+        },
+    )
+    problems, summary = _checker().check(pkg)
+    assert problems == ["module cycle: mjx_radar.world.a <-> mjx_radar.world.b"]
+    assert ", 1 circles," in summary
+
+
 def test_upward_import_is_reported(tmp_path):
     pkg = _tree(
         tmp_path,
