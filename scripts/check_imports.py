@@ -38,8 +38,9 @@ FLOORS = [
     "estimation",  # filters, measurement model, Fisher information
     "control",  # MPPI
     "task",  # task, objective, the MPC step
+    "env",  # the pure environment (its types: Observation, State, ControlRecord), placement
     "planners",  # the planner contract and its plug-ins (MPPI, hold, registered ones)
-    "env",  # the pure closed loop (paper Algorithm 1), placement
+    "loop",  # a planner driving the environment: the closed loop (paper Algorithm 1)
     "rundir",  # the result format: run directories written and read
     "engine",  # compiled programs, caches, devices, batching, runner
     "study",  # multi-cell studies

@@ -39,6 +39,7 @@ from mjx_radar.engine.programs import (
 )
 from mjx_radar.engine.threads import parallel
 from mjx_radar.env.placement import placement_error
+from mjx_radar.env.records import control_arrays
 from mjx_radar.errors import InputError
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.task.method import parse_method, runs
@@ -201,8 +202,8 @@ def run_trials(
             continue
         res[k] = np.concatenate([_get(c[0], k) for c in chunks], axis=1)
     if full:
-        for k in controls_t._fields:
-            res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
+        for k in control_arrays(controls_t):
+            res[k] = np.concatenate([control_arrays(c[1])[k] for c in chunks], axis=1)
     res["placement_ok"] = placed
     sim_s = time.perf_counter() - t0
     if sets:

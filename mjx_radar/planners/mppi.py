@@ -2,7 +2,7 @@
 
 Wraps :func:`mjx_radar.task.planner.make_planner` (the MPC step the benchmarks time):
 the carry is the warm start ``u_plan [H, 2N]`` (the previous mean sequence shifted by
-one control step) and the last :class:`~mjx_radar.planners.base.ControlRecord` (planned
+one control step) and the last :class:`~mjx_radar.env.records.ControlRecord` (planned
 positions, kept samples, weights, costs). What is compiled follows the task's program
 kind: nothing for ``"none"`` (the radars keep still), one information kind, or both
 behind ``lax.cond`` on the method's runtime flags (``"all"``); ``"sfim+none"`` /
@@ -19,7 +19,9 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.control import mppi
-from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.env.records import ControlRecord
+from mjx_radar.planners.base import Planner
+from mjx_radar.planners.records import idle_record, kept_samples, plan_record
 from mjx_radar.task.method import SWITCH, plans_optional
 from mjx_radar.task.planner import make_planner
 
@@ -62,7 +64,7 @@ class MPPIPlanner(Planner):
             obs.radar_state, obs.mean, obs.cov, carry.u_plan, key, params
         )
         keep = slice(0, kept_samples(sc))
-        rec = ControlRecord(
+        rec = plan_record(
             res.mean[0].reshape(sc.n_radars, 2),
             mean_plan.radar_xy,
             res.aux.radar_xy[keep],

@@ -19,7 +19,9 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.control import gradient, mppi, sampling
-from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.env.records import ControlRecord
+from mjx_radar.planners.base import Planner
+from mjx_radar.planners.records import idle_record, kept_samples, plan_record
 from mjx_radar.task.planner import proposal_std
 
 
@@ -57,7 +59,7 @@ class SequencePlanner(Planner):
         else:
             xy, weights, costs = aux.radar_xy[:s], weights[:s], costs[:s]
         control = mean[0].reshape(self.n, 2)
-        rec = ControlRecord(control, plan.radar_xy, xy, weights, costs)
+        rec = plan_record(control, plan.radar_xy, xy, weights, costs)
         return control, PlanCarry(mppi.shift(mean), rec)
 
     def record(self, carry: PlanCarry, action) -> ControlRecord:
