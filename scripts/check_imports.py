@@ -39,7 +39,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "api.run_case:request": 102,
     "api.simulate:simulate": 106,
     "api.study:run_study": 119,
-    "cli.run_args:add_arguments": 98,
     "control.evolution:evolve": 86,
     "control.mppi:optimize": 82,
     "engine.runner:run_trials": 118,
