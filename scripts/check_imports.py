@@ -46,7 +46,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "learning.train:_train": 113,
     "physics.scene:build_scene": 86,
     "scenario.buildings:read_geojson": 91,
-    "scenario.reader:scenario_from_dict": 85,
     "study.execute:_study": 93,
     "study.lanes:run_lanes": 108,
 }
