@@ -29,7 +29,7 @@ import jax
 from mjx_radar.contracts import placeholder
 from mjx_radar.env.records import ControlRecord
 from mjx_radar.env.state import Observation
-from mjx_radar.planners.records import N_KEEP_SAMPLES, idle_record, kept_samples
+from mjx_radar.planners.records import N_KEEP_SAMPLES, idle_record, kept_samples, record_shape
 from mjx_radar.registry import PLANNERS
 
 __all__ = [  # noqa: RUF022 (the contract first)
@@ -60,6 +60,12 @@ class Planner:
     def __init__(self, env):
         self.env = env
 
+    @property
+    def record_shape(self) -> tuple[int, int]:
+        """``(horizon, kept samples)`` of its records (``[mpc] horizon``, ``[mppi] samples``)."""
+        sc = self.env.scenario
+        return record_shape(sc.mpc, sc.mppi)
+
     def init(self) -> Any:
         """The planner's initial carry (a pytree; ``()`` if it keeps none)."""
         return ()
@@ -71,7 +77,7 @@ class Planner:
 
     def record(self, carry, action) -> ControlRecord:
         """What the run files show of the last plan (default: the action alone)."""
-        return idle_record(self.env.scenario, action)
+        return idle_record(action, *self.record_shape)
 
 
 def register_planner(name: str, planner=None):

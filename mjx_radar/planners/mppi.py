@@ -21,7 +21,7 @@ import jax.numpy as jnp
 from mjx_radar.control import mppi
 from mjx_radar.env.records import ControlRecord
 from mjx_radar.planners.base import Planner
-from mjx_radar.planners.records import idle_record, kept_samples, plan_record
+from mjx_radar.planners.records import idle_record, plan_record
 from mjx_radar.task.method import SWITCH, plans_optional
 from mjx_radar.task.planner import make_planner
 
@@ -51,11 +51,11 @@ class MPPIPlanner(Planner):
     def init(self) -> MPPICarry:
         sc = self.env.scenario
         u_plan = jnp.zeros((sc.mpc.horizon, 2 * sc.n_radars))
-        return MPPICarry(u_plan, idle_record(sc, jnp.zeros((sc.n_radars, 2))))
+        return MPPICarry(u_plan, idle_record(jnp.zeros((sc.n_radars, 2)), *self.record_shape))
 
     def _idle(self, carry: MPPICarry):
         zeros = jnp.zeros((self.env.scenario.n_radars, 2))
-        return zeros, MPPICarry(carry.u_plan, idle_record(self.env.scenario, zeros))
+        return zeros, MPPICarry(carry.u_plan, idle_record(zeros, *self.record_shape))
 
     def _mppi(self, carry: MPPICarry, obs, key, optimize=None):
         sc = self.env.scenario
@@ -63,7 +63,7 @@ class MPPIPlanner(Planner):
         res, mean_plan = (optimize or self._optimize)(
             obs.radar_state, obs.mean, obs.cov, carry.u_plan, key, params
         )
-        keep = slice(0, kept_samples(sc))
+        keep = slice(0, self.record_shape[1])
         rec = plan_record(
             res.mean[0].reshape(sc.n_radars, 2),
             mean_plan.radar_xy,

@@ -27,9 +27,9 @@ class SampleRecord(NamedTuple):
     sample_cost: jax.Array  # [S_keep] their costs
 
 
-def kept_samples(scenario) -> int:
-    """Samples recorded per control step: ``min(32, mppi.samples)``."""
-    return min(N_KEEP_SAMPLES, scenario.mppi.samples)
+def kept_samples(samples: int) -> int:
+    """Samples recorded per control step of a planner drawing ``samples``: at most 32."""
+    return min(N_KEEP_SAMPLES, samples)
 
 
 def plan_record(control, plan_xy, sample_xy, sample_weight, sample_cost) -> ControlRecord:
@@ -37,9 +37,10 @@ def plan_record(control, plan_xy, sample_xy, sample_weight, sample_cost) -> Cont
     return ControlRecord(control, plan_xy, SampleRecord(sample_xy, sample_weight, sample_cost))
 
 
-def idle_record(scenario, control) -> ControlRecord:
-    """The record of a control step without a plan to show (``control`` [N, 2])."""
-    n, h, s = scenario.n_radars, scenario.mpc.horizon, kept_samples(scenario)
+def idle_record(control, horizon: int, kept: int) -> ControlRecord:
+    """The record of a control step without a plan to show: zeros of ``horizon`` steps
+    and ``kept`` samples (``control`` [N, 2])."""
+    n, h, s = control.shape[0], horizon, kept
     return plan_record(
         control,
         jnp.zeros((h, n, 2)),
@@ -49,12 +50,17 @@ def idle_record(scenario, control) -> ControlRecord:
     )
 
 
-def complete(record: ControlRecord, scenario) -> ControlRecord:
+def complete(record: ControlRecord, horizon: int, kept: int) -> ControlRecord:
     """``record`` with zero samples where its planner kept none (``plan`` not a
     :class:`SampleRecord`): every control step then has the run files' layout."""
     if isinstance(record.plan, SampleRecord):
         return record
-    return idle_record(scenario, record.control)._replace(plan_xy=record.plan_xy)
+    return idle_record(record.control, horizon, kept)._replace(plan_xy=record.plan_xy)
+
+
+def record_shape(mpc, mppi) -> tuple[int, int]:
+    """``(horizon, kept samples)`` of the records, from the ``[mpc]`` and ``[mppi]`` tables."""
+    return mpc.horizon, kept_samples(mppi.samples)
 
 
 #: a record's layout (leaf values are placeholders): the programs' output template

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 from mjx_radar.control import gradient, mppi, sampling
 from mjx_radar.env.records import ControlRecord
 from mjx_radar.planners.base import Planner
-from mjx_radar.planners.records import idle_record, kept_samples, plan_record
+from mjx_radar.planners.records import idle_record, plan_record
 from mjx_radar.task.planner import proposal_std
 
 
@@ -46,13 +46,13 @@ class SequencePlanner(Planner):
     def init(self) -> PlanCarry:
         zeros = jnp.zeros((self.n, 2))
         return PlanCarry(
-            jnp.zeros((self.horizon, 2 * self.n)), idle_record(self.env.scenario, zeros)
+            jnp.zeros((self.horizon, 2 * self.n)), idle_record(zeros, *self.record_shape)
         )
 
     def _carry(self, cost_fn, mean, samples=None, costs=None, weights=None, aux=None):
         """The applied control, and the carry holding the next warm start and the record."""
         plan = cost_fn(mean)[1]
-        s = kept_samples(self.env.scenario)
+        s = self.record_shape[1]
         if samples is None:  # no population: the plan itself
             xy = jnp.broadcast_to(plan.radar_xy, (s, *plan.radar_xy.shape))
             weights, costs = jnp.full(s, 1.0 / s), jnp.zeros(s)

@@ -21,6 +21,7 @@ side (:mod:`mjx_radar.viz.viewer_world`); the title says what was dropped.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from html import escape
 from pathlib import Path
@@ -33,6 +34,8 @@ from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS
 from mjx_radar.viz.viewer_legend import hide_blocked_entry
+from mjx_radar.viz.viewer_los import visibility
+from mjx_radar.viz.viewer_traces import fixed_sites, layer_styles, static_traces
 from mjx_radar.viz.viewer_world import terrain_nodes
 
 
@@ -68,12 +71,16 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     count, samples = fit_budget(tr0, ks, first_plan, rd.trials, samples, shown)
     trials = trials or tuple(range(count))
     trs = [load_trial(rd, t) for t in trials]
-    box = stages.scene_box(rd.scenario, trs)
+    sc = rd.scenario
+    box = stages.scene_box(trs, sc.moving_obstacles)
     cols = counts.count_columns(rd.scenario, metrics)
     fig = counts.subplots(bool(cols))
-    first, anim, zrange = stages.add_scene(fig, rd.scenario, trs[0], ks[0], samples, box, cols)
+    n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
+    styles = layer_styles(n, m, fixed_sites(sc, n), bool(sc.moving_obstacles))
+    layers = (functools.partial(static_traces, sc), styles)
+    first, anim, zrange = stages.add_scene(fig, layers, trs[0], ks[0], samples, box, cols)
     view = dict(metrics=metrics, cols=cols, ks=ks, samples=samples, anim=anim)
-    view["scenario"] = rd.scenario
+    view["visibility"] = functools.partial(visibility, sc)
     metric_idx, frames, sliders = [], [], []
     for j, (t, tr) in enumerate(zip(trials, trs, strict=True)):
         view["plan"] = None if plans is None else plans[t]

@@ -16,8 +16,7 @@ from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir
 from mjx_radar.viz.viewer_controls import menus, slider
 from mjx_radar.viz.viewer_legend import legend_per_layer, sample_legend
-from mjx_radar.viz.viewer_los import visibility
-from mjx_radar.viz.viewer_traces import fixed_sites, frame_traces, layer_styles, static_traces
+from mjx_radar.viz.viewer_traces import frame_traces
 from mjx_radar.viz.viewer_world import aspect
 
 RMSE_RGB, CRLB_RGB = "rgb(0,90,200)", "rgb(220,0,0)"
@@ -66,19 +65,28 @@ def curves(metrics, trial_id: int, steps: int) -> tuple[np.ndarray, np.ndarray, 
     )
 
 
-def scene_box(scenario, trs) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(lo, hi, ztop)``: the trials' extent (and the vehicles' roads), the top of z."""
+def scene_box(trs, vehicles) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(lo, hi, ztop)``: the trials' extent and the ``vehicles``' roads, the top of z."""
     boxes = np.array([tr.bounds() for tr in trs])
     lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
-    for car in scenario.moving_obstacles:  # the vehicles' roads in the scene too
+    for car in vehicles:  # the vehicles' roads in the scene too
         lo, hi = np.minimum(lo, np.min(car.path, 0)), np.maximum(hi, np.max(car.path, 0))
     zs = np.concatenate([tr.target[..., 2].reshape(-1) for tr in trs])
     zs = zs[np.isfinite(zs)]  # NaN truth (a diverged trial) sets no range
     return lo, hi, max(float(zs.max()) * 1.15 if zs.size else 1.0, 1.0)
 
 
-def add_scene(fig, scenario, tr0, k0, samples, box, cols):
+def add_scene(fig, layers, tr0, k0, samples, box, cols):
     """Static layers, the animated layers at ``tr0``'s step ``k0`` and the markers.
+
+    Args:
+        fig: the figure (traces added).
+        layers: ``(static, styles)``: a function ``(lo, hi) -> static traces`` and the
+            animated layers' styles (:func:`~mjx_radar.viz.viewer_traces.layer_styles`).
+        tr0: the first trial shown; ``k0`` its first frame's step.
+        samples: MPPI samples per frame.
+        box: :func:`scene_box`'s ``(lo, hi, ztop)``.
+        cols: the count columns drawn (:mod:`~mjx_radar.viz.viewer_counts`).
 
     Returns:
         ``(first, anim, zrange)``: the first animated trace's index, the indices every
@@ -88,14 +96,15 @@ def add_scene(fig, scenario, tr0, k0, samples, box, cols):
 
     lo, hi, ztop = box
     zlow = 0.0
-    for trace in static_traces(scenario, lo, hi):
+    static, styles = layers
+    for trace in static(lo, hi):
         fig.add_trace(trace)
         if trace["type"] == "surface":
             ztop, zlow = max(ztop, 1.1 * float(trace["z"].max())), float(trace["z"].min())
     first = len(fig.data)
     n, m = tr0.radar.shape[1], tr0.target.shape[1]
     for style, data in zip(
-        layer_styles(n, m, fixed_sites(scenario, n), bool(scenario.moving_obstacles)),
+        styles,
         frame_traces(tr0, k0, samples, None, np.ones((n, m), bool)),
         strict=True,
     ):
@@ -126,7 +135,8 @@ def add_trial(fig, j: int, tr, trial_id: int, view: dict) -> tuple[list, list, d
         tr: the :class:`~mjx_radar.viz.run_dir.Trial`.
         trial_id: its id in the run.
         view: ``metrics``, ``cols`` (count columns), ``ks`` (frame steps), ``samples``,
-            ``plan`` (its ``[C, H, N, 2]`` plans or None), ``anim``, ``scenario``.
+            ``plan`` (its ``[C, H, N, 2]`` plans or None), ``anim``, ``visibility``
+            (``(radar, target, time) -> [F, N, M]`` lines of sight).
 
     Returns:
         ``(metric trace indices, frames, slider)``.
@@ -151,7 +161,7 @@ def add_trial(fig, j: int, tr, trial_id: int, view: dict) -> tuple[list, list, d
     for c, trace in zip(cols, counts.count_traces(cols), strict=True):
         idx.append(len(fig.data))
         fig.add_trace(trace.update(x=time, y=count[c], visible=j == 0), row=2, col=2)
-    vis = visibility(view["scenario"], tr.radar[ks, :, :3], tr.target[ks, :, :3], (ks + 1) * tr.dt)
+    vis = view["visibility"](tr.radar[ks, :, :3], tr.target[ks, :, :3], (ks + 1) * tr.dt)
     frames = []
     for i, k in enumerate(ks):
         data = frame_traces(tr, k, view["samples"], view["plan"], vis[i])
