@@ -44,9 +44,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "env.period:make_filter_step": 96,
     "learning.train:_train": 113,
     "physics.scene:build_scene": 86,
-    "scenario.buildings:read_geojson": 91,
-    "study.execute:_study": 93,
-    "study.lanes:run_lanes": 108,
 }
 SKIP = re.compile(r"#\s*fmt:\s*(skip|off)")
 # lowest floor first; a module imports only from its own floor and the ones below it
