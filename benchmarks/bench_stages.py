@@ -37,8 +37,8 @@ def _build(scenario_path: str, kind: str, batch: int, periods: int):
     import jax.numpy as jnp
 
     from mjx_radar import precision
-    from mjx_radar.loop import closed_loop
     from mjx_radar.env.streams import streams_of
+    from mjx_radar.loop import closed_loop
     from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.task.method import parse_method
     from mjx_radar.task.params import shape_key, task_params
