@@ -34,7 +34,7 @@ from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS
 from mjx_radar.viz.viewer_legend import hide_blocked_entry
-from mjx_radar.viz.viewer_los import visibility
+from mjx_radar.viz.viewer_los import has_occluders, visibility
 from mjx_radar.viz.viewer_traces import fixed_sites, layer_styles, static_traces
 from mjx_radar.viz.viewer_world import terrain_nodes
 
@@ -94,7 +94,7 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             fig.data[i].update(d)
     fig.data[first + 6].line.color = frames[0].data[6].line.color
     info = _info(rd, trials, trs, ks, samples, max_frames, box)
-    hide_blocked_entry(fig, rd.scenario)
+    hide_blocked_entry(fig, has_occluders(sc))
     title = f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
     controls = (trials, ids, metric_idx, sliders)
     stages.figure_layout(fig, f"{title} — shown: {info.dropped()}", box, zrange, controls, cols)
