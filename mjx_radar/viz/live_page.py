@@ -81,18 +81,7 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
             row=1,
             col=2,
         )
-    fig.add_trace(
-        go.Scatter(
-            x=[],
-            y=[],
-            mode="markers",
-            name="current step",
-            legendgroup="metrics",
-            marker={"size": 9, "color": "black"},
-        ),
-        row=1,
-        col=2,
-    )
+    fig.add_trace(counts.step_marker(), row=1, col=2)
     metrics = list(range(len(fig.data) - 3, len(fig.data)))
     if cols:
         for trace in [*counts.count_traces(cols), counts.cursor_trace()]:

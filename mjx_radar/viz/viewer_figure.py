@@ -92,7 +92,6 @@ def add_scene(fig, layers, tr0, k0, samples, box, cols):
         ``(first, anim, zrange)``: the first animated trace's index, the indices every
         frame updates, ``(zlow, ztop)`` with the terrain surface counted.
     """
-    import plotly.graph_objects as go
 
     lo, hi, ztop = box
     zlow = 0.0
@@ -111,15 +110,7 @@ def add_scene(fig, layers, tr0, k0, samples, box, cols):
         fig.add_trace(style | {k: v for k, v in data.items() if k != "line"})
     fig.add_trace(sample_legend(lo))
     anim = [*range(first, len(fig.data) - 1), len(fig.data)]  # the layers and the metrics marker
-    current = go.Scatter(
-        x=[],
-        y=[],
-        mode="markers",
-        name="current step",
-        legendgroup="metrics",
-        marker={"size": 9, "color": "black"},
-    )
-    fig.add_trace(current, row=1, col=2)
+    fig.add_trace(counts.step_marker(), row=1, col=2)
     if cols:
         anim.append(len(fig.data))
         fig.add_trace(counts.cursor_trace(), row=2, col=2)
