@@ -3,7 +3,7 @@
 The runner compiles one ``step`` program per shape: a ``lax.scan`` over control periods,
 each the MPPI plan then ``control_every`` filter steps. Issue 27 asked whether compiling
 the two stages of a control period (the planner's ``plan``, the environment's
-``transition``: :mod:`mjx_radar.env.closed_loop`) as separate programs,
+``transition``: :mod:`mjx_radar.loop.closed_loop`) as separate programs,
 in parallel threads, driven by a host loop per control period, starts faster without
 slowing the simulation by more than 10 %. This measures, for one scenario and program
 kind, on a fresh compilation cache (one process per configuration, so no stage inherits
@@ -37,8 +37,8 @@ def _build(scenario_path: str, kind: str, batch: int, periods: int):
     import jax.numpy as jnp
 
     from mjx_radar import precision
-    from mjx_radar.env import closed_loop
     from mjx_radar.env.streams import streams_of
+    from mjx_radar.loop import closed_loop
     from mjx_radar.scenario.reader import load_scenario
     from mjx_radar.task.method import parse_method
     from mjx_radar.task.params import shape_key, task_params

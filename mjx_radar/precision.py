@@ -11,7 +11,7 @@ StableHLO (and in the exported programs of the export cache), whatever
 
 Where it is pinned (one decorator, :func:`pinned`, on the entry points that trace):
 
-* ``env.closed_loop.init_carry`` and ``advance``: the whole closed loop
+* ``loop.closed_loop.init_carry`` and ``advance``: the whole closed loop
   (every program of ``engine.programs``, ``closed_loop.simulate``) at
   :data:`ESTIMATION`: CKF / filter-bank predict and update, PSD factorisations and
   solves, Fisher information, the PFIM / PCRLB recursion, NEES, the truth plant;

@@ -73,7 +73,9 @@ def test_planner_factor_is_the_table_at_the_whitened_density(tiny, ccr):
     task, params = build(s, "ccr-sfim" if ccr else "ddr-sfim", 0)
     d = np.array([150.0, 400.0, 900.0])
     pd = np.array([0.9, 0.5, 0.1], np.float32)
-    factor = jax.jit(lambda params, pd, d2: pda.planner_factor(task, params)(pd, d2))
+    factor = jax.jit(
+        lambda params, pd, d2: pda.planner_factor(s.detection, task.measurement, params)(pd, d2)
+    )
     got = np.asarray(factor(params, pd, (d**2).astype(np.float32)))  # one program
     c = float(params.noise.c)
     var = float(params.noise.sigma_r2) * np.ones(3) if ccr else c * d**4

@@ -12,8 +12,9 @@ import pytest
 
 import mjx_radar
 from mjx_radar.engine import runner
-from mjx_radar.env import Observation, RadarEnv, closed_loop, make
+from mjx_radar.env import Observation, RadarEnv, make
 from mjx_radar.env.streams import streams_of
+from mjx_radar.loop import closed_loop
 from mjx_radar.planners import PLANNERS, Planner, register_planner, unregister_planner
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params

@@ -35,6 +35,46 @@ def test_package_layout_is_clean():
     assert proc.stdout.strip().endswith("0 problems")
 
 
+def test_package_has_no_circle():
+    """No cycle between modules, imports inside functions counted (within a package too)."""
+    problems, summary = _checker().check(REPO / "mjx_radar")
+    assert [p for p in problems if "cycle" in p] == []
+    assert ", 0 circles," in summary
+
+
+def test_function_level_circle_is_reported(tmp_path):
+    pkg = _tree(
+        tmp_path,
+        {
+            "world/a.py": "from mjx_radar.world import b\n",
+            "world/b.py": "def f():\n    from mjx_radar.world import a\n    return a\n",
+        },
+    )
+    problems, summary = _checker().check(pkg)
+    assert problems == ["module cycle: mjx_radar.world.a <-> mjx_radar.world.b"]
+    assert ", 1 circles," in summary
+
+
+def test_long_function_is_reported(tmp_path):
+    body = "".join(f"    x{i} = {i}\n" for i in range(80))
+    pkg = _tree(tmp_path, {"world/a.py": f"def f():\n{body}", "world/b.py": "def g():\n    pass\n"})
+    problems, summary = _checker().check(pkg)
+    assert problems == ["world.a:f: 81 lines (> 80)"]
+    assert "1 functions over 80 lines" in summary
+
+
+def test_long_function_ceilings_only_shrink():
+    checker = _checker()
+    assert checker.function_problems({"a:f": 90}, {"a:f": 90}) == []
+    assert checker.function_problems({"a:f": 91}, {"a:f": 90}) == [
+        "a:f: 91 lines (> 90, its ceiling in LONG_FUNCTIONS)"
+    ]
+    assert checker.function_problems({}, {"a:f": 90}) == [
+        "a:f: fits 80 lines now; remove it from LONG_FUNCTIONS"
+    ]
+    assert all(n > checker.MAX_FUNCTION_LINES for n in checker.LONG_FUNCTIONS.values())
+
+
 def test_upward_import_is_reported(tmp_path):
     pkg = _tree(
         tmp_path,

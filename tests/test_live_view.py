@@ -299,7 +299,8 @@ def test_live_counts_panel_and_absent_drones():
     """clutter_3r4t with drone 1 leaving at 0.05 s: the live figure has the counts panel, a
     state's counts are the records' own, and the absent drone is not drawn (no closed loop:
     synthetic records, as the runner hands them over)."""
-    from mjx_radar.env.closed_loop import ControlRecord, StepRecord
+    from mjx_radar.env.records import StepRecord
+    from mjx_radar.planners.records import plan_record
 
     s = mjx_radar.load_scenario("clutter_3r4t").replace(
         target_motion=[{"target": 1, "model": "cv", "leave": 0.05}]
@@ -315,7 +316,7 @@ def test_live_counts_panel_and_absent_drones():
     steps = StepRecord(**{f: zero for f in StepRecord._fields} | count | dict(
         target=target, mean=target.reshape(t, p, 6 * m), radar=np.zeros((t, p, n, 6), np.float32),
         cov_diag=np.ones((t, p, 6 * m), np.float32)))  # fmt: skip
-    controls = ControlRecord(
+    controls = plan_record(
         np.zeros((t, 1, n, 2), np.float32),
         np.zeros((t, 1, h, n, 2), np.float32),
         np.zeros((t, 1, 2, h, n, 2), np.float32),

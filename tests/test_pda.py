@@ -111,10 +111,9 @@ def test_mixed_fleet_noise_per_radar_in_the_bank_and_the_planner_factor():
     want = bank(shared)
     np.testing.assert_allclose(got[0], want[0], rtol=1e-5)
     sc = SimpleNamespace(detection=SimpleNamespace(clutter=True, gate_probability=0.99))
-    task = SimpleNamespace(scenario=sc, measurement=RangeModel())
     det = SimpleNamespace(clutter_rate=5.0, clutter_min=0.0, clutter_max=1e3)
     for noise in (shared, mixed):
         params = SimpleNamespace(noise=noise, method=SimpleNamespace(ccr=False), detection=det)
-        factor = pda.planner_factor(task, params)
+        factor = pda.planner_factor(sc.detection, RangeModel(), params)
         q = jax.jit(factor)(jnp.full((4, n, 5), 0.9), jnp.full((4, n, 5), 1e4))
         assert q.shape == (4, n, 5) and bool(jnp.all(jnp.isfinite(q)))

@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.env import closed_loop
 from mjx_radar.estimation import ckf
+from mjx_radar.loop import closed_loop
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task import objective
 from mjx_radar.task.planner import make_planner

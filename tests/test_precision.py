@@ -19,8 +19,8 @@ import mjx_radar.ckf
 import mjx_radar.fisher
 from mjx_radar import precision
 from mjx_radar.engine import program_trace, programs
-from mjx_radar.env import closed_loop
 from mjx_radar.estimation import linalg
+from mjx_radar.loop import closed_loop
 from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task import objective
 from mjx_radar.task.method import parse_method

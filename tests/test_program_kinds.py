@@ -6,7 +6,7 @@ import jax
 import pytest
 
 from mjx_radar.engine import runner
-from mjx_radar.env import closed_loop
+from mjx_radar.loop import closed_loop
 from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task.method import METHODS, SWITCH, parse_method, runs, shared_programs
 from mjx_radar.task.params import shape_key, task_params

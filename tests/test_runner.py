@@ -213,7 +213,7 @@ def test_a_single_trial_run_is_the_plain_loop(tiny):
     ``jax.jit(closed_loop.simulate)`` of that trial bit for bit. A vmap of size one rounds
     otherwise in float32 (measured: estimates 3e-4 m apart after 40 steps of stationary
     radars, radars 2.1 m apart with MPPI), so a vmapped program fails this comparison."""
-    from mjx_radar.env import closed_loop
+    from mjx_radar.loop import closed_loop
     from mjx_radar.task.method import parse_method
     from mjx_radar.task.params import shape_key, task_params
     from mjx_radar.task.task import make_task

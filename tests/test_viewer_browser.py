@@ -185,7 +185,8 @@ def test_offline_html_slider_and_trial_menu(browser, run_dir, tmp_path):
 def _records(seg: int, t: int = 2, p: int = 4, m: int = 2, n: int = 2, h: int = 8, s: int = 8):
     """Synthetic ``(StepRecord, ControlRecord)`` of segment ``seg`` (numpy, ``[T, ...]``):
     drone j at x = k + 30 j, radar i at x = -50 + 60 i + k / 4 (k: filter step)."""
-    from mjx_radar.env.closed_loop import ControlRecord, StepRecord
+    from mjx_radar.env.records import StepRecord
+    from mjx_radar.planners.records import plan_record
 
     k = seg * p + np.arange(1, p + 1, dtype=np.float32)[None, :, None]
     target = np.zeros((t, p, m, 6), np.float32)
@@ -198,7 +199,7 @@ def _records(seg: int, t: int = 2, p: int = 4, m: int = 2, n: int = 2, h: int = 
         cov_diag=np.full((t, p, 6 * m), 4.0, np.float32), radar=radar, rmse_pos=zero + 2.0,
         crlb_pos=zero + 1.0))  # fmt: skip
     rng = np.random.default_rng(seg)
-    controls = ControlRecord(np.zeros((t, 1, n, 2), np.float32),
+    controls = plan_record(np.zeros((t, 1, n, 2), np.float32),
                              np.zeros((t, 1, h, n, 2), np.float32),
                              rng.normal(0, 5, (t, 1, s, h, n, 2)).astype(np.float32),
                              rng.uniform(0, 1, (t, 1, s)).astype(np.float32),

@@ -1,8 +1,9 @@
 """The one run use case under ``mjx-radar run`` and ``mjx_radar.simulate``.
 
 Both take the same options with the same defaults (:data:`RUN_DEFAULTS`), checked by
-the same code (:func:`request`: one line naming the option and its allowed range, a
-``ScenarioError``, before anything is compiled), and run through the same
+the same code (:func:`request`, its stages in :mod:`mjx_radar.api.run_checks`: one line
+naming the option and its allowed range, a ``ScenarioError``, before anything is
+compiled), and run through the same
 :func:`execute` (compilation cache, precision, memory check, then the runner, whose
 trials' initial conditions refuse radars that cannot be placed before the first step).
 The command line adds only what belongs to a terminal (``--out``, ``--force``,
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjx_radar.api import run_checks as checks
 from mjx_radar.io.checks import InputError, ScenarioError
 
 #: every option of a run and its default, for the command line and the API alike
@@ -40,8 +42,6 @@ RUN_DEFAULTS = {
     "masks": False,
 }
 MAX_TRIALS = 100_000
-PRECISIONS = ("float32", "float64")
-ROLLOUTS = ("mjx", "analytic")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,13 +122,6 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
     Raises:
         ScenarioError: one line naming the option and its allowed values.
     """
-    from mjx_radar.planners import PLANNERS
-    from mjx_radar.scenario.edit import validate
-    from mjx_radar.scenario.motion import check_present
-    from mjx_radar.scenario.reader import load_scenario
-    from mjx_radar.scenario.schema import Scenario
-    from mjx_radar.task.method import METHODS, Method, parse_method
-
     unknown = sorted(set(options) - set(RUN_DEFAULTS))
     if unknown:
         raise ScenarioError(f"{unknown[0]}: not an option of a run ({', '.join(RUN_DEFAULTS)})")
@@ -138,90 +131,24 @@ def request(scenario, *, cli: bool = False, **options) -> RunRequest:
         return f"--{name.replace('_', '-')}" if cli else name
 
     load_plugins(o["plugins"])
-    if not isinstance(scenario, str | os.PathLike | Scenario):
-        raise ScenarioError(
-            f"scenario = {scenario!r:.60}: must be a Scenario, a bundled scenario name or a "
-            f"TOML path, not {type(scenario).__name__}"
-        )
-    s = validate(load_scenario(scenario) if not isinstance(scenario, Scenario) else scenario)
-    if o["rollouts"] is not None:
-        if o["rollouts"] not in ROLLOUTS:
-            raise ScenarioError(
-                f"{label('rollouts')} = {o['rollouts']!r}: must be one of mjx, analytic"
-            )
-        s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=o["rollouts"]))
-    if o["association"] is not None:  # the [tracker] table's rules and messages
-        try:
-            s = s.replace(tracker={"association": o["association"]})
-        except ScenarioError as err:
-            raise ScenarioError(f"{label('association')}: {err}") from None
-    s = _with_metrics(s, o, label)
-    name = o["method"].strip() if isinstance(o["method"], str) else o["method"]
-    if isinstance(name, str):
-        base, plus, own = name.partition("+")
-        name = base.lower() + plus + own
-    if not isinstance(name, Method) and (
-        not isinstance(name, str) or name.partition("+")[0] not in METHODS
-    ):
-        raise ScenarioError(
-            f"{label('method')} = {o['method']!r}: must be one of {', '.join(METHODS)}"
-            " (or METHOD+PLANNER)"
-        )
-    try:
-        method = parse_method(name, o["planner"])
-        PLANNERS.get(method.planner)
-        PLANNERS.key((method.planner,))  # "policy:DIR": DIR checked before compiling
-    except ValueError as err:
-        raise ScenarioError(str(err)) from None
+    s = checks.scenario_of(scenario, o, label)
+    method = checks.method_of(o, label)
     ids = trial_ids(o["trials"])
-    steps = s.timing.steps if o["steps"] is None else o["steps"]
-    if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps < 1:
-        raise ScenarioError(f"{label('steps')} = {steps!r}: must be an integer >= 1")
-    if steps % s.timing.control_every:
-        raise ScenarioError(
-            f"{label('steps')} = {steps}: must be a multiple of dt_control/dt_filter = "
-            f"{s.timing.control_every} (scenario {s.name})"
-        )
-    check_present(s, int(steps), label("steps"))
-    seed = s.seed if o["seed"] is None else o["seed"]
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**31:
-        raise ScenarioError(f"{label('seed')} = {seed!r}: must be an integer in [0, 2^31 - 1]")
-    if o["precision"] not in PRECISIONS:
-        raise ScenarioError(
-            f"{label('precision')} = {o['precision']!r}: must be one of float32, float64"
-        )
-    for flag in ("cache", "masks"):
-        if not isinstance(o[flag], bool):
-            raise ScenarioError(f"{label(flag)} = {o[flag]!r}: must be True or False")
-    if o["deterministic"] is not None and not isinstance(o["deterministic"], bool):
-        raise ScenarioError(
-            f"{label('deterministic')} = {o['deterministic']!r}: must be True, False or None"
-        )
+    steps, seed = checks.steps_and_seed(s, o, label)
+    checks.check_flags(o, label)
     cache_dir = None if o["cache_dir"] is None else str(o["cache_dir"])
     return RunRequest(
         s,
         method,
         ids,
-        int(steps),
-        int(seed),
+        steps,
+        seed,
         o["precision"],
         o["deterministic"],
         o["cache"],
         cache_dir,
         o["masks"],
     )
-
-
-def _with_metrics(s, o: dict, label):
-    """``s`` with the run's GOSPA cutoff / order, checked by the ``[metrics]`` rules."""
-    given = {k: o[k] for k in ("gospa_cutoff", "gospa_order") if o[k] is not None}
-    try:
-        return s.replace(metrics=given) if given else s
-    except ScenarioError as err:
-        msg = str(err)
-        for k in given:
-            msg = msg.replace(f"metrics.{k}", label(k))
-        raise ScenarioError(msg) from None
 
 
 def process_options(req: RunRequest) -> bool:

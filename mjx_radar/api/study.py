@@ -111,62 +111,20 @@ def run_study(
         ...                             trials=4, chunk=2, out="studies/s")  # doctest: +SKIP
         >>> study.summary()[["scenario", "method", "median_rmse_pos"]]  # doctest: +SKIP
     """
-    from mjx_radar.scenario.edit import validate
+    from mjx_radar.api.run_case import load_plugins
     from mjx_radar.study import execute
-    from mjx_radar.task.method import METHODS, normalise_methods
 
     if out is None:
         raise ScenarioError("out: the study directory is required")
-    items = (
-        [scenarios]
-        if isinstance(scenarios, str | Path) or hasattr(scenarios, "name")
-        else list(scenarios)
-    )
-    if not items:
-        raise ScenarioError("scenarios: must name at least one scenario")
-    for name, value, hi in (("trials", trials, 10**6), ("chunk", chunk, 10**6)):
-        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= hi:
-            raise ScenarioError(f"{name} = {value!r}: must be an integer in [1, {hi}]")
-    for name, value, lo, hi in (("steps", steps, 1, 10**7), ("seed", seed, 0, 2**31 - 1)):
-        if value is not None and (
-            isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi
-        ):
-            raise ScenarioError(f"{name} = {value!r}: must be an integer in [{lo}, {hi}] or None")
-    if deterministic is not None and not isinstance(deterministic, bool):
-        raise ScenarioError(f"deterministic = {deterministic!r}: must be True, False or None")
-    from mjx_radar.api.run_case import load_plugins
-    from mjx_radar.task.method import with_planners
-
+    items = _items(scenarios)
+    _check_numbers(trials, chunk, steps, seed, deterministic)
     load_plugins(plugins)
-    from mjx_radar.planners import PLANNERS
-
-    try:
-        methods = normalise_methods(
-            list(METHODS) if methods is None else _listed(methods, "methods")
-        )
-        if planners is not None:
-            planners = _listed(planners, "planners")
-            if not planners:
-                raise ValueError("planners: empty list; give one or more planner names")
-            for name in planners:
-                PLANNERS.get(name)
-            methods = with_planners(methods, planners)
-    except ValueError as err:
-        raise ScenarioError(str(err)) from None
+    methods = _methods(methods, planners)
     if rollouts not in (None, "mjx", "analytic"):
         raise ScenarioError(f"rollouts = {rollouts!r}: must be one of mjx, analytic")
     with tempfile.TemporaryDirectory(prefix="mjx_radar_study_") as tmp:
-        files = []
-        for item in items:
-            if isinstance(item, str | Path):
-                files.append(str(item))
-            else:  # a Scenario made in Python: validated, then a TOML file like any other
-                s = validate(item)
-                path = Path(tmp) / f"{s.name}.toml"
-                s.to_toml(path)
-                files.append(str(path))
         opts = execute.StudyOptions(
-            scenarios=files,
+            scenarios=_scenario_files(items, Path(tmp)),
             methods=methods,
             trials=trials,
             steps=steps,
@@ -181,6 +139,70 @@ def run_study(
         )
         execute.run_study(opts)
     return Study.load(out)
+
+
+def _items(scenarios) -> list:
+    """The scenarios as a list (a single one may be given alone); at least one."""
+    items = (
+        [scenarios]
+        if isinstance(scenarios, str | Path) or hasattr(scenarios, "name")
+        else list(scenarios)
+    )
+    if not items:
+        raise ScenarioError("scenarios: must name at least one scenario")
+    return items
+
+
+def _check_numbers(trials, chunk, steps, seed, deterministic) -> None:
+    """``trials``, ``chunk``, ``steps``, ``seed`` and ``deterministic`` in range (one line)."""
+    for name, value, hi in (("trials", trials, 10**6), ("chunk", chunk, 10**6)):
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= hi:
+            raise ScenarioError(f"{name} = {value!r}: must be an integer in [1, {hi}]")
+    for name, value, lo, hi in (("steps", steps, 1, 10**7), ("seed", seed, 0, 2**31 - 1)):
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi
+        ):
+            raise ScenarioError(f"{name} = {value!r}: must be an integer in [{lo}, {hi}] or None")
+    if deterministic is not None and not isinstance(deterministic, bool):
+        raise ScenarioError(f"deterministic = {deterministic!r}: must be True, False or None")
+
+
+def _methods(methods, planners) -> list:
+    """The study's method names: ``methods`` (default all) normalised, each planning one
+    with each of ``planners`` (``METHOD+PLANNER``); ``ScenarioError`` for a bad name."""
+    from mjx_radar.planners import PLANNERS
+    from mjx_radar.task.method import METHODS, normalise_methods, with_planners
+
+    try:
+        methods = normalise_methods(
+            list(METHODS) if methods is None else _listed(methods, "methods")
+        )
+        if planners is not None:
+            planners = _listed(planners, "planners")
+            if not planners:
+                raise ValueError("planners: empty list; give one or more planner names")
+            for name in planners:
+                PLANNERS.get(name)
+            methods = with_planners(methods, planners)
+    except ValueError as err:
+        raise ScenarioError(str(err)) from None
+    return methods
+
+
+def _scenario_files(items, tmp: Path) -> list[str]:
+    """The scenarios as TOML paths; one made in Python validated, then written to ``tmp``."""
+    from mjx_radar.scenario.edit import validate
+
+    files = []
+    for item in items:
+        if isinstance(item, str | Path):
+            files.append(str(item))
+        else:  # a Scenario made in Python: validated, then a TOML file like any other
+            s = validate(item)
+            path = tmp / f"{s.name}.toml"
+            s.to_toml(path)
+            files.append(str(path))
+    return files
 
 
 def _listed(value, field: str) -> list:

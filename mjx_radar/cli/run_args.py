@@ -10,6 +10,13 @@ from mjx_radar.task.method import METHODS
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Adds the options of ``mjx-radar run`` to ``p`` (in ``--help`` order)."""
+    add_run_arguments(p)
+    add_output_arguments(p)
+
+
+def add_run_arguments(p: argparse.ArgumentParser) -> None:
+    """What to run: scenario, method, planner, plug-ins, seed, steps, trials, out, rollouts."""
     p.add_argument("scenario", help="scenario TOML file (or bundled name, e.g. smoke)")
     p.add_argument(
         "--method",
@@ -54,6 +61,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="planner rollouts: MJX physics (scenario default) or closed-form kinematics",
     )
+
+
+def add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """Association, what to record and show, metrics settings, overwrite, verbosity."""
     p.add_argument(
         "--association",
         default=None,

@@ -42,6 +42,19 @@ def _algorithm(name: str, population: int, dim: int, dtype):
     return cls(population_size=population, solution=jnp.zeros(dim, dtype))
 
 
+def _box(mean, lower, upper, std):
+    """``(u0, lower, upper, scale)``, each ``[H, D]``: the warm start clipped to the box,
+    the bounds, the unit of the search (``std``, 1 where it is 0)."""
+    u0 = jnp.asarray(mean)
+    h, d = u0.shape
+    dtype = u0.dtype
+    lower = jnp.broadcast_to(jnp.asarray(lower, dtype), (h, d))
+    upper = jnp.broadcast_to(jnp.asarray(upper, dtype), (h, d))
+    u0 = jnp.clip(u0, lower, upper)
+    scale = jnp.broadcast_to(jnp.where(jnp.asarray(std, dtype) > 0, std, 1.0), (h, d))
+    return u0, lower, upper, scale
+
+
 def evolve(
     cost_fn: Callable,
     mean: jax.Array,
@@ -75,13 +88,8 @@ def evolve(
         raise ValueError(f"evolve: algorithm = {algorithm!r} must be one of {ALGORITHMS}")
     if samples < 4:
         raise ValueError(f"evolve: samples = {samples} must be >= 4")
-    u0 = jnp.asarray(mean)
-    h, d = u0.shape
-    dtype = u0.dtype
-    lower = jnp.broadcast_to(jnp.asarray(lower, dtype), (h, d))
-    upper = jnp.broadcast_to(jnp.asarray(upper, dtype), (h, d))
-    u0 = jnp.clip(u0, lower, upper)
-    scale = jnp.broadcast_to(jnp.where(jnp.asarray(std, dtype) > 0, std, 1.0), (h, d))
+    u0, lower, upper, scale = _box(mean, lower, upper, std)
+    (h, d), dtype = u0.shape, u0.dtype
     es = _algorithm(algorithm, samples, h * d, dtype)
     params = es.default_params.replace(std_init=jnp.asarray(std_init, dtype))
     batched = jax.vmap(cost_fn)
@@ -105,8 +113,7 @@ def evolve(
         u, outside = to_u(z)
         costs, aux = batched(u)
         costs = jnp.asarray(costs, dtype).reshape(samples)
-        big = jnp.finfo(dtype).max / 4
-        scored = jnp.where(jnp.isfinite(costs), costs, big)
+        scored = jnp.where(jnp.isfinite(costs), costs, jnp.finfo(dtype).max / 4)
         state, _ = es.tell(k_tell, z, scored + weight * outside, state, params)
         i = jnp.argmin(scored)  # the best is judged on the cost alone (u is in the box)
         better = scored[i] < best_cost

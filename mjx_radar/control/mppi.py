@@ -97,6 +97,15 @@ def sample_weights(costs: Array, cfg: MPPIConfig) -> Array:
     return jnp.where(total > 0, w / jnp.where(total > 0, total, 1.0), fallback)
 
 
+def _estimator(cfg: MPPIConfig):
+    """The covariance estimator of ``cfg.shrinkage``; ``ValueError`` for a bad config."""
+    if cfg.iterations < 1 or cfg.samples < 1:
+        raise ValueError("MPPIConfig.iterations and .samples must be >= 1")
+    if cfg.shrinkage not in ESTIMATORS:
+        raise ValueError(f"unknown MPPI shrinkage {cfg.shrinkage!r}")
+    return ESTIMATORS[cfg.shrinkage]
+
+
 def optimize(
     cost_fn: CostFn,
     mean: Array,
@@ -123,11 +132,7 @@ def optimize(
     Returns:
         :class:`MPPIResult` of the last sub-iteration.
     """
-    if cfg.iterations < 1 or cfg.samples < 1:
-        raise ValueError("MPPIConfig.iterations and .samples must be >= 1")
-    if cfg.shrinkage not in ESTIMATORS:
-        raise ValueError(f"unknown MPPI shrinkage {cfg.shrinkage!r}")
-    estimator = ESTIMATORS[cfg.shrinkage]
+    estimator = _estimator(cfg)
     mean = jnp.asarray(mean)
     if not jnp.issubdtype(mean.dtype, jnp.floating):
         mean = mean.astype(jnp.result_type(float))

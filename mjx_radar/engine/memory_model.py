@@ -70,7 +70,7 @@ import functools
 from mjx_radar.engine.memory_model_gpu import device_peak, gpu_terms  # noqa: F401
 from mjx_radar.scenario.schema import Scenario
 
-KEEP = 32  # MPPI samples kept per control step (closed_loop.N_KEEP_SAMPLES)
+KEEP = 32  # MPPI samples kept per control step (planners.records.N_KEEP_SAMPLES)
 #: numbers per line-of-sight test kept at once, {(platform, kind "all"): numbers}: a
 #: program of one information kind computes them apart from the objective's arrays on
 #: the CPU (none kept); one that joins both under ``lax.cond`` keeps them

@@ -1,7 +1,7 @@
 """Tracing a shape's two closed-loop programs (:mod:`mjx_radar.engine.programs`).
 
-:func:`flat_programs` wraps :func:`mjx_radar.env.closed_loop.init_carry` and
-:func:`~mjx_radar.env.closed_loop.advance` into the flat (arrays only), vmapped,
+:func:`flat_programs` wraps :func:`mjx_radar.loop.closed_loop.init_carry` and
+:func:`~mjx_radar.loop.closed_loop.advance` into the flat (arrays only), vmapped,
 shard_mapped and jitted ``init`` and ``step``; :func:`trace` traces them for one batch
 and mesh into :mod:`jax.export` form (or lowers them where they cannot be exported).
 Imported only when a program is traced: a warm start (export cache) imports no MJX.
@@ -27,7 +27,8 @@ from jax.sharding import Mesh, NamedSharding
 
 from mjx_radar.engine import export_cache
 from mjx_radar.engine.export_cache import SPLIT, WHOLE
-from mjx_radar.env import closed_loop, records
+from mjx_radar.env import records
+from mjx_radar.loop import closed_loop
 from mjx_radar.rundir import results
 from mjx_radar.task.task import make_task
 

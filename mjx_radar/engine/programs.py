@@ -1,6 +1,6 @@
 """The compiled programs of a scenario shape: built, compiled ahead of time, cached.
 
-Two programs advance a batch of trials (:mod:`mjx_radar.env.closed_loop`,
+Two programs advance a batch of trials (:mod:`mjx_radar.loop.closed_loop`,
 vmapped over trials; the runner compiles them for a one-device mesh per device and
 drives each device from its own thread), per scenario shape and *program kind* (what
 is compiled of the planner: :data:`mjx_radar.task.method.PROGRAM_KINDS`):
@@ -39,6 +39,7 @@ from mjx_radar.engine import compile_cache, executable_cache, export_cache, trac
 from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.engine.live_programs import LiveCache
 from mjx_radar.env import records
+from mjx_radar.planners import records as plan_records
 from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
 from mjx_radar.task import costs
@@ -73,7 +74,7 @@ def record_template(full: bool, masks: bool = False):
         steps = records.StepRecord(*[0] * len(records.StepRecord._fields))
         if not masks:
             steps = steps._replace(**dict.fromkeys(records.MASK_FIELDS))
-        return steps, records.ControlRecord(*[0] * len(records.ControlRecord._fields))
+        return steps, plan_records.TEMPLATE
     return {k: 0 for k in results.LOOP_COLUMNS + records.SET_KEYS}, None
 
 

@@ -48,7 +48,7 @@ from mjx_radar.engine.memory_model import FLOAT, MEASURED_FACTOR, float_bytes  #
 from mjx_radar.errors import InputError
 from mjx_radar.scenario.schema import Scenario
 
-KEEP = 32  # MPPI samples kept per control step (closed_loop.N_KEEP_SAMPLES)
+KEEP = 32  # MPPI samples kept per control step (planners.records.N_KEEP_SAMPLES)
 LARGE_N, LARGE_M, LARGE_NM, LARGE_OBSTACLES = 64, 64, 1024, 256
 
 

@@ -39,6 +39,7 @@ from mjx_radar.engine.programs import (
 )
 from mjx_radar.engine.threads import parallel
 from mjx_radar.env.placement import placement_error
+from mjx_radar.env.records import control_arrays
 from mjx_radar.errors import InputError
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.task.method import parse_method, runs
@@ -155,13 +156,33 @@ def run_trials(
             XLA ran out of memory compiling or running the programs (one line naming
             the batch and what to reduce, :func:`~mjx_radar.engine.oom.oom_line`).
     """
-    every = scenario.timing.control_every
     method, args = _program_args(
         scenario, method, trials, steps, full, periods, mesh, masks, program
     )
     params = task_params(scenario, method, seed)
-    trials = np.asarray(trials, np.int32)
-    periods, devices = args[2], args[4]
+    progs, compile_s = _programs(args, programs, phase)
+    t0 = time.perf_counter()
+    batches, placed = _batches(scenario, progs, params, np.asarray(trials, np.int32))
+    template = record_template(full, masks)
+    every, periods = scenario.timing.control_every, args[2]
+    report = (progress, on_segment, periods * every)
+    chunks = _run_segments(batches, len(range(0, steps // every, periods)), template, report)
+    res = _gather(template, chunks, full) | {"placement_ok": placed}
+    sim_s = time.perf_counter() - t0
+    if sets:
+        res |= set_metrics(scenario, res, full)
+    return res | _timing(compile_s, sim_s, steps // every)
+
+
+def _timing(compile_s: float, sim_s: float, periods: int) -> dict:
+    """A run's seconds and control periods per second of the simulation."""
+    times = {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
+    return times | {"control_hz": periods / sim_s}
+
+
+def _programs(args: tuple, programs: PendingPrograms | None, phase) -> tuple[list, float]:
+    """``(per-device programs, compile seconds)``: ``programs`` if started for ``args``,
+    else made now (0 s when every one came from a cache); ``phase`` told."""
     if phase:
         phase("compiling")
     t0 = time.perf_counter()
@@ -172,16 +193,26 @@ def run_trials(
     compile_s = 0.0 if all(s == 0.0 for _, s in progs) else compile_s
     if phase:
         phase("simulating")
-    t0 = time.perf_counter()
-    # The same single-device program on each device's slice of the trials, each device
-    # driven from its own thread, its segments read one segment late (engine.device_lane).
+    return progs, compile_s
+
+
+def _batches(scenario, progs, params, trials) -> tuple[list[DeviceBatch], np.ndarray]:
+    """Each device's batch of the trials (its slice, its own thread, its segments read one
+    segment late: engine.device_lane) and ``placement_ok`` [T]; ``InputError`` before any
+    step if a trial cannot place its radars."""
     leaves = jax.tree.leaves(params)
-    slices = np.split(trials, len(devices))
+    slices = np.split(trials, len(progs))
     batches = [DeviceBatch(prog, leaves, ids) for (prog, _), ids in zip(progs, slices, strict=True)]
     placed = np.concatenate([b.placed() for b in batches])
     if not placed.all():  # refused before any step: nothing written
         raise InputError(placement_error(scenario, int(trials[np.argmin(placed)])))
-    template = record_template(full, masks)
+    return batches, placed
+
+
+def _run_segments(batches, n_segments: int, template, report) -> list:
+    """Runs the segments; each segment's records of every device, concatenated in order,
+    unflattened as ``template`` (``report``: progress, on_segment, filter steps a segment)."""
+    progress, on_segment, seg_steps = report
     structure = jax.tree.structure(template)
     chunks = []
 
@@ -189,11 +220,16 @@ def run_trials(
         records = [np.concatenate(x, axis=0) for x in zip(*parts, strict=True)]
         chunks.append(jax.tree.unflatten(structure, records))
         if progress is not None:
-            progress(periods * every)
+            progress(seg_steps)
         if on_segment is not None:
-            on_segment((k + 1) * periods * every, chunks[-1])
+            on_segment((k + 1) * seg_steps, chunks[-1])
 
-    run_batches(batches, len(range(0, steps // every, periods)), segment)
+    run_batches(batches, n_segments, segment)
+    return chunks
+
+
+def _gather(template, chunks: list, full: bool) -> dict:
+    """The segments' records joined along time: ``{field: [T, K or C, ...]}``."""
     res: dict = {}
     steps_t, controls_t = template
     for k in steps_t._fields if full else steps_t:
@@ -201,14 +237,8 @@ def run_trials(
             continue
         res[k] = np.concatenate([_get(c[0], k) for c in chunks], axis=1)
     if full:
-        for k in controls_t._fields:
-            res[k] = np.concatenate([getattr(c[1], k) for c in chunks], axis=1)
-    res["placement_ok"] = placed
-    sim_s = time.perf_counter() - t0
-    if sets:
-        res |= set_metrics(scenario, res, full)
-    res |= {"compile_s": compile_s, "sim_s": sim_s, "wall_s": compile_s + sim_s}
-    res["control_hz"] = (steps // every) / sim_s
+        for k in control_arrays(controls_t):
+            res[k] = np.concatenate([control_arrays(c[1])[k] for c in chunks], axis=1)
     return res
 
 

@@ -16,7 +16,7 @@ _LAZY = {
     "make": "mjx_radar.env.environment",
     "LoopState": "mjx_radar.env.state",
     "State": "mjx_radar.env.state",
-    "Observation": "mjx_radar.planners.base",
+    "Observation": "mjx_radar.env.state",
 }
 
 __all__ = sorted(_LAZY)

@@ -27,12 +27,11 @@ import numpy as np
 from mjx_radar import precision
 from mjx_radar.env import filter_ops, inputs, placement, presence, track_health
 from mjx_radar.env.period import make_filter_step
-from mjx_radar.env.state import LoopState, State
+from mjx_radar.env.state import LoopState, Observation, State
 from mjx_radar.env.streams import streams_of, trial_key
 from mjx_radar.estimation import ckf_sqrt, linalg
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.physics import plant as physics
-from mjx_radar.planners.base import Observation
 from mjx_radar.task import objective
 from mjx_radar.task.planner import control_box
 

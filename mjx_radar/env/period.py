@@ -70,32 +70,15 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         modes_p = tracker.begin(modes_p, mean, cov, k)  # the IMM's modes of appearing targets
         obs = scan.observe(sc.detection, params, key, k, radars[:, :3], truth[:, :3], z, vis)
         post = tracker.update(mean, cov, modes_p, z, radars[:, :3], obs, vis)
-        # A diverged misspecified filter (CCR noise model) can overflow float32 in the
-        # update; keep the prediction then (or, if that overflowed too, the last
-        # estimate), so no NaN ever propagates (SPEC §4). The detector flags the trial.
-        finite = lambda a, b: jnp.all(jnp.isfinite(a)) & jnp.all(jnp.isfinite(b))  # noqa: E731
-        ok_pred, ok = finite(mean, cov), finite(*post[:2])
-        blown = ~(ok_pred & ok)
-        modes = filter_ops.keep(ok_pred, ok, post[2], modes_p, modes0)
-        mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
-        mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
-        if tracker.tracks is None:  # the joint estimate, indexed like the truth
-            track_pos, track_exist = mean.reshape(m, 6)[:, :3], here
-        else:  # a track table: metrics on its confirmed tracks assigned to the drones
-            view = tracker.tracks(modes)
-            track_pos, track_exist = view.mean[:, :3], view.exist
-            mean, cov = managed.truth_view(truth, here, view, params.p0)
+        mean, cov, modes, blown = finite_update((mean0, cov0, modes0), (mean, cov, modes_p), post)
+        (track_pos, track_exist), (mean, cov) = tracks_of(
+            tracker, modes, (mean, cov), truth, here, params.p0
+        )
         cov_p = filt.cov(cov)  # P for the detector, metrics and records (S Sᵀ for "sqrt")
         truth_h = presence.health_truth(truth, mean, here)  # absent targets: no error
         health, flags_h = track_health.step_health(health, truth_h, mean, cov_p, dt)
         diverged = flags_h.diverged | blown
-        # PFIM along the true trajectory with the true (DDR) model: the PCRLB.
-        j3 = measurement.information_dense(
-            model, radars[:, :3], truth[:, :3], noise, jnp.asarray(False), mask=obs.seen
-        )
-        jd = fisher.data_information(j3)
-        pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, task.a6_filter, w6, jd)
-        bound = jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)  # [M]
+        pfim, bound = pcrlb_step(model, radars, truth, noise, obs.seen, pfim, (task.a6_filter, w6))
         everyone = None if motion is None else here
         crlb, rmse_pos, rmse_state, nees = presence.metrics(bound, truth, mean, cov_p, everyone)
         seen = jnp.ones((n, m), bool) if obs.seen is None else obs.seen
@@ -124,3 +107,52 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         return type(loop)(data, mean, cov, pfim, health, modes), (rec, seen)
 
     return filter_step
+
+
+def finite_update(before, predicted, post):
+    """``(mean, cov, modes, blown)``: the update where it is finite.
+
+    A diverged misspecified filter (CCR noise model) can overflow float32 in the update;
+    keep the prediction then (or, if that overflowed too, the last estimate), so no NaN
+    ever propagates (SPEC §4). ``blown`` flags the step (the detector flags the trial).
+
+    Args:
+        before: ``(mean, cov, modes)`` of the last step.
+        predicted: ``(mean, cov, modes)`` of the prediction.
+        post: ``(mean, cov, modes, ...)`` of the tracker's update.
+    """
+    (mean0, cov0, modes0), (mean, cov, modes_p) = before, predicted
+    finite = lambda a, b: jnp.all(jnp.isfinite(a)) & jnp.all(jnp.isfinite(b))  # noqa: E731
+    ok_pred, ok = finite(mean, cov), finite(*post[:2])
+    blown = ~(ok_pred & ok)
+    modes = filter_ops.keep(ok_pred, ok, post[2], modes_p, modes0)
+    mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
+    mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
+    return mean, cov, modes, blown
+
+
+def tracks_of(tracker, modes, estimate, truth, here, p0):
+    """``((track_pos [K, 3], track_exist [K]), (mean, cov))`` of the step's estimate.
+
+    The joint estimate is indexed like the truth (K = M, existing where present); a track
+    table's metrics use its confirmed tracks assigned to the drones
+    (:func:`~mjx_radar.env.managed.truth_view`).
+    """
+    mean, cov = estimate
+    if tracker.tracks is None:  # the joint estimate, indexed like the truth
+        return (mean.reshape(truth.shape[0], 6)[:, :3], here), (mean, cov)
+    view = tracker.tracks(modes)
+    return (view.mean[:, :3], view.exist), managed.truth_view(truth, here, view, p0)
+
+
+def pcrlb_step(model, radars, truth, noise, seen, pfim, process):
+    """``(pfim, bound [M])``: the PFIM along the true trajectory with the true (DDR) model,
+    one step (``process``: ``(A, W)`` of the filter step), and the PCRLB's position trace."""
+    j3 = measurement.information_dense(
+        model, radars[:, :3], truth[:, :3], noise, jnp.asarray(False), mask=seen
+    )
+    jd = fisher.data_information(j3)
+    a6, w6 = process
+    pfim = jax.vmap(fisher.pfim_step, (0, None, None, 0))(pfim, a6, w6, jd)
+    bound = jnp.trace(linalg.psd_inv(pfim)[:, :3, :3], axis1=-2, axis2=-1)  # [M]
+    return pfim, bound

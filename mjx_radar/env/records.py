@@ -1,21 +1,42 @@
 """What the closed loop records per filter step and per control step (host-side shapes).
 
-Kept apart from :mod:`~mjx_radar.env.closed_loop` so that code which only reads
+Kept apart from the loop (:mod:`mjx_radar.loop.closed_loop`) so that code which only reads
 the records (the runner, results, the live view) does not import the loop, and with it
 MJX: a warm start from the export cache never traces the loop.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax
 
-from mjx_radar.planners.base import (  # noqa: F401 (re-exported)
-    N_KEEP_SAMPLES,
-    ControlRecord,
-    kept_samples,
-)
+
+class ControlRecord(NamedTuple):
+    """What a control step records (leading axis: control steps, after a scan).
+
+    Attributes:
+        control: ``[N, 2]`` the applied control (clipped to the action bounds).
+        plan_xy: ``[H, N, 2]`` the planned radar positions (zeros for a planner that
+            shows none).
+        plan: the planner's own record of its plan, a pytree of arrays (the built-in
+            planners: :class:`mjx_radar.planners.records.SampleRecord`).
+    """
+
+    control: jax.Array
+    plan_xy: jax.Array
+    plan: Any = ()
+
+
+def control_arrays(record) -> dict:
+    """A :class:`ControlRecord`'s arrays by name, the planner's record's fields flattened in.
+
+    ``{"control": ..., "plan_xy": ..., **plan fields}`` (the names of the run files);
+    ``plan`` a named tuple, a dict or ``()``.
+    """
+    plan = record.plan
+    extra = plan._asdict() if hasattr(plan, "_asdict") else dict(plan or {})
+    return {"control": record.control, "plan_xy": record.plan_xy, **extra}
 
 
 class StepRecord(NamedTuple):

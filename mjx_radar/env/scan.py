@@ -1,6 +1,6 @@
 """One scan's detections and false alarms, and the PDA update of the bank (issue 23).
 
-The closed loop (:mod:`mjx_radar.env.closed_loop`) asks :func:`observe` what the
+The closed loop (:mod:`mjx_radar.loop.closed_loop`) asks :func:`observe` what the
 radars report at filter step k: with a Pd model each visible pair is detected with its
 Pd (:mod:`mjx_radar.estimation.detection`), with clutter every radar's scan is the
 fixed buffer of its detected returns and its false alarms

@@ -259,20 +259,20 @@ def irf(table, pd, lam_w):
     )
 
 
-def planner_factor(task, params):
+def planner_factor(det, model, params):
     """``factor(pd, d2) -> q`` for :func:`detection.planner_weights` with clutter, else None.
+
+    ``det`` is the ``[detection]`` table, ``model`` the measurement model.
 
     The whitened clutter density of a pair at squared range ``d2`` is
     ``λ_w = λ √det R(d)`` with R the filter's noise at that range (DDR or CCR, the
     method's flag), so clutter costs more information where the noise is larger.
     """
-    sc = task.scenario
-    if not sc.detection.clutter:
+    if not det.clutter:
         return None
     from mjx_radar.estimation import clutter
 
-    model = task.measurement
-    table = irf_table(model.dim, float(sc.detection.gate_probability))
+    table = irf_table(model.dim, float(det.gate_probability))
     lam = clutter.density(params.detection, model.dim)
     # a mixed fleet's [N] constants broadcast over the pairs' [..., N, K, dim]
     noise = NoiseParams(*(a if jnp.ndim(a) == 0 else a[:, None, None] for a in params.noise))

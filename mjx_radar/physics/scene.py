@@ -42,10 +42,15 @@ import mujoco
 import numpy as np
 
 from mjx_radar.physics import moving_bodies as mb
+from mjx_radar.physics.scene_world import (  # noqa: F401 (re-exported)
+    CONTACT_SOLIMP,
+    add_ground,
+    add_obstacle,
+    add_terrain,
+)
 from mjx_radar.scenario.schema import Obstacle
 
 RADAR_ACTUATORS = ("speed", "turn", "drive", "lateral", "steer")
-CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 SOLVER_ITERATIONS = 4  # Newton iterations (one or two contacts per radar converge fast)
 DRONE_ACTUATORS = ("vx", "vy", "vz", "sx", "sy", "sz")
 
@@ -84,47 +89,6 @@ def _model_xml(name: str) -> str:
         return (Path(__file__).resolve().parents[2] / "models" / name).read_text()
 
 
-def _add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:
-    """Adds one static obstacle geom to the world body."""
-    half_yaw = 0.5 * obs.yaw
-    quat = [np.cos(half_yaw), 0.0, 0.0, np.sin(half_yaw)]
-    common = dict(
-        name=f"obstacle{i}",
-        pos=list(obs.pos),
-        quat=quat,
-        contype=1,
-        conaffinity=2,
-        condim=1,
-        solimp=list(CONTACT_SOLIMP),
-    )
-    rgba = [0.55, 0.45, 0.35, 1.0]
-    if obs.kind == "box":
-        spec.worldbody.add_geom(
-            type=mujoco.mjtGeom.mjGEOM_BOX, size=list(obs.size), rgba=rgba, **common
-        )
-    elif obs.kind == "cylinder":
-        spec.worldbody.add_geom(
-            type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-            size=[obs.size[0], obs.size[1], 0.0],
-            rgba=[0.2, 0.45, 0.2, 1.0],
-            **common,
-        )
-    elif obs.kind == "mesh":
-        import trimesh  # host-side, only when meshes are used
-
-        mesh = trimesh.load(obs.path, force="mesh")
-        spec.add_mesh(
-            name=f"obstacle_mesh{i}",
-            uservert=(np.asarray(mesh.vertices) * obs.scale).ravel().tolist(),
-            userface=np.asarray(mesh.faces).ravel().tolist(),
-        )
-        spec.worldbody.add_geom(
-            type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"obstacle_mesh{i}", rgba=rgba, **common
-        )
-    else:
-        raise ValueError(f"obstacle.kind: {obs.kind!r} is not one of box, cylinder, mesh")
-
-
 def build_scene(
     n_radars: int,
     n_drones: int,
@@ -152,37 +116,8 @@ def build_scene(
     Returns:
         The compiled ``MjModel`` (servo gains set) and its :class:`SceneIndex`.
     """
-    if n_radars < 1:
-        raise ValueError(f"n_radars: {n_radars} is not allowed; need at least 1 radar")
-    if n_drones < 0:
-        raise ValueError(f"n_drones: {n_drones} is not allowed; need at least 0 drones")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt: {dt} is not allowed; need a finite timestep > 0")
-    spec = mujoco.MjSpec()
-    spec.modelname = f"scene_{n_radars}r{n_drones}t"
-    spec.option.timestep = dt
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
-    flags = mujoco.mjtDisableBit
-    spec.option.disableflags |= (
-        flags.mjDSBL_GRAVITY | flags.mjDSBL_SPRING | flags.mjDSBL_DAMPER | flags.mjDSBL_EULERDAMP
-    )
-    if not (obstacles or moving):
-        spec.option.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT
-    else:
-        spec.option.iterations = SOLVER_ITERATIONS
-        spec.option.ls_iterations = SOLVER_ITERATIONS
-        spec.add_numeric(name="max_geom_pairs", data=[2 * n_radars])
-    if terrain is None:
-        spec.worldbody.add_geom(
-            name="ground",
-            type=mujoco.mjtGeom.mjGEOM_PLANE,
-            size=[0.0, 0.0, 1.0],
-            rgba=[0.82, 0.80, 0.74, 1.0],
-            contype=0,
-            conaffinity=0,
-        )
-    else:
-        add_terrain(spec, terrain)
+    spec = _spec(n_radars, n_drones, dt, bool(obstacles or moving))
+    add_ground(spec, terrain)
     spec.worldbody.add_light(
         pos=[0, 0, 500], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
     )
@@ -202,7 +137,7 @@ def build_scene(
         child = mujoco.MjSpec.from_string(_model_xml("drone.xml"))
         spec.attach(child, prefix=f"drone{j}/", frame=spec.worldbody.add_frame())
     for k, obs in enumerate(obstacles):
-        _add_obstacle(spec, k, obs)
+        add_obstacle(spec, k, obs)
     mb.add_moving_bodies(spec, moving, CONTACT_SOLIMP)  # the obstacles' contact settings
     model = spec.compile()
     index = _index(model, n_radars, n_drones, len(obstacles))
@@ -213,34 +148,30 @@ def build_scene(
     return model, index
 
 
-def add_terrain(spec: mujoco.MjSpec, terrain) -> None:
-    """Adds the terrain as an ``hfield`` asset and a contact-free world geom named ``terrain``.
-
-    MuJoCo stores normalised elevations ``(H - min H) / (max H - min H)`` (row 0 at
-    -y, column 0 at -x, as :mod:`mjx_radar.world.terrain`) scaled by ``size[2]``; the
-    geom sits at ``z = min H`` so the rendered nodes are at the grid's heights.
-    """
-    from mjx_radar.world.terrain import node_heights
-
-    h = node_heights(terrain)
-    lo, top = float(h.min()), float(h.max() - h.min())
-    data = (h - lo) / top if top > 0 else np.zeros_like(h)
-    spec.add_hfield(
-        name="terrain",
-        size=[0.5 * terrain.extent_x, 0.5 * terrain.extent_y, max(top, 1e-3), 1.0],
-        nrow=h.shape[0],
-        ncol=h.shape[1],
-        userdata=data.ravel().tolist(),
+def _spec(n_radars: int, n_drones: int, dt: float, contacts: bool) -> mujoco.MjSpec:
+    """An empty spec with the scene's options: Euler steps of ``dt``, no gravity, springs
+    or dampers; contacts and the solver only with obstacles (``ValueError`` for bad sizes)."""
+    if n_radars < 1:
+        raise ValueError(f"n_radars: {n_radars} is not allowed; need at least 1 radar")
+    if n_drones < 0:
+        raise ValueError(f"n_drones: {n_drones} is not allowed; need at least 0 drones")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: {dt} is not allowed; need a finite timestep > 0")
+    spec = mujoco.MjSpec()
+    spec.modelname = f"scene_{n_radars}r{n_drones}t"
+    spec.option.timestep = dt
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    flags = mujoco.mjtDisableBit
+    spec.option.disableflags |= (
+        flags.mjDSBL_GRAVITY | flags.mjDSBL_SPRING | flags.mjDSBL_DAMPER | flags.mjDSBL_EULERDAMP
     )
-    spec.worldbody.add_geom(
-        name="terrain",
-        type=mujoco.mjtGeom.mjGEOM_HFIELD,
-        hfieldname="terrain",
-        pos=[0.0, 0.0, lo],
-        rgba=[0.62, 0.66, 0.50, 1.0],
-        contype=0,
-        conaffinity=0,
-    )
+    if not contacts:
+        spec.option.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_CONSTRAINT
+    else:
+        spec.option.iterations = SOLVER_ITERATIONS
+        spec.option.ls_iterations = SOLVER_ITERATIONS
+        spec.add_numeric(name="max_geom_pairs", data=[2 * n_radars])
+    return spec
 
 
 def _index(model: mujoco.MjModel, n: int, m: int, k: int) -> SceneIndex:

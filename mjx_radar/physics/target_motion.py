@@ -34,7 +34,7 @@ Nominal paths:
   last segment's velocity after its end), ``V_k`` the central difference of ``P``.
 
 Presence (``appear <= t < leave``): an absent target gives no measurement, no planner
-cost and no error in the metrics (:mod:`mjx_radar.env.closed_loop`).
+cost and no error in the metrics (:mod:`mjx_radar.loop.closed_loop`).
 """
 
 from __future__ import annotations

@@ -8,7 +8,8 @@ pure (jit-able, vmap-able over trials)::
     carry = planner.init()                   # its state: a warm start, filters, ...
     action, carry = planner.plan(carry, obs, key)   # action [N, 2]: [a, alpha] per radar
 
-``obs`` is an :class:`Observation`: what the radars know (their own states, the track
+``obs`` is an :class:`~mjx_radar.env.state.Observation` (the environment's type,
+re-exported here): what the radars know (their own states, the track
 estimate and its covariance, the last scan's detections), never the truth. The
 environment clips actions to ``env.action_bounds``; a planner that scores candidate
 sequences with the method's information objective calls ``env.objective(obs)``.
@@ -21,71 +22,28 @@ planner's code is part of the program cache key, so editing it recompiles.
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any
 
 import jax
-import jax.numpy as jnp
 
 from mjx_radar.contracts import placeholder
+from mjx_radar.env.records import ControlRecord
+from mjx_radar.env.state import Observation
+from mjx_radar.planners.records import N_KEEP_SAMPLES, idle_record, kept_samples, record_shape
 from mjx_radar.registry import PLANNERS
 
-
-class Observation(NamedTuple):
-    """What the radars know at a control instant (a pytree of arrays).
-
-    Attributes:
-        radar_state: ``[N, 6]`` the radars' own states ``[x, y, z, θ, v, ω]``.
-        mean: ``[6M]`` the track estimate to plan from: at the radars' instant
-            (``mpc.aligned``) or, as in the paper's code, predicted one filter step ahead.
-        cov: ``[6M, 6M]`` its covariance P.
-        target_weight: ``[M]`` 1 for targets present at this instant, else 0.
-        detections: ``[N, M]`` bool, the pairs detected at the last scan (line of sight
-            and detection; all False before the first scan).
-        time: ``[]`` the control instant [s].
-        period: ``[]`` int32, the control period index j (time = j * dt_control).
-        nonfinite_action: ``[]`` bool, the last period's action held NaN or inf (inside
-            ``jit`` each such control is applied as 0; outside it ``step`` refuses it);
-            None in an observation made by hand.
-    """
-
-    radar_state: jax.Array
-    mean: jax.Array
-    cov: jax.Array
-    target_weight: jax.Array
-    detections: jax.Array
-    time: jax.Array
-    period: jax.Array
-    nonfinite_action: jax.Array | None = None
-
-
-class ControlRecord(NamedTuple):
-    """What a control step records (leading axis: control steps, after a scan)."""
-
-    control: jax.Array  # [N, 2] applied control
-    plan_xy: jax.Array  # [H, N, 2] planned radar positions of the mean sequence
-    sample_xy: jax.Array  # [S_keep, H, N, 2] sampled radar trajectories
-    sample_weight: jax.Array  # [S_keep] their weights
-    sample_cost: jax.Array  # [S_keep] their costs
-
-
-N_KEEP_SAMPLES = 32  # sampled sequences kept per control step for plots and video (at most)
-
-
-def kept_samples(scenario) -> int:
-    """Samples recorded per control step: ``min(32, mppi.samples)``."""
-    return min(N_KEEP_SAMPLES, scenario.mppi.samples)
-
-
-def idle_record(scenario, control) -> ControlRecord:
-    """The record of a control step without a plan to show (``control`` [N, 2])."""
-    n, h, s = scenario.n_radars, scenario.mpc.horizon, kept_samples(scenario)
-    return ControlRecord(
-        control,
-        jnp.zeros((h, n, 2)),
-        jnp.zeros((s, h, n, 2)),
-        jnp.zeros(s),
-        jnp.zeros(s),
-    )
+__all__ = [  # noqa: RUF022 (the contract first)
+    "N_KEEP_SAMPLES",
+    "PLANNERS",
+    "ControlRecord",
+    "Observation",
+    "Planner",
+    "idle_record",
+    "kept_samples",
+    "make",
+    "register_planner",
+    "unregister_planner",
+]
 
 
 class Planner:
@@ -102,6 +60,12 @@ class Planner:
     def __init__(self, env):
         self.env = env
 
+    @property
+    def record_shape(self) -> tuple[int, int]:
+        """``(horizon, kept samples)`` of its records (``[mpc] horizon``, ``[mppi] samples``)."""
+        sc = self.env.scenario
+        return record_shape(sc.mpc, sc.mppi)
+
     def init(self) -> Any:
         """The planner's initial carry (a pytree; ``()`` if it keeps none)."""
         return ()
@@ -113,7 +77,7 @@ class Planner:
 
     def record(self, carry, action) -> ControlRecord:
         """What the run files show of the last plan (default: the action alone)."""
-        return idle_record(self.env.scenario, action)
+        return idle_record(action, *self.record_shape)
 
 
 def register_planner(name: str, planner=None):

@@ -2,7 +2,7 @@
 
 Wraps :func:`mjx_radar.task.planner.make_planner` (the MPC step the benchmarks time):
 the carry is the warm start ``u_plan [H, 2N]`` (the previous mean sequence shifted by
-one control step) and the last :class:`~mjx_radar.planners.base.ControlRecord` (planned
+one control step) and the last :class:`~mjx_radar.env.records.ControlRecord` (planned
 positions, kept samples, weights, costs). What is compiled follows the task's program
 kind: nothing for ``"none"`` (the radars keep still), one information kind, or both
 behind ``lax.cond`` on the method's runtime flags (``"all"``); ``"sfim+none"`` /
@@ -19,7 +19,9 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.control import mppi
-from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.env.records import ControlRecord
+from mjx_radar.planners.base import Planner
+from mjx_radar.planners.records import idle_record, plan_record
 from mjx_radar.task.method import SWITCH, plans_optional
 from mjx_radar.task.planner import make_planner
 
@@ -49,11 +51,11 @@ class MPPIPlanner(Planner):
     def init(self) -> MPPICarry:
         sc = self.env.scenario
         u_plan = jnp.zeros((sc.mpc.horizon, 2 * sc.n_radars))
-        return MPPICarry(u_plan, idle_record(sc, jnp.zeros((sc.n_radars, 2))))
+        return MPPICarry(u_plan, idle_record(jnp.zeros((sc.n_radars, 2)), *self.record_shape))
 
     def _idle(self, carry: MPPICarry):
         zeros = jnp.zeros((self.env.scenario.n_radars, 2))
-        return zeros, MPPICarry(carry.u_plan, idle_record(self.env.scenario, zeros))
+        return zeros, MPPICarry(carry.u_plan, idle_record(zeros, *self.record_shape))
 
     def _mppi(self, carry: MPPICarry, obs, key, optimize=None):
         sc = self.env.scenario
@@ -61,8 +63,8 @@ class MPPIPlanner(Planner):
         res, mean_plan = (optimize or self._optimize)(
             obs.radar_state, obs.mean, obs.cov, carry.u_plan, key, params
         )
-        keep = slice(0, kept_samples(sc))
-        rec = ControlRecord(
+        keep = slice(0, self.record_shape[1])
+        rec = plan_record(
             res.mean[0].reshape(sc.n_radars, 2),
             mean_plan.radar_xy,
             res.aux.radar_xy[keep],

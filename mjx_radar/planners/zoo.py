@@ -19,7 +19,9 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.control import gradient, mppi, sampling
-from mjx_radar.planners.base import ControlRecord, Planner, idle_record, kept_samples
+from mjx_radar.env.records import ControlRecord
+from mjx_radar.planners.base import Planner
+from mjx_radar.planners.records import idle_record, plan_record
 from mjx_radar.task.planner import proposal_std
 
 
@@ -44,20 +46,20 @@ class SequencePlanner(Planner):
     def init(self) -> PlanCarry:
         zeros = jnp.zeros((self.n, 2))
         return PlanCarry(
-            jnp.zeros((self.horizon, 2 * self.n)), idle_record(self.env.scenario, zeros)
+            jnp.zeros((self.horizon, 2 * self.n)), idle_record(zeros, *self.record_shape)
         )
 
     def _carry(self, cost_fn, mean, samples=None, costs=None, weights=None, aux=None):
         """The applied control, and the carry holding the next warm start and the record."""
         plan = cost_fn(mean)[1]
-        s = kept_samples(self.env.scenario)
+        s = self.record_shape[1]
         if samples is None:  # no population: the plan itself
             xy = jnp.broadcast_to(plan.radar_xy, (s, *plan.radar_xy.shape))
             weights, costs = jnp.full(s, 1.0 / s), jnp.zeros(s)
         else:
             xy, weights, costs = aux.radar_xy[:s], weights[:s], costs[:s]
         control = mean[0].reshape(self.n, 2)
-        rec = ControlRecord(control, plan.radar_xy, xy, weights, costs)
+        rec = plan_record(control, plan.radar_xy, xy, weights, costs)
         return control, PlanCarry(mppi.shift(mean), rec)
 
     def record(self, carry: PlanCarry, action) -> ControlRecord:

@@ -94,12 +94,12 @@ def set_columns(sets: dict, cutoff: float, order: float) -> dict:
 
 
 def metrics_frame(
-    scenario: str, method: str, trials: np.ndarray, time_s: np.ndarray, metrics: dict
+    scenario_name: str, method: str, trials: np.ndarray, time_s: np.ndarray, metrics: dict
 ) -> pd.DataFrame:
     """Long-format metrics table.
 
     Args:
-        scenario: scenario name.
+        scenario_name: the scenario's name.
         method: method name.
         trials: [T] trial indices.
         time_s: [K] time of each step [s].
@@ -110,7 +110,7 @@ def metrics_frame(
     t, k = len(trials), len(time_s)
     one = np.zeros(t * k, np.int8)  # the codes of a one-category column (not t·k strings)
     columns = {
-        "scenario": pd.Categorical.from_codes(one, [scenario]),
+        "scenario": pd.Categorical.from_codes(one, [scenario_name]),
         "method": pd.Categorical.from_codes(one, [method]),
         "trial": np.repeat(np.asarray(trials, np.int32), k),
         "step": np.tile(np.arange(1, k + 1, dtype=np.int32), t),

@@ -107,13 +107,21 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
     Raises:
         MapError: one line naming the feature and the problem.
     """
-    import shapely
-    from shapely.geometry import shape
-
     if crs not in ("local", "lonlat"):
         raise MapError(f"unknown CRS {crs!r}; must be 'local' or 'lonlat'")
     if crs == "lonlat" and origin is None:
         raise MapError("crs = 'lonlat' needs the origin (lon0, lat0) [deg]")
+    features = _features(path, crs)
+    out: list[Building] = []
+    for i, feat in enumerate(features):
+        out += _feature_buildings(i, feat, crs, origin, height_key)
+    if len(out) > MAX_BUILDINGS:
+        raise MapError(f"{len(out)} polygons; at most {MAX_BUILDINGS}")
+    return out
+
+
+def _features(path, crs: str) -> list:
+    """The features of a GeoJSON FeatureCollection file, its declared CRS checked."""
     try:
         doc = json.loads(Path(path).read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
@@ -139,49 +147,60 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
     features = doc.get("features")
     if not isinstance(features, list) or not features:
         raise MapError("features: must be a non-empty array")
-    out: list[Building] = []
-    for i, feat in enumerate(features):
-        where = f"feature {i}"
-        if not isinstance(feat, dict) or not isinstance(feat.get("geometry"), dict):
-            raise MapError(f"{where}: must be a Feature with a geometry")
-        props = feat.get("properties") or {}
-        h = props.get(height_key) if isinstance(props, dict) else None
-        if isinstance(h, bool) or not isinstance(h, int | float):
-            raise MapError(f"{where}: missing or non-numeric height property {height_key!r}")
-        if not (math.isfinite(h) and 0.0 < h <= 1000.0):
-            raise MapError(f"{where}: height {h!r} must be in (0, 1000] m")
-        if feat["geometry"].get("type") not in ("Polygon", "MultiPolygon"):
+    return features
+
+
+def _height(where: str, feat, height_key: str) -> float:
+    """A feature's height property [m], in (0, 1000]; its geometry a (Multi)Polygon."""
+    if not isinstance(feat, dict) or not isinstance(feat.get("geometry"), dict):
+        raise MapError(f"{where}: must be a Feature with a geometry")
+    props = feat.get("properties") or {}
+    h = props.get(height_key) if isinstance(props, dict) else None
+    if isinstance(h, bool) or not isinstance(h, int | float):
+        raise MapError(f"{where}: missing or non-numeric height property {height_key!r}")
+    if not (math.isfinite(h) and 0.0 < h <= 1000.0):
+        raise MapError(f"{where}: height {h!r} must be in (0, 1000] m")
+    if feat["geometry"].get("type") not in ("Polygon", "MultiPolygon"):
+        raise MapError(
+            f"{where}: geometry must be a Polygon or MultiPolygon, "
+            f"not {feat['geometry'].get('type')!r}"
+        )
+    return h
+
+
+def _feature_buildings(i: int, feat, crs: str, origin, height_key: str) -> list[Building]:
+    """Feature ``i``'s polygons as buildings in the local frame (``MapError`` naming it)."""
+    import shapely
+    from shapely.geometry import shape
+
+    where = f"feature {i}"
+    h = _height(where, feat, height_key)
+    try:
+        with warnings.catch_warnings():  # NaN coordinates: refused below, in one line
+            warnings.simplefilter("ignore", RuntimeWarning)
+            geom = shape(feat["geometry"])
+    except Exception as err:  # shapely raises several types for malformed rings
+        raise MapError(f"{where}: malformed coordinates ({str(err).splitlines()[0]})") from None
+    if geom.is_empty or not np.all(np.isfinite(shapely.get_coordinates(geom))):
+        raise MapError(f"{where}: empty or non-finite coordinates")
+    if crs == "lonlat":
+        ll = shapely.get_coordinates(geom)
+        if np.any(np.abs(ll[:, 1]) > 90.0) or np.any(np.abs(ll[:, 0]) > 180.0):
+            raise MapError(f"{where}: lon/lat out of range (|lon| <= 180, |lat| <= 90)")
+        geom = shapely.transform(geom, lambda c: lonlat_to_local(c, origin))
+    if not geom.is_valid:
+        raise MapError(f"{where}: invalid polygon ({shapely.is_valid_reason(geom)})")
+    out = []
+    for poly in getattr(geom, "geoms", [geom]):
+        n_vert = len(shapely.get_coordinates(poly)) - 1 - len(poly.interiors)
+        if n_vert > MAX_VERTICES:
             raise MapError(
-                f"{where}: geometry must be a Polygon or MultiPolygon, "
-                f"not {feat['geometry'].get('type')!r}"
+                f"{where}: polygon has {n_vert} vertices; at most {MAX_VERTICES} "
+                "(simplify it, e.g. shapely's simplify(0.5))"
             )
-        try:
-            with warnings.catch_warnings():  # NaN coordinates: refused below, in one line
-                warnings.simplefilter("ignore", RuntimeWarning)
-                geom = shape(feat["geometry"])
-        except Exception as err:  # shapely raises several types for malformed rings
-            raise MapError(f"{where}: malformed coordinates ({str(err).splitlines()[0]})") from None
-        if geom.is_empty or not np.all(np.isfinite(shapely.get_coordinates(geom))):
-            raise MapError(f"{where}: empty or non-finite coordinates")
-        if crs == "lonlat":
-            ll = shapely.get_coordinates(geom)
-            if np.any(np.abs(ll[:, 1]) > 90.0) or np.any(np.abs(ll[:, 0]) > 180.0):
-                raise MapError(f"{where}: lon/lat out of range (|lon| <= 180, |lat| <= 90)")
-            geom = shapely.transform(geom, lambda c: lonlat_to_local(c, origin))
-        if not geom.is_valid:
-            raise MapError(f"{where}: invalid polygon ({shapely.is_valid_reason(geom)})")
-        for poly in getattr(geom, "geoms", [geom]):
-            n_vert = len(shapely.get_coordinates(poly)) - 1 - len(poly.interiors)
-            if n_vert > MAX_VERTICES:
-                raise MapError(
-                    f"{where}: polygon has {n_vert} vertices; at most {MAX_VERTICES} "
-                    "(simplify it, e.g. shapely's simplify(0.5))"
-                )
-            if poly.area < 1e-6:
-                raise MapError(f"{where}: polygon has zero area")
-            out.append(Building(shapely.orient_polygons(poly), float(h), i))
-    if len(out) > MAX_BUILDINGS:
-        raise MapError(f"{len(out)} polygons; at most {MAX_BUILDINGS}")
+        if poly.area < 1e-6:
+            raise MapError(f"{where}: polygon has zero area")
+        out.append(Building(shapely.orient_polygons(poly), float(h), i))
     return out
 
 

@@ -15,7 +15,8 @@ The checks are derived from the field metadata of :class:`mjx_radar.scenario.sch
 (see :mod:`mjx_radar.io.checks`): a field whose type is a config dataclass is a
 TOML table (named by its metadata ``toml``, else the field name), a field with a
 ``rule`` is a scalar, one with ``rows`` a list of numeric rows. A new parameter or
-table is therefore one edit in :mod:`mjx_radar.scenario.schema`. Obstacles
+table is therefore one edit in :mod:`mjx_radar.scenario.schema`; the optional tables are
+read and checked as listed in :mod:`mjx_radar.scenario.sections`. Obstacles
 (``[[obstacles]]``, ``[forest]``) are checked in :mod:`mjx_radar.scenario.obstacles`,
 cross-field plausibility in :mod:`mjx_radar.scenario.plausibility`. Every failure raises
 :class:`ScenarioError` whose message is one line naming the field, the value and
@@ -37,8 +38,7 @@ from typing import Any
 
 from mjx_radar.io.checks import Rows, Rule, ScenarioError, check, check_path, key_name, show
 from mjx_radar.scenario.schema import Scenario
-
-MAX_ROWS = 1000  # targets / radars rows at most
+from mjx_radar.scenario.sections import MAX_ROWS, check_sections, read_sections
 
 # Top-level keys that are not Scenario fields: key -> (default, doc).
 EXTRA_KEYS = {
@@ -156,76 +156,9 @@ def scenario_from_dict(raw: dict, base: Path = Path(".")) -> Scenario:
     if not isinstance(raw.get("description", ""), str):
         raise ScenarioError(f"description = {show(raw['description'])}: must be a string")
     external = check("allow_external_paths", raw.get("allow_external_paths", False), Rule(bool))
-    obstacles = raw.get("obstacles", [])
-    if not isinstance(obstacles, list) or len(obstacles) > 10_000:
-        raise ScenarioError("obstacles: must be an array of tables (at most 10000)")
-    if obstacles or "forest" in raw:
-        from mjx_radar.scenario import obstacles as so
-
-        kwargs["obstacles"] = tuple(
-            so.obstacle(i, o, base, external) for i, o in enumerate(obstacles)
-        )
-        if "forest" in raw:
-            kwargs["obstacles"] += so.forest(raw["forest"], kwargs.get("radar_init", ()))
-    if "buildings" in raw or "occupancy" in raw:
-        from mjx_radar.scenario import maps as sm
-
-        found = kwargs.get("obstacles", ())
-        if "buildings" in raw:
-            found += sm.buildings(raw["buildings"], base, external)
-        if "occupancy" in raw:
-            found += sm.occupancy(raw["occupancy"], base, external)
-        kwargs["obstacles"] = found
-    motions = raw.get("target_motion", [])
-    if not isinstance(motions, list) or len(motions) > MAX_ROWS:
-        raise ScenarioError(f"target_motion: must be an array of tables (at most {MAX_ROWS})")
-    if motions:
-        from mjx_radar.scenario import motion as sm
-
-        m = len(kwargs.get("target_init", ()))
-        kwargs["target_motion"] = tuple(
-            sm.target_motion(i, t, base, external, m) for i, t in enumerate(motions)
-        )
-    fleet = raw.get("radar_override", [])
-    if not isinstance(fleet, list) or len(fleet) > MAX_ROWS:
-        raise ScenarioError(f"radar_override: must be an array of tables (at most {MAX_ROWS})")
-    if fleet:
-        from mjx_radar.scenario import fleet as sf
-
-        n = kwargs.get("n_radars", 0)
-        kwargs["radar_override"] = tuple(sf.radar_override(i, t, n) for i, t in enumerate(fleet))
-    if "terrain" in raw:
-        from mjx_radar.scenario import terrain as scenario_terrain
-
-        kwargs["terrain"] = scenario_terrain.terrain(raw["terrain"], base, external)
-    if "moving_obstacles" in raw:
-        from mjx_radar.scenario.moving import moving_obstacles
-
-        kwargs["moving_obstacles"] = moving_obstacles(raw["moving_obstacles"])
+    read_sections(raw, kwargs, base, external)
     scenario = Scenario(**kwargs)
-    if scenario.radar_override:
-        from mjx_radar.scenario import fleet as scenario_fleet
-
-        scenario_fleet.check_fleet(scenario)
-    if scenario.target_motion:
-        from mjx_radar.scenario import motion as scenario_motion
-
-        scenario_motion.check_motions(scenario)
-    from mjx_radar.scenario import plausibility
-
-    plausibility.check_scenario(scenario)
-    if scenario.obstacles:
-        from mjx_radar.scenario import obstacles as scenario_obstacles
-
-        scenario_obstacles.check_radar_clearance(scenario)
-    if scenario.terrain is not None:
-        from mjx_radar.scenario import terrain as scenario_terrain
-
-        scenario_terrain.check_targets(scenario)
-    if scenario.moving_obstacles:
-        from mjx_radar.scenario.moving import check_scene
-
-        check_scene(scenario)
+    check_sections(scenario)
     return scenario
 
 

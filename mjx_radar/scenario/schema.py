@@ -5,6 +5,7 @@ field's allowed range is its metadata (:mod:`mjx_radar.io.checks`)."""
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass, field
 
@@ -273,12 +274,18 @@ class Scenario:
 
     def replace(self, **changes) -> Scenario:
         """A validated copy; tables as dicts (``mpc={"r2t": 150.0}``): scenario.edit."""
-        from mjx_radar.scenario import edit as scenario_edit
-
-        return scenario_edit.replace(self, **changes)
+        return _edit().replace(self, **changes)
 
     def to_toml(self, path=None) -> str:
         """The scenario as TOML (written to ``path`` if given); loads back equal."""
-        from mjx_radar.scenario import edit as scenario_edit
+        return _edit().to_toml(self, path)
 
-        return scenario_edit.to_toml(self, path)
+
+def _edit():
+    """:mod:`mjx_radar.scenario.edit`, found by name when a method needs it.
+
+    The schema sits below the reader and ``edit`` (which validates through the reader and
+    builds a :class:`Scenario`), so it never imports them: the two methods above reach
+    ``edit`` late, by name, as the registry reaches its built-in plug-ins.
+    """
+    return importlib.import_module("mjx_radar.scenario.edit")

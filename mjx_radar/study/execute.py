@@ -141,32 +141,19 @@ def run_study(opts: StudyOptions, make_worker: Callable | None = None) -> int:
 
 def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
 
-    from mjx_radar.engine import live_programs, resources, runner
+    from mjx_radar.engine import live_programs, runner
     from mjx_radar.engine.placement_cache import check_placeable
     from mjx_radar.study import chunks as chunks_of
-    from mjx_radar.study import consolidate, driver, lanes, schedule
-    from mjx_radar.task.params import shape_key
+    from mjx_radar.study import driver, lanes, schedule
 
     joining = worker.kind != "single"  # workers share the directory
     manifest = driver.check_out(args.out, config, args.resume or joining, joining)
     mesh = runner.device_mesh()
     n_dev, devices = mesh.size, str(list(mesh.devices.flat))
-    # refuse what cannot fit before writing anything, for each program of each shape
-    programs = runner.program_map([(s, m) for s, *_ in scenarios for m in args.methods])
-    for s, _, n_steps, _ in scenarios:
-        shape = shape_key(s)
-        for kind in sorted({k for (sh, _), (k, _) in programs.items() if sh == shape}):
-            opts = {"full": False, "batch_option": "--chunk", "kind": kind}
-            resources.check(s, args.chunk * n_dev, n_steps, n_dev, **opts)
+    _check_resources(args, scenarios, n_dev)  # before writing anything
     chunks = chunks_of.all_chunks(scenarios, args.methods, args.trials, args.chunk, args.out)
     todo = [c for c in worker.mine(chunks) if not c.path.exists()]
-    stream = None  # metrics.parquet written while the chunks run (study.consolidate)
-    if worker.kind == "single":
-        consolidate.remove_partial(args.out)  # of a killed run of this study
-        if len(todo) == len(chunks):
-            names = [s.name for s, *_ in scenarios]
-            metrics = args.out / "metrics.parquet"
-            stream = consolidate.Stream(metrics, [c.path for c in chunks], names, args.methods)
+    stream = _stream(args, scenarios, worker, chunks, todo)
     # One program per shape, kind and planner on each device: counting (scenario, method)
     # pairs instead kept 15 of the paper study's 36 programs alive on 4 GPUs, and the
     # evicted ones were loaded again round after round (61 loads instead of 27).
@@ -180,18 +167,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         if worker.index == 0 or worker.kind == "shard":
             manifest = driver.start_manifest(args.out, scenarios, config, manifest)
         driver.remove_temporaries(worker.mine(chunks))  # of this worker's killed writes
-        print(
-            f"study: {len(scenarios)} scenario(s) x {len(args.methods)} method(s) x "
-            f"{args.trials} trials, chunks of {args.chunk}; worker {worker.index + 1}/"
-            f"{worker.count}: {len(todo)} chunk(s) to run on {n_dev} device(s): {devices}",
-            file=sys.stderr,
-        )
-        if len(started):
-            print(
-                f"study: compiling {len(started)} program(s) for {n_dev} device(s); each "
-                "scenario's chunks start as soon as its program is ready",
-                file=sys.stderr,
-            )
+        _announce(args, len(scenarios), worker, len(todo), len(started), (n_dev, devices))
         try:
             host = lanes.run_lanes(args, todo, mesh, times, started, stream)
         except BaseException:
@@ -212,19 +188,8 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
             file=sys.stderr,
         )
         return 0
-    rows, meta = driver.finish(
-        args.out,
-        scenarios,
-        config,
-        manifest or {},
-        chunks,
-        times,
-        devices,
-        n_dev,
-        args.deterministic,
-        stream,
-        host,
-    )
+    run = (chunks, times, devices, n_dev, args.deterministic, stream, host)
+    rows, meta = driver.finish(args.out, scenarios, config, manifest or {}, *run)
     print(
         f"study complete: {rows} rows in {args.out / 'metrics.parquet'}; wall "
         f"{meta['wall_s']:.1f} s (compile {meta['compile_s']:.1f} s before and between the "
@@ -232,6 +197,51 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
         f"{meta['sim_s']:.1f} s)"
     )
     return 0
+
+
+def _check_resources(args: StudyOptions, scenarios, n_dev: int) -> None:
+    """Refuses what cannot fit, for each program of each shape (engine.resources)."""
+    from mjx_radar.engine import resources, runner
+    from mjx_radar.task.params import shape_key
+
+    programs = runner.program_map([(s, m) for s, *_ in scenarios for m in args.methods])
+    for s, _, n_steps, _ in scenarios:
+        shape = shape_key(s)
+        for kind in sorted({k for (sh, _), (k, _) in programs.items() if sh == shape}):
+            opts = {"full": False, "batch_option": "--chunk", "kind": kind}
+            resources.check(s, args.chunk * n_dev, n_steps, n_dev, **opts)
+
+
+def _stream(args: StudyOptions, scenarios, worker, chunks, todo):
+    """``metrics.parquet`` written while the chunks run (a fresh single-worker study), or
+    None (study.consolidate); a killed run's partial file removed."""
+    from mjx_radar.study import consolidate
+
+    if worker.kind != "single":
+        return None
+    consolidate.remove_partial(args.out)  # of a killed run of this study
+    if len(todo) != len(chunks):
+        return None
+    names = [s.name for s, *_ in scenarios]
+    metrics = args.out / "metrics.parquet"
+    return consolidate.Stream(metrics, [c.path for c in chunks], names, args.methods)
+
+
+def _announce(args: StudyOptions, n_scenarios: int, worker, n_todo: int, n_started, where):
+    """The study's first lines on stderr: its size, this worker's chunks, compiling."""
+    n_dev, devices = where
+    print(
+        f"study: {n_scenarios} scenario(s) x {len(args.methods)} method(s) x "
+        f"{args.trials} trials, chunks of {args.chunk}; worker {worker.index + 1}/"
+        f"{worker.count}: {n_todo} chunk(s) to run on {n_dev} device(s): {devices}",
+        file=sys.stderr,
+    )
+    if n_started:
+        print(
+            f"study: compiling {n_started} program(s) for {n_dev} device(s); each "
+            "scenario's chunks start as soon as its program is ready",
+            file=sys.stderr,
+        )
 
 
 def wait_for(chunks, timeout_s: float = 7 * 24 * 3600.0) -> None:

@@ -36,7 +36,7 @@ class ChunkJob:
 
     Attributes:
         path: the chunk file.
-        scenario, method: names written into its rows.
+        scenario_name, method: names written into its rows.
         first, last: its trials (the arrays' first ``last - first + 1`` rows; the
             rest is padding).
         dt_filter: filter step [s] (``time_s = dt_filter · (1..K)``).
@@ -44,7 +44,7 @@ class ChunkJob:
     """
 
     path: Path
-    scenario: str
+    scenario_name: str
     method: str
     first: int
     last: int
@@ -75,7 +75,7 @@ def finish_chunk(job: ChunkJob, loop: dict, sets: dict, stream=None) -> dict:
     k = next(iter(loop.values())).shape[1]
     time_s = job.dt_filter * np.arange(1, k + 1)
     trials = np.arange(job.first, job.last + 1)
-    frame = results.metrics_frame(job.scenario, job.method, trials, time_s, metrics)
+    frame = results.metrics_frame(job.scenario_name, job.method, trials, time_s, metrics)
     t2 = time.perf_counter()
     results.write_parquet(job.path, frame)
     t3 = time.perf_counter()

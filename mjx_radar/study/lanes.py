@@ -112,34 +112,14 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
         part, the seconds lanes waited for them, the seconds after the last chunk's
         simulation until its files were written, and the per-chunk ``timeline``.
     """
-    from tqdm import tqdm
-
     from mjx_radar.engine.device_lane import run_on_device
-    from mjx_radar.rundir.results import LOOP_COLUMNS
-    from mjx_radar.study.host_work import ChunkJob, HostPool
+    from mjx_radar.engine.threads import Started
+    from mjx_radar.study.host_work import HostPool
     from mjx_radar.study.schedule import program_key
 
     devices = list(mesh.devices.flat)
-    order = {}  # program key -> its place in study order
-    for c in todo:
-        order.setdefault(program_key(c, started.programs), len(order))
-    keys = list(order)
-
-    def ready(k: int, d: int) -> bool:  # device d's copy of program k is there (or failed)
-        pending = started.pending[keys[k]]
-        return d in pending.devices or not pending.started.running()
-
-    program = lambda c: order[program_key(c, started.programs)]  # noqa: E731
-    queue, t0 = _Queue(todo, program, ready), started.t0
-    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
-    bar = tqdm(
-        total=total,
-        unit="trial-step",
-        desc="study",
-        file=sys.stderr,
-        dynamic_ncols=True,
-        disable=not todo or not args.progress,
-    )
+    queue, t0 = _queue(todo, started), started.t0
+    bar = _bar(todo, args.progress)
     bar_lock = threading.Lock()
     timeline: list[dict] = []
     errors: list[BaseException] = []
@@ -162,17 +142,11 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
                     bar.update(k * n)
                     bar.set_postfix_str(f"{c.scenario.name} {c.method}", refresh=False)
 
-            block = np.arange(c.first, c.last + 1)
-            ids = np.concatenate([block, np.full(args.chunk - n, c.last)])
+            ids = np.concatenate([np.arange(c.first, c.last + 1), np.full(args.chunk - n, c.last)])
             run = (prog, c.scenario, c.method, c.seed, ids, c.steps, progress)
             res = _guard_oom(c, args.chunk, run_on_device, *run)
             t_end = time.perf_counter()
-            s = c.scenario
-            cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
-            job = ChunkJob(c.path, s.name, c.method, c.first, c.last, *cfg)
-            loop = {k: v for k, v in res.items() if k in LOOP_COLUMNS}
-            sets = {k: v for k, v in res.items() if k not in loop}
-            pool.submit(job, loop, sets)
+            pool.submit(*_chunk_job(c, res))
             timeline.append(
                 {
                     "device": d,
@@ -191,8 +165,6 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
             errors.append(err)
             queue.stop.set()
 
-    from mjx_radar.engine.threads import Started
-
     with bar, HostPool(host_workers(len(devices)), stream) as pool:
         lanes = [
             Started(lambda d=d: guarded(d, pool), name=f"lane-{d}") for d in range(len(devices))
@@ -208,6 +180,51 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
         t_sim_end = max((e["end_s"] for e in timeline), default=0.0)
         pool.drain()
     return _account(times, started, timeline, pool, t_sim_end)
+
+
+def _queue(todo, started) -> _Queue:
+    """The chunks' queue: each chunk's program numbered in study order, and whether a
+    device's copy of a program is there (or failed)."""
+    from mjx_radar.study.schedule import program_key
+
+    order = {}  # program key -> its place in study order
+    for c in todo:
+        order.setdefault(program_key(c, started.programs), len(order))
+    keys = list(order)
+
+    def ready(k: int, d: int) -> bool:  # device d's copy of program k is there (or failed)
+        pending = started.pending[keys[k]]
+        return d in pending.devices or not pending.started.running()
+
+    return _Queue(todo, lambda c: order[program_key(c, started.programs)], ready)
+
+
+def _bar(todo, progress: bool):
+    """The study's progress bar on stderr, in trial-steps (disabled: no chunk, no progress)."""
+    from tqdm import tqdm
+
+    total = sum(c.steps * (c.last - c.first + 1) for c in todo)
+    return tqdm(
+        total=total,
+        unit="trial-step",
+        desc="study",
+        file=sys.stderr,
+        dynamic_ncols=True,
+        disable=not todo or not progress,
+    )
+
+
+def _chunk_job(c, res: dict) -> tuple:
+    """``(ChunkJob, loop columns, sets)`` of a chunk's result, for the host threads."""
+    from mjx_radar.rundir.results import LOOP_COLUMNS
+    from mjx_radar.study.host_work import ChunkJob
+
+    s = c.scenario
+    cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
+    job = ChunkJob(c.path, s.name, c.method, c.first, c.last, *cfg)
+    loop = {k: v for k, v in res.items() if k in LOOP_COLUMNS}
+    sets = {k: v for k, v in res.items() if k not in loop}
+    return job, loop, sets
 
 
 def _account(times, started, timeline, pool, t_sim_end: float) -> dict:

@@ -93,7 +93,11 @@ def _components(h: Horizon, task, params, target_major: bool):
     det = task.scenario.detection
     if (det.detects or det.clutter) and det.planner:  # expected FIM (docs/detection.md)
         pd = detection.planner_weights(
-            det.model, params.detection, radar_pos, xyz, pda.planner_factor(task, params)
+            det.model,
+            params.detection,
+            radar_pos,
+            xyz,
+            pda.planner_factor(det, task.measurement, params),
         )
         mask = pd if mask is None else pd * mask
     return measurement.information_components(

@@ -25,6 +25,7 @@ import numpy as np
 from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.live_html import PAGE
 from mjx_radar.viz.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
+from mjx_radar.viz.viewer_los import has_occluders
 from mjx_radar.viz.viewer_traces import (
     fixed_sites,
     frame_traces,
@@ -80,24 +81,13 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
             row=1,
             col=2,
         )
-    fig.add_trace(
-        go.Scatter(
-            x=[],
-            y=[],
-            mode="markers",
-            name="current step",
-            legendgroup="metrics",
-            marker={"size": 9, "color": "black"},
-        ),
-        row=1,
-        col=2,
-    )
+    fig.add_trace(counts.step_marker(), row=1, col=2)
     metrics = list(range(len(fig.data) - 3, len(fig.data)))
     if cols:
         for trace in [*counts.count_traces(cols), counts.cursor_trace()]:
             metrics.append(len(fig.data))
             fig.add_trace(trace, row=2, col=2)
-    hide_blocked_entry(fig, scenario)
+    hide_blocked_entry(fig, has_occluders(scenario))
     fig.update_layout(
         title={"text": title, "font": {"size": 13}},
         template="plotly_white",

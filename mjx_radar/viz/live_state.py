@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjx_radar.env.records import control_arrays
 from mjx_radar.viz.run_dir import Trial
 
 STEP_KEYS = (
@@ -40,7 +41,8 @@ class Records:
     def add(self, done: int, records) -> None:
         steps, controls = records
         self._steps.append({k: getattr(steps, k) for k in STEP_KEYS})
-        self._controls.append({k: getattr(controls, k) for k in CONTROL_KEYS})
+        arrays = control_arrays(controls)
+        self._controls.append({k: arrays[k] for k in CONTROL_KEYS})
         self.ends.append(int(done))
 
     def arrays(self) -> tuple[dict, dict] | None:

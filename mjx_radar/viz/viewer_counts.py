@@ -74,6 +74,20 @@ def count_traces(cols, row: int = 2, col: int = 2) -> list:
     ]
 
 
+def step_marker():
+    """The current-step marker of the RMSE / PCRLB panel (the offline and the live view)."""
+    import plotly.graph_objects as go
+
+    return go.Scatter(
+        x=[],
+        y=[],
+        mode="markers",
+        name="current step",
+        legendgroup="metrics",
+        marker={"size": 9, "color": "black"},
+    )
+
+
 def cursor_trace():
     """The current-step marker of the counts panel (one point per shown column)."""
     import plotly.graph_objects as go

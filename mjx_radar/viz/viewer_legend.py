@@ -37,9 +37,8 @@ def legend_per_layer(fig) -> dict:
     return {"groupclick": "togglegroup", "tracegroupgap": 0}
 
 
-def hide_blocked_entry(fig, scenario) -> None:
-    """No "blocked lines of sight" legend entry where nothing can block one."""
-    from mjx_radar.viz.viewer_los import has_occluders
-
-    if not has_occluders(scenario):
+def hide_blocked_entry(fig, occluders: bool) -> None:
+    """No "blocked lines of sight" legend entry where nothing can block one (``occluders``:
+    :func:`mjx_radar.viz.viewer_los.has_occluders` of the scene)."""
+    if not occluders:
         fig.update_traces(showlegend=False, selector={"name": "blocked lines of sight"})

@@ -18,7 +18,7 @@ import functools
 
 import numpy as np
 
-from mjx_radar.viz.viewer_traces import polylines, segments
+from mjx_radar.viz.viewer_world import polylines, segments
 
 
 def has_occluders(scenario) -> bool:

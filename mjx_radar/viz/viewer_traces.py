@@ -18,8 +18,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjx_radar.viz import viewer_los
 from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB, world_state
-from mjx_radar.viz.viewer_world import ground_z, route_trace, terrain_surface
+from mjx_radar.viz.viewer_world import (
+    ground_z,
+    polylines,
+    route_trace,
+    segments,
+    terrain_surface,
+)
 
 RING_POINTS = 40  # segments of an R2T ring
 ROUND_POINTS = 24  # segments of a cylinder's outline
@@ -47,18 +54,6 @@ BLOCKED_RGB = "rgb(215,0,0)"  # blocked ones: dashed
 def _rgb(c) -> str:
     r, g, b = (int(round(255 * v)) for v in c)
     return f"rgb({r},{g},{b})"
-
-
-def polylines(paths: np.ndarray) -> np.ndarray:
-    """``[P, L, 3]`` paths -> ``[P * (L + 1), 3]`` float32 points, NaN row after each path."""
-    paths = np.asarray(paths, np.float32)
-    gap = np.full((*paths.shape[:-2], 1, 3), np.nan, np.float32)
-    return np.concatenate([paths, gap], axis=-2).reshape(-1, 3)
-
-
-def segments(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Segments ``a[i] -> b[i]`` (``[P, 3]`` each) as one NaN-separated polyline ``[3P, 3]``."""
-    return polylines(np.stack([a, b], axis=-2))
 
 
 def rings(centers: np.ndarray, radius: float, z: float = 0.5) -> np.ndarray:
@@ -216,8 +211,6 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=N
         visible: ``[N, M]`` bool line of sight at the step, or ``None``: computed here
             (:func:`mjx_radar.viz.viewer_los.visibility`; pass it for many frames at once).
     """
-    from mjx_radar.viz import viewer_los
-
     radar = tr.radar[k, :, :3].astype(np.float32)
     n, m = radar.shape[0], tr.target.shape[1]
     _, _, present = world_state(tr, k, m)

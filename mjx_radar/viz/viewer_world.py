@@ -3,6 +3,8 @@
 Shared by the offline HTML (:mod:`mjx_radar.viz.viewer`) and the live view
 (:mod:`mjx_radar.viz.live_page`) through :func:`mjx_radar.viz.viewer_traces.static_traces`.
 
+- :func:`polylines` and :func:`segments`: the NaN-separated ``[P, 3]`` float32 polylines
+  every layer is drawn with (one trace holds many pieces).
 - :func:`terrain_surface`: the ``[terrain]`` height field (:mod:`mjx_radar.world.terrain`)
   as a plotly ``surface``. Its nodes are the file's own grid nodes ``H[i, j]`` at
   ``(x0 + j dx, y0 + i dy)``, cropped to the scene box (plus one node) and subsampled to
@@ -26,6 +28,18 @@ TERRAIN_NODES = 160  # nodes per side of the drawn surface at most
 LIFT = 0.5  # [m] rings, samples and plans drawn this far above the ground
 #: low green to high brown (no white: the scene's background)
 TERRAIN_SCALE = [[0.0, "rgb(70,130,70)"], [0.5, "rgb(175,160,105)"], [1.0, "rgb(120,85,55)"]]
+
+
+def polylines(paths: np.ndarray) -> np.ndarray:
+    """``[P, L, 3]`` paths -> ``[P * (L + 1), 3]`` float32 points, NaN row after each path."""
+    paths = np.asarray(paths, np.float32)
+    gap = np.full((*paths.shape[:-2], 1, 3), np.nan, np.float32)
+    return np.concatenate([paths, gap], axis=-2).reshape(-1, 3)
+
+
+def segments(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Segments ``a[i] -> b[i]`` (``[P, 3]`` each) as one NaN-separated polyline ``[3P, 3]``."""
+    return polylines(np.stack([a, b], axis=-2))
 
 
 def _rgb(c) -> str:

@@ -22,15 +22,19 @@ import jax
 from mjx_radar import precision
 from mjx_radar.env.environment import RadarEnv
 from mjx_radar.env.records import (  # noqa: F401 (re-exported)
-    N_KEEP_SAMPLES,
     ControlRecord,
     StepRecord,
     TrialResult,
-    kept_samples,
 )
 from mjx_radar.env.state import State
 from mjx_radar.env.streams import streams_of
 from mjx_radar.planners import base as planners
+from mjx_radar.planners.records import (  # noqa: F401 (re-exported)
+    N_KEEP_SAMPLES,
+    complete,
+    kept_samples,
+    record_shape,
+)
 
 
 class LoopCarry(NamedTuple):
@@ -62,12 +66,14 @@ def rollout(env: RadarEnv, planner, carry: LoopCarry, periods: int):
         ``periods * control_every``, :class:`ControlRecord` with leading size ``periods``.
     """
 
+    shape = record_shape(env.scenario.mpc, env.scenario.mppi)
+
     def control_period(lc: LoopCarry, _):
         state = lc.state
         key = jax.random.fold_in(streams_of(state.info["key"]).planner, state.info["period"])
         action, pc = planner.plan(lc.planner, state.obs, key)
         action = env.clip_action(action)  # what the radars apply (and the records show)
-        crec = planner.record(pc, action)
+        crec = complete(planner.record(pc, action), *shape)  # the run files' layout
         state, srec = env.transition(state, action, keep_nonfinite=True)
         return LoopCarry(state, pc), (srec, crec)
 
