@@ -40,7 +40,7 @@ MAX_FUNCTION_LINES = 80
 #: functions still over MAX_FUNCTION_LINES (module:function -> lines): only shrinks
 LONG_FUNCTIONS: dict[str, int] = {
     "api.simulate:simulate": 106,
-    "learning.train:_train": 113,
+    "learning.train:_train": 102,
 }
 SKIP = re.compile(r"#\s*fmt:\s*(skip|off)")
 # lowest floor first; a module imports only from its own floor and the ones below it

@@ -181,10 +181,8 @@ def device_terms(
         state += k * (8 * m + 12)
     state += 2 * KEEP * h * n + 2500  # the kept MPPI samples; keys, clocks, small arrays
     f = float_bytes()
-    if scenario.target_motion:  # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
-        motion = (9 * scenario.timing.steps + 7) * m * f
-    else:
-        motion = 0
+    # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
+    motion = (9 * scenario.timing.steps + 7) * m * f if scenario.target_motion else 0
     if platform == "gpu" and kind != "all":
         tests = occluder_tests(scenario.obstacles) if scenario.obstacles else 0
         return gpu_terms(scenario, trials, kind, state * trials * f + motion, tests, f)

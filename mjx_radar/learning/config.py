@@ -17,6 +17,8 @@ from pathlib import Path
 
 from mjx_radar.io.checks import ScenarioError
 
+FORMAT = 1  # policy.json's format
+
 
 @dataclasses.dataclass(frozen=True)
 class PPOConfig:
@@ -177,3 +179,31 @@ def check_out(out: Path) -> None:
     target = out if out.exists() else parent
     if not os.access(target, os.W_OK | os.X_OK):
         raise ScenarioError(f"out = {str(out)!r}: {target} is not writable")
+
+
+def new_ppo_state(sc, method: str, env, config) -> dict:
+    """``policy.json`` of a training that starts now."""
+    return {
+        "format": FORMAT,
+        "scenario": sc.name,
+        "method": method,
+        "n_radars": sc.n_radars,
+        "n_targets": sc.n_targets,
+        "observation_size": env.observation_size,
+        "action_size": env.action_size,
+        "episode_length": env.episode_length,
+        "config": dataclasses.asdict(config),
+        "steps_done": 0,
+        "wall_s": 0.0,
+        "chunks": 0,
+        "checkpoint": None,
+    }
+
+
+def penalty_step(state: dict, scale: float) -> None:
+    """Records a curriculum step of the keep-out penalty's scale on a resume."""
+    first_scale = state["config"].get("penalty_scale", 1.0)  # older policy.json: 1
+    schedule = state.setdefault("penalty_schedule", [[0, first_scale]])
+    if schedule[-1][1] != scale:
+        schedule.append([state["steps_done"], scale])
+        state["config"]["penalty_scale"] = scale

@@ -146,22 +146,7 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
     from mjx_radar.planners.base import make as make_planner
 
     t0 = time.perf_counter()
-    if state is None:
-        state = {
-            "format": 1,
-            "network": "set",
-            "algo": algo,
-            "scenarios": [s.name for s in scs],
-            "scenario": scs[0].name,
-            "method": method,
-            "config": dataclasses.asdict(config),
-            "steps_done": 0,
-            "iterations": 0,
-            "wall_s": 0.0,
-            "chunks": 0,
-            "checkpoint": None,
-            "schedule": [],
-        }
+    state = _new_state(scs, algo, method, config) if state is None else state
     if not state["schedule"] or state["schedule"][-1][1] != algo:
         state["schedule"].append([state["steps_done"], algo])
     state["algo"] = algo
@@ -200,16 +185,7 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
         it = state["iterations"]
         params, opt_state, buffers = full
         key = jax.random.fold_in(base, it + 1)
-        stats = []
-        for i, collect in enumerate(collects):
-            trial0 = it * config.num_envs
-            k = jax.random.fold_in(jax.random.fold_in(base, 0x5EED), i)
-            keys = jax.vmap(lambda j, k=k: jax.random.fold_in(k, j))(
-                trial0 + jnp.arange(config.num_envs)
-            )
-            samples, st = collect(params, keys, beta)
-            buffers[i] = replay.add(buffers[i], samples)
-            stats.append(st)
+        stats = _collect_all(collects, params, buffers, base, it * config.num_envs, config, beta)
         params, opt_state, losses = update(params, opt_state, buffers, key)
         full = (params, opt_state, buffers)
         state["iterations"] = it + 1
@@ -232,6 +208,40 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
             log(f"distill: stopped at {state['steps_done']} of {steps} steps (time budget)")
             break
     return state
+
+
+def _new_state(scs, algo, method, config) -> dict:
+    """``policy.json`` of a distillation that starts now."""
+    return {
+        "format": 1,
+        "network": "set",
+        "algo": algo,
+        "scenarios": [s.name for s in scs],
+        "scenario": scs[0].name,
+        "method": method,
+        "config": dataclasses.asdict(config),
+        "steps_done": 0,
+        "iterations": 0,
+        "wall_s": 0.0,
+        "chunks": 0,
+        "checkpoint": None,
+        "schedule": [],
+    }
+
+
+def _collect_all(collects, params, buffers, base, trial0, config, beta) -> list:
+    """One iteration's rollouts of every scenario (trials ``trial0 ...``), each scenario's
+    samples added to its buffer in place; returns their statistics."""
+    stats = []
+    for i, collect in enumerate(collects):
+        k = jax.random.fold_in(jax.random.fold_in(base, 0x5EED), i)
+        keys = jax.vmap(lambda j, k=k: jax.random.fold_in(k, j))(
+            trial0 + jnp.arange(config.num_envs)
+        )
+        samples, st = collect(params, keys, beta)
+        buffers[i] = replay.add(buffers[i], samples)
+        stats.append(st)
+    return stats
 
 
 def _curve_row(state, algo, losses, stats) -> list:

@@ -35,10 +35,11 @@ from mjx_radar.learning.config import (
     check_out,
     config_of,
     network_factory,
+    new_ppo_state,
+    penalty_step,
     read_policy_json,
 )
 
-FORMAT = 1
 CURVE = ("steps", "wall_s", "reward", "information", "penalty", "rmse_pos", "lost")
 
 
@@ -168,27 +169,8 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
     normalize = config.network != "set"  # set features are O(1) by construction
     if config.network == "set":
         factory, restore_params = finetune.set_start(out, state, config, sc)
-    if state is None:
-        state = {
-            "format": FORMAT,
-            "scenario": sc.name,
-            "method": method,
-            "n_radars": sc.n_radars,
-            "n_targets": sc.n_targets,
-            "observation_size": env.observation_size,
-            "action_size": env.action_size,
-            "episode_length": env.episode_length,
-            "config": dataclasses.asdict(config),
-            "steps_done": 0,
-            "wall_s": 0.0,
-            "chunks": 0,
-            "checkpoint": None,
-        }
-    first_scale = state["config"].get("penalty_scale", 1.0)  # older policy.json: 1
-    schedule = state.setdefault("penalty_schedule", [[0, first_scale]])
-    if schedule[-1][1] != config.penalty_scale:  # a curriculum step on a resume
-        schedule.append([state["steps_done"], config.penalty_scale])
-        state["config"]["penalty_scale"] = config.penalty_scale
+    state = new_ppo_state(sc, method, env, config) if state is None else state
+    penalty_step(state, config.penalty_scale)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:

@@ -74,6 +74,7 @@ class _Queue:
         # (its program's place in study order, chunk), once per chunk; sorted stably
         self._todo = sorted(((program(c), c) for c in todo), key=lambda x: (x[0], _rank(x[1])))
         self._ready = ready  # (program's place, device) -> bool
+        self.programs = 1 + max((k for k, _ in self._todo), default=-1)
         self._lock = threading.Lock()
         self.stop = threading.Event()
 
@@ -83,6 +84,16 @@ class _Queue:
                 return None
             i = next((i for i, (k, _) in enumerate(self._todo) if self._ready(k, device)), 0)
             return self._todo.pop(i)[1]
+
+    def wait_for_every_program(self, devices: int, poll: float = 0.05) -> None:
+        """Returns once every program is on each of ``devices`` devices (or failed), or
+        the queue is stopped: a lane's start under :func:`programs_first`."""
+
+        def loaded():
+            return all(self._ready(k, d) for k in range(self.programs) for d in range(devices))
+
+        while not loaded() and not self.stop.is_set():
+            time.sleep(poll)
 
 
 def _covered(intervals: list[tuple[float, float]]) -> float:
@@ -124,12 +135,9 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
     timeline: list[dict] = []
     errors: list[BaseException] = []
 
-    def every_program_loaded() -> bool:
-        return all(ready(k, d) for k in range(len(keys)) for d in range(len(devices)))
-
     def lane(d: int, pool: HostPool) -> None:
-        while programs_first() and not every_program_loaded() and not queue.stop.is_set():
-            time.sleep(0.05)
+        if programs_first():
+            queue.wait_for_every_program(len(devices))
         while (c := queue.take(d)) is not None:
             n = c.last - c.first + 1
             key = program_key(c, started.programs)
@@ -147,16 +155,7 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
             res = _guard_oom(c, args.chunk, run_on_device, *run)
             t_end = time.perf_counter()
             pool.submit(*_chunk_job(c, res))
-            timeline.append(
-                {
-                    "device": d,
-                    "chunk": c.path.name,
-                    "start_s": t_run - t0,
-                    "end_s": t_end - t0,
-                    "program_wait_s": t_run - t_ask,
-                    "host_wait_s": time.perf_counter() - t_end,
-                }
-            )
+            timeline.append(_entry(d, c.path.name, t0, t_ask, t_run, t_end))
 
     def guarded(d, pool):
         try:
@@ -180,6 +179,18 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
         t_sim_end = max((e["end_s"] for e in timeline), default=0.0)
         pool.drain()
     return _account(times, started, timeline, pool, t_sim_end)
+
+
+def _entry(device: int, chunk: str, t0: float, t_ask: float, t_run: float, t_end: float):
+    """A chunk's line of the ``timeline``: seconds from the programs' start ``t0``."""
+    return {
+        "device": device,
+        "chunk": chunk,
+        "start_s": t_run - t0,
+        "end_s": t_end - t0,
+        "program_wait_s": t_run - t_ask,
+        "host_wait_s": time.perf_counter() - t_end,
+    }
 
 
 def _queue(todo, started) -> _Queue:
