@@ -40,9 +40,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.contracts import placeholder
-from mjx_radar.estimation import fisher, sensing
+from mjx_radar.estimation import fisher, sensing, sensor_guard
 from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair
-from mjx_radar.registry import SENSORS
 
 __all__ = [  # noqa: RUF022
     "RHO2_EPS",
@@ -219,9 +218,9 @@ def make_model(name: str) -> MeasurementModel:
     """The sensor called ``name``, made from :data:`mjx_radar.registry.SENSORS`.
 
     The same as :func:`mjx_radar.estimation.sensors.make_sensor` (one-line ``ValueError``
-    for an unknown name).
+    for an unknown name; a registered sensor's own exceptions as one line).
     """
-    return SENSORS.get(name)()
+    return sensor_guard.make(name)
 
 
 def information_components(model: MeasurementModel, radar_pos, target_xyz, params, ccr, mask=None):

@@ -9,11 +9,8 @@ planner's information and the PCRLB all go through the model.
 
 from __future__ import annotations
 
-import functools
-
-from mjx_radar.contracts import METHODS
+from mjx_radar.estimation import sensor_guard
 from mjx_radar.estimation.measurement import MeasurementModel, RangeAzimuthModel, RangeModel
-from mjx_radar.plugin_errors import guarded_call
 from mjx_radar.registry import SENSORS
 
 #: the built-in sensors
@@ -44,30 +41,6 @@ def unregister_sensor(name: str) -> None:
 
 
 def make_sensor(name: str) -> MeasurementModel:
-    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name).
-
-    A registered sensor is made as its class's :func:`_guarded` subclass: an exception
-    of one of its methods while the loop is traced becomes one line naming the sensor
-    and the method, with the user's frames (:mod:`mjx_radar.plugin_errors`)."""
-    cls = SENSORS.get(name)
-    if isinstance(name, str) and name.lower() in SENSORS.registered():
-        cls = _guarded(name.lower(), cls)
-    return cls()
-
-
-@functools.cache
-def _guarded(name: str, cls: type) -> type:
-    """``cls`` with each contract method wrapped by ``guarded_call`` (one class per
-    registered class, so equal models, and the programs keyed on them, stay equal)."""
-
-    def method(call):
-        def fn(self, *args, **kwargs):
-            inner = getattr(super(guarded, self), call)
-            return guarded_call("sensor", name, call, inner)(*args, **kwargs)
-
-        return fn
-
-    ns = {call: method(call) for call in METHODS["sensor"]}
-    ns.update(__qualname__=cls.__qualname__, __module__=cls.__module__, __doc__=cls.__doc__)
-    guarded = type(cls.__name__, (cls,), ns)
-    return guarded
+    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name); a
+    registered one raises its own exceptions as one line (:mod:`.sensor_guard`)."""
+    return sensor_guard.make(name)

@@ -1,0 +1,42 @@
+"""A sensor made by name, a registered one wrapped so that its own exceptions read as one line.
+
+:func:`make` is what :func:`mjx_radar.estimation.measurement.make_model` and
+:func:`mjx_radar.estimation.sensors.make_sensor` call: a built-in sensor is made as is; a
+registered one as its class's :func:`guarded` subclass, whose contract methods raise, while
+the loop is traced, one line naming the sensor and the method, with the user's frames
+(:mod:`mjx_radar.plugin_errors`).
+"""
+
+from __future__ import annotations
+
+import functools
+
+from mjx_radar.contracts import METHODS
+from mjx_radar.plugin_errors import guarded_call
+from mjx_radar.registry import SENSORS
+
+
+def make(name: str):
+    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name)."""
+    cls = SENSORS.get(name)
+    if isinstance(name, str) and name.lower() in SENSORS.registered():
+        cls = guarded(name.lower(), cls)
+    return cls()
+
+
+@functools.cache
+def guarded(name: str, cls: type) -> type:
+    """``cls`` with each contract method wrapped by ``guarded_call`` (one class per
+    registered class, so equal models, and the programs keyed on them, stay equal)."""
+
+    def method(call):
+        def fn(self, *args, **kwargs):
+            inner = getattr(super(wrapped, self), call)
+            return guarded_call("sensor", name, call, inner)(*args, **kwargs)
+
+        return fn
+
+    ns = {call: method(call) for call in METHODS["sensor"]}
+    ns.update(__qualname__=cls.__qualname__, __module__=cls.__module__, __doc__=cls.__doc__)
+    wrapped = type(cls.__name__, (cls,), ns)
+    return wrapped
