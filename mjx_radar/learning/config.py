@@ -169,6 +169,30 @@ def read_policy_json(path, where: str) -> dict:
     return state
 
 
+def out_folder(out) -> Path:
+    """A training's ``out`` argument as an absolute folder path (orbax writes to absolute
+    paths only), checked by :func:`check_out` (one line otherwise; nothing is made)."""
+    if not isinstance(out, str | os.PathLike) or not str(out):
+        raise ScenarioError(f"out = {out!r}: must be a folder path")
+    out = Path(out).expanduser().resolve()
+    check_out(out)
+    return out
+
+
+def check_method_and_budget(method: str, max_seconds) -> None:
+    """A training's method name and time budget ``max_seconds`` (> 0, or None)."""
+    from mjx_radar.task.method import parse_method
+
+    try:
+        parse_method(method)
+    except ValueError as err:
+        raise ScenarioError(str(err)) from None
+    if max_seconds is not None and not (
+        isinstance(max_seconds, int | float) and 0 < max_seconds < math.inf
+    ):
+        raise ScenarioError(f"max_seconds = {max_seconds!r}: must be a number > 0 (or None)")
+
+
 def check_out(out: Path) -> None:
     """``out`` is a folder or can be made one (one line otherwise; nothing is made)."""
     if out.exists() and not out.is_dir():

@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import math
 import time
 from pathlib import Path
 
@@ -36,7 +35,7 @@ import jax.numpy as jnp
 from mjx_radar.io.atomic import atomic_write_text
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.learning import distill, distill_ckpt, replay
-from mjx_radar.learning.config import check_out
+from mjx_radar.learning.config import check_method_and_budget, out_folder
 from mjx_radar.learning.distill_config import DistillConfig, check_distill, distill_config_of
 from mjx_radar.learning.set_net import init_params
 
@@ -110,21 +109,9 @@ def distill_policy(
     Returns:
         ``DIR/policy.json``'s content.
     """
-    from mjx_radar.task.method import parse_method
-
-    if not isinstance(out, str | Path) or not str(out):
-        raise ScenarioError(f"out = {out!r}: must be a folder path")
-    out = Path(out).expanduser().resolve()
-    check_out(out)
+    out = out_folder(out)
     scs = scenario_list(scenarios)
-    try:
-        parse_method(method)
-    except ValueError as err:
-        raise ScenarioError(str(err)) from None
-    if max_seconds is not None and not (
-        isinstance(max_seconds, int | float) and 0 < max_seconds < math.inf
-    ):
-        raise ScenarioError(f"max_seconds = {max_seconds!r}: must be a number > 0 (or None)")
+    check_method_and_budget(method, max_seconds)
     names = [s.name for s in scs]
     state = read_distill_state(out, names, method)
     config = distill_config_of(state) if state else (config or DistillConfig())

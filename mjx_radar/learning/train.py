@@ -22,7 +22,6 @@ import csv
 import dataclasses
 import json
 import math
-import os
 import time
 from pathlib import Path
 
@@ -32,10 +31,11 @@ from mjx_radar.learning import finetune
 from mjx_radar.learning.config import (
     PPOConfig,
     check_config,
-    check_out,
+    check_method_and_budget,
     config_of,
     network_factory,
     new_ppo_state,
+    out_folder,
     penalty_step,
     read_policy_json,
 )
@@ -117,21 +117,10 @@ def train_policy(
     from mjx_radar.engine import compile_cache
     from mjx_radar.env.inputs import check_scenario
     from mjx_radar.learning import compat
-    from mjx_radar.task.method import parse_method
 
-    if not isinstance(out, str | os.PathLike) or not str(out):
-        raise ScenarioError(f"out = {out!r}: must be a folder path")
-    out = Path(out).expanduser().resolve()  # orbax writes to absolute paths only
-    check_out(out)
+    out = out_folder(out)
     sc = check_scenario(scenario)
-    try:
-        parse_method(method)
-    except ValueError as err:
-        raise ScenarioError(str(err)) from None
-    if max_seconds is not None and not (
-        isinstance(max_seconds, int | float) and 0 < max_seconds < math.inf
-    ):
-        raise ScenarioError(f"max_seconds = {max_seconds!r}: must be a number > 0 (or None)")
+    check_method_and_budget(method, max_seconds)
     state = finetune.start_state(out, sc, method, config or PPOConfig())  # PPO from BC
     if state is None:
         state = read_state(out, sc.name, method)
