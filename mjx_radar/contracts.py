@@ -10,7 +10,9 @@ missing, before anything is traced:
   (``record(carry, action)`` optional);
 * :class:`TrackerFactory`: ``factory(task, params) -> FilterOps``;
 * :class:`SensorPlugin`: a ``MeasurementModel`` subclass made without arguments, with
-  ``dim >= 1`` and its five methods.
+  ``dim >= 1`` and its five methods;
+* :class:`CostTermPlugin`: ``fn(h: Horizon, task, params) -> [H]``, a cost per horizon
+  step (``mjx_radar.register_cost_term``, which also takes the scenarios it is for).
 
 A base class's method that only raises (``Planner.plan``, ``MeasurementModel.predict``)
 is marked :func:`placeholder`: a subclass that does not override it (``plan``
@@ -64,6 +66,12 @@ class SensorPlugin(Protocol):
     def residual(self, a: Any, b: Any) -> Any: ...
 
     def pair_information(self, dx: Any, dy: Any, dz: Any, params: Any, ccr: Any) -> Any: ...
+
+
+class CostTermPlugin(Protocol):
+    """``fn(h, task, params) -> [H]`` (:class:`mjx_radar.task.costs.Horizon`): pure JAX."""
+
+    def __call__(self, h: Any, task: Any, params: Any) -> Any: ...
 
 
 #: each kind's methods and how many arguments each takes (after ``self``)
@@ -153,6 +161,12 @@ def check(kind: str, name: str, obj: Any) -> None:
             raise PluginError(
                 f"tracker {name!r}: the factory {getattr(obj, '__name__', what)}"
                 f"{inspect.signature(obj)} must take (task, params)"
+            )
+    elif kind == "cost term":
+        if not takes(obj, 3):
+            raise PluginError(
+                f"cost term {name!r}: {getattr(obj, '__name__', what)}() must take "
+                "(h, task, params)"
             )
     elif kind == "sensor":
         if not inspect.isclass(obj):

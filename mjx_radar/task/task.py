@@ -22,7 +22,7 @@ from mjx_radar.physics import kinematics, motion
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics.rollout import radar_rollout
 from mjx_radar.scenario.schema import Scenario
-from mjx_radar.task import costs
+from mjx_radar.task import cost_plugins, costs
 from mjx_radar.world import obstacles, occlusion, terrain
 
 
@@ -96,8 +96,8 @@ def _rollout_backend(scenario: Scenario) -> Callable:
 
 def make_task(shape: Scenario, kind: str = "all") -> RadarTask:
     """Builds the task of a scenario shape (cached: one task per shape, program kind,
-    registered cost terms (:func:`mjx_radar.task.costs.registry_key`) and process)."""
-    return _task_of_kind(shape, costs.registry_key(), kind)
+    registered cost terms (:func:`mjx_radar.task.cost_plugins.registry_key`) and process)."""
+    return _task_of_kind(shape, cost_plugins.registry_key(), kind)
 
 
 @functools.cache
