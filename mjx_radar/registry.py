@@ -49,7 +49,8 @@ def code_digest(obj: Any) -> str:
 
     Functions hash their bytecode; classes every function in their own and their
     bases' namespaces (``object`` excluded); ``functools.partial`` its function and
-    arguments; anything else its ``repr``.
+    arguments; an instance its class and its attributes' values (a sensor that carries
+    its parameters); anything else its ``repr``.
     """
     h = hashlib.sha256()
     if isinstance(obj, functools.partial):
@@ -72,6 +73,9 @@ def code_digest(obj: Any) -> str:
     elif callable(getattr(obj, "code_parts", None)):  # an entry made of user functions
         for part in obj.code_parts():
             h.update(code_digest(part).encode())
+    elif hasattr(obj, "__dict__") and not inspect.isroutine(obj):  # an instance: its
+        h.update(code_digest(type(obj)).encode())  # class's code and its own values
+        h.update(repr(sorted(vars(obj).items())).encode())
     else:
         h.update(repr(obj).encode())
     return h.hexdigest()[:16]

@@ -9,6 +9,7 @@ the loop is traced, one line naming the sensor and the method, with the user's f
 
 from __future__ import annotations
 
+import copy
 import functools
 
 from mjx_radar.contracts import METHODS
@@ -17,11 +18,17 @@ from mjx_radar.registry import SENSORS
 
 
 def make(name: str):
-    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name)."""
-    cls = SENSORS.get(name)
-    if isinstance(name, str) and name.lower() in SENSORS.registered():
-        cls = guarded(name.lower(), cls)
-    return cls()
+    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name): a
+    registered class made without arguments, or a copy of a registered instance (which
+    carries its own parameters), either with its contract methods guarded."""
+    obj = SENSORS.get(name)
+    if not (isinstance(name, str) and name.lower() in SENSORS.registered()):
+        return obj() if isinstance(obj, type) else obj
+    if isinstance(obj, type):
+        return guarded(name.lower(), obj)()
+    made = copy.copy(obj)  # the same parameters, the guarded methods
+    object.__setattr__(made, "__class__", guarded(name.lower(), type(obj)))
+    return made
 
 
 @functools.cache
