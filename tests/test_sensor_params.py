@@ -69,3 +69,15 @@ def test_an_instances_own_exception_is_one_line(cleanup):
     made = sensor_guard.make("biased-2m")
     with pytest.raises(PluginError, match="sensor 'biased-2m': predict\\(\\) raised TypeError"):
         made.predict(jnp.zeros((1, 3)), jnp.ones((1, 3)))
+
+
+def test_predict_of_the_wrong_shape_is_refused(cleanup):
+    @dataclasses.dataclass(frozen=True)
+    class Flat(BiasedRange):  # [N, M] though dim = 1
+        def predict(self, radar_pos, target_pos):
+            return super().predict(radar_pos, target_pos)[..., 0]
+
+    mjx_radar.register_sensor("biased-2m", Flat())
+    made = sensor_guard.make("biased-2m")
+    with pytest.raises(PluginError, match=r"returned shape \[2, 3\]; expected \[2, 3, 1\]"):
+        made.predict(jnp.zeros((2, 3)), jnp.ones((3, 3)))
