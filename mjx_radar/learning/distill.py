@@ -18,6 +18,18 @@ and keeps ``(set_features(obs), control_to_action(u_T))`` of every period. The l
 the mean squared difference of the policy's action ``tanh(loc)`` and the teacher's, in
 ``[-1, 1]`` action units, over the real radars (``radar_mask``), averaged over the
 scenarios (each its own buffer: fleets of several sizes train one network).
+
+``keepout_weight`` w > 0 (off by default) adds a keep-out hinge on where the policy's own
+action would bring each radar to a stop, as the keep-out shield predicts it
+(:mod:`mjx_radar.learning.shield`), differentiable in the action::
+
+    v1 = clip(v + ā a T, -v̄, v̄),   s = (v + v1) T / 2 + v1 |v1| / (2 ā)
+    p̂ = p + s h,   q̂ = q + (T + |v1| / ā) q̇
+    loss += w · mean_i Σ_j present_j · relu((R2T + margin - |p̂_i - q̂_j|) / R2T)²
+
+(everything read back from the set features: positions ``·L``, speeds ``·v̄``), so the
+clone learns to stop short of the keep-out on every buffered state, also where the
+teacher's label, a noisy MPPI mean, would not.
 """
 
 from __future__ import annotations
@@ -52,7 +64,31 @@ class RolloutStats(NamedTuple):
     gap: jax.Array  # mean squared policy - teacher action difference (before updates)
 
 
-def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False):
+class Scales(NamedTuple):
+    """One scenario's constants that turn set features back into metres and seconds."""
+
+    half_width: float  # L [m]
+    speed: float  # v̄ [m/s]
+    accel: jax.Array  # [N] ā per radar [m/s²]
+    dt: float  # T, the control period [s]
+    r2t: float  # the radar-drone keep-out radius [m]
+
+
+def scales_of(env) -> Scales:
+    """The :class:`Scales` of a :class:`~mjx_radar.env.environment.RadarEnv`."""
+    sc = env.scenario
+    return Scales(
+        float(env.params.placement_half_width),
+        float(sc.limits.speed),
+        jnp.asarray(env.action_bounds[1][:, 0], jnp.float32),
+        float(sc.timing.dt_control),
+        float(env.params.r2t),
+    )
+
+
+def make_collect(
+    env, teacher, hidden: int, periods: int, shielded: bool = False, features: str = "v1"
+):
     """``collect(params, keys [E, 2], beta) -> (Sample [E·P], RolloutStats [E, P])``.
 
     Args:
@@ -61,6 +97,7 @@ def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False
         hidden: the set network's width.
         periods: control periods per rollout (P).
         shielded: the policy's control passes the keep-out shield before it is applied.
+        features: the set features' version (:func:`set_features`).
     """
 
     def trial(params, key, beta):
@@ -72,7 +109,7 @@ def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False
             pkey = jax.random.fold_in(streams_of(state.info["key"]).planner, state.info["period"])
             u_t, tcarry = teacher.plan(tcarry, obs, pkey)
             u_t = env.clip_action(u_t)
-            x = set_features(env, obs)
+            x = set_features(env, obs, features)
             a_p = policy_action(params, x, hidden)  # [N, 2]
             u_p = action_to_control(env, a_p.reshape(-1)).astype(u_t.dtype)
             if shielded:
@@ -111,12 +148,50 @@ def clone_loss(params, batch: Sample, hidden: int) -> jax.Array:
     return jnp.sum(mask * (pred - batch.action) ** 2) / (2.0 * jnp.maximum(jnp.sum(mask), 1.0))
 
 
-def make_update(hidden: int, tx, batch_size: int, updates: int):
+def keepout_hinge(action, x: SetObs, scales: Scales, margin: float = 5.0) -> jax.Array:
+    """``[...]`` the keep-out hinge of the module docstring for actions ``[..., N, 2]``
+    taken on the states ``x`` (batch axes alike), summed over drones, mean over the
+    real radars."""
+    s = scales
+    n = action.shape[-2]
+    acc = jnp.broadcast_to(jnp.asarray(s.accel, jnp.float32), (n,))
+    amax = jnp.maximum(acc, 1e-6)
+    p = x.radar[..., :3] * s.half_width
+    th = jnp.arctan2(x.radar[..., 4], x.radar[..., 3])
+    v = x.radar[..., 5] * s.speed
+    v1 = jnp.clip(v + action[..., 0] * acc * s.dt, -s.speed, s.speed)
+    travel = 0.5 * (v + v1) * s.dt + v1 * jnp.abs(v1) / (2.0 * amax)
+    head = jnp.stack([jnp.cos(th), jnp.sin(th), jnp.zeros_like(th)], -1)
+    p_stop = p + travel[..., None] * head  # [..., N, 3]
+    tau = s.dt + jnp.abs(v1) / amax  # [..., N]
+    q = x.target[..., :3] * s.half_width  # [..., M, 3]
+    qdot = x.target[..., 3:6] * s.speed
+    q_stop = q[..., None, :, :] + tau[..., None, None] * qdot[..., None, :, :]
+    d = jnp.sqrt(jnp.sum((p_stop[..., None, :] - q_stop) ** 2, -1) + 1e-6)  # [..., N, M]
+    present = x.target_mask * (x.target[..., 27] > 0)  # [..., M]
+    hinge = jax.nn.relu((s.r2t + margin - d) / s.r2t) ** 2 * present[..., None, :]
+    per_radar = jnp.sum(hinge, -1)
+    rmask = x.radar_mask
+    return jnp.sum(per_radar * rmask, -1) / jnp.maximum(jnp.sum(rmask, -1), 1.0)
+
+
+def make_update(
+    hidden: int, tx, batch_size: int, updates: int, keepout: tuple = (), weight: float = 0.0
+):
     """``update(params, opt_state, buffers, key) -> (params, opt_state, losses [updates])``:
-    ``updates`` Adam steps, each on ``batch_size`` samples of every buffer."""
+    ``updates`` Adam steps, each on ``batch_size`` samples of every buffer (the clone
+    loss, plus ``weight`` times :func:`keepout_hinge` with each buffer's
+    :class:`Scales` in ``keepout`` when ``weight > 0``)."""
+
+    def one(params, b, i):
+        loss = clone_loss(params, b, hidden)
+        if weight > 0:  # off: the program has no such term
+            pred = policy_action(params, b.obs, hidden)
+            loss = loss + weight * jnp.mean(keepout_hinge(pred, b.obs, keepout[i]))
+        return loss
 
     def loss_fn(params, batches):
-        return jnp.mean(jnp.stack([clone_loss(params, b, hidden) for b in batches]))
+        return jnp.mean(jnp.stack([one(params, b, i) for i, b in enumerate(batches)]))
 
     def update(params, opt_state, buffers, key):
         def step(carry, k):

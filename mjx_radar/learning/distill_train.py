@@ -144,10 +144,12 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
     teachers = [make_planner("mppi", e) for e in envs]
     periods = [config.periods or e.episode_length for e in envs]
     tx = distill.optimizer(config.learning_rate, config.max_grad_norm)
-    params = init_params(config.hidden, jax.random.PRNGKey(config.seed))
+    params = init_params(config.hidden, jax.random.PRNGKey(config.seed), False, config.features)
     buffers = []
     for e in envs:
-        example = jax.eval_shape(lambda e=e: set_features(e, e.reset(jax.random.PRNGKey(0)).obs))
+        example = jax.eval_shape(
+            lambda e=e: set_features(e, e.reset(jax.random.PRNGKey(0)).obs, config.features)
+        )
         act = jax.ShapeDtypeStruct((e.n_radars, 2), jnp.float32)
         buffers.append(replay.empty(distill.Sample(example, act), config.buffer_size))
     full = (params, tx.init(params), buffers)
@@ -159,10 +161,10 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
         full = (params, tx.init(params), buffers)
         log(f"distill: {ckpt} has no state.npz: Adam and the buffers start afresh")
     collects = [
-        jax.jit(distill.make_collect(e, t, config.hidden, p, config.shield))
+        jax.jit(distill.make_collect(e, t, config.hidden, p, config.shield, config.features))
         for e, t, p in zip(envs, teachers, periods, strict=True)
     ]
-    update = jax.jit(distill.make_update(config.hidden, tx, config.batch_size, config.updates))
+    update = _update_program(envs, tx, config)
     beta = jnp.float32(1.0 if algo == "bc" else config.beta)
     base = jax.random.PRNGKey(config.seed)
     per_iter = config.num_envs * sum(periods)
@@ -195,6 +197,16 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
             log(f"distill: stopped at {state['steps_done']} of {steps} steps (time budget)")
             break
     return state
+
+
+def _update_program(envs, tx, config):
+    """The jitted gradient steps of one iteration (:func:`distill.make_update`)."""
+    scales = tuple(distill.scales_of(e) for e in envs)
+    return jax.jit(
+        distill.make_update(
+            config.hidden, tx, config.batch_size, config.updates, scales, config.keepout_weight
+        )
+    )
 
 
 def _new_state(scs, algo, method, config) -> dict:

@@ -1,0 +1,188 @@
+"""The keep-out and ground set features (``features="v2"``) and the keep-out hinge of the
+cloning loss (docs/learning.md, "Distillation"): each against an independent reference
+(finite differences, closed forms, a brute-force line-of-sight march), and the set
+network's permutation equivariance on them."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+pytest.importorskip("flax")
+pytest.importorskip("optax")
+
+from mjx_radar.learning.set_features import SIZES, SetObs, set_features  # noqa: E402
+from mjx_radar.learning.set_net import SetNet, init_params  # noqa: E402
+
+
+def _obs(env, radar, mean, weight=None):
+    """What :func:`set_features` reads of an observation: the given radar states and
+    target estimates (covariance I, no detections)."""
+    from types import SimpleNamespace
+
+    n, m = radar.shape[0], mean.shape[0]
+    weight = np.ones(m) if weight is None else weight
+    return SimpleNamespace(
+        radar_state=jnp.asarray(radar, jnp.float32),
+        mean=jnp.asarray(mean.reshape(-1), jnp.float32),
+        cov=jnp.eye(6 * m, dtype=jnp.float32),
+        target_weight=jnp.asarray(weight, jnp.float32),
+        detections=jnp.zeros((n, m), jnp.float32),
+    )
+
+
+@pytest.fixture(scope="module")
+def paper():
+    from mjx_radar.env import make
+
+    return make("paper_3r4t")
+
+
+def test_v2_pair_features_against_finite_differences(paper):
+    """The closing rate is the time derivative of d₃ (central difference of the moved
+    positions, 1e-3 s), the margin ahead is d₃ after the horizon at constant velocity
+    over R2T minus 1 (numpy), the nearest flag marks each radar's closest present drone
+    (an absent one, weight 0, never), line of sight is clear without obstacles; v1's
+    six features are v2's first six."""
+    env = paper
+    rng = np.random.default_rng(0)
+    radar = np.column_stack(
+        [
+            rng.uniform(-300, 300, (3, 2)),
+            np.zeros(3),
+            rng.uniform(-3, 3, 3),
+            rng.uniform(-40, 40, 3),
+            np.zeros(3),
+        ]
+    )
+    mean = np.column_stack(
+        [rng.uniform(-200, 200, (4, 2)), rng.uniform(40, 80, 4), rng.uniform(-20, 20, (4, 3))]
+    )
+    weight = np.array([1.0, 1.0, 0.0, 1.0])
+    x = set_features(env, _obs(env, radar, mean, weight), "v2")
+    x1 = set_features(env, _obs(env, radar, mean, weight), "v1")
+    assert x.pair.shape == (3, 4, SIZES["v2"][2]) and x.radar.shape == (3, SIZES["v2"][0])
+    np.testing.assert_array_equal(np.asarray(x.pair[..., :6]), np.asarray(x1.pair))
+
+    def d3(t):
+        vr = radar[:, 4:5] * np.column_stack(
+            [np.cos(radar[:, 3]), np.sin(radar[:, 3]), np.zeros(3)]
+        )
+        p = radar[:, :3] + t * vr
+        q = mean[:, :3] + t * mean[:, 3:]
+        return np.linalg.norm(q[None] - p[:, None], axis=-1)
+
+    h, sc = 1e-3, env.scenario
+    rate = (d3(h) - d3(-h)) / (2 * h) / sc.limits.speed
+    np.testing.assert_allclose(np.asarray(x.pair[..., 6]), rate, rtol=1e-4, atol=1e-5)
+    tau = sc.mpc.horizon * sc.timing.dt_control
+    ahead = d3(tau) / float(env.params.r2t) - 1
+    np.testing.assert_allclose(np.asarray(x.pair[..., 7]), ahead, rtol=1e-5, atol=1e-5)
+    d = np.where(weight[None] > 0, d3(0.0), np.inf)
+    want = (d == d.min(1, keepdims=True)).astype(float)
+    np.testing.assert_array_equal(np.asarray(x.pair[..., 8]), want)
+    np.testing.assert_array_equal(np.asarray(x.pair[..., 9]), np.ones((3, 4)))
+    np.testing.assert_array_equal(np.asarray(x.radar[:, 7:]), np.zeros((3, 3)))  # flat ground
+
+
+def test_v2_ground_features_against_a_line_of_sight_march():
+    """On hills_4r4t: line of sight from each radar to each estimate matches a march of
+    4001 points along the segment against the map's bilinear heights (numpy, the file's
+    reader), on pairs both blocked and clear; the gradient matches central differences
+    of those heights (5 cm, inside one cell of the grid)."""
+    from mjx_radar.env import make
+    from mjx_radar.io.terrain_file import height_np
+
+    env = make("hills_4r4t")
+    t = env.scenario.terrain
+    xy = np.array([[151.3, 3.7], [-347.1, 117.9], [253.3, -61.1], [-97.7, -296.3]])
+    z = height_np(t, xy) + t.antenna_height
+    radar = np.column_stack([xy, z, np.zeros((4, 3))])
+    mean = np.array(
+        [[400.0, 0.0, 115.0], [420.0, 150.0, 120.0], [380.0, -120.0, 60.0], [100.0, -200.0, 300.0]]
+    )
+    mean = np.column_stack([mean, np.zeros((4, 3))])
+    x = set_features(env, _obs(env, radar, mean), "v2")
+    s = np.linspace(0.0, 1.0, 4001)[1:-1]
+    pts = radar[:, None, None, :3] + s[:, None] * (
+        mean[None, :, None, :3] - radar[:, None, None, :3]
+    )
+    clear = np.all(
+        pts[..., 2] >= height_np(t, pts[..., :2].reshape(-1, 2)).reshape(pts.shape[:-1]), -1
+    )
+    los = np.asarray(x.pair[..., 9])
+    assert 0 < los.sum() < los.size, "the case must hold both clear and blocked pairs"
+    np.testing.assert_array_equal(los, clear.astype(float))
+    e = 0.05
+    gx = (height_np(t, xy + [e, 0]) - height_np(t, xy - [e, 0])) / (2 * e)
+    gy = (height_np(t, xy + [0, e]) - height_np(t, xy - [0, e])) / (2 * e)
+    np.testing.assert_allclose(np.asarray(x.radar[:, 7:9]), np.column_stack([gx, gy]), atol=2e-3)
+    grade = np.hypot(gx, gy) / np.tan(np.deg2rad(t.max_slope_deg))
+    np.testing.assert_allclose(np.asarray(x.radar[:, 9]), grade, atol=5e-3)
+
+
+def test_v2_features_and_network_are_permutation_equivariant(paper):
+    """Permuting the radars of an observation permutes v2's radar and pair rows (and
+    the network's actions) alike; permuting the targets permutes their columns and
+    leaves the actions unchanged (float32 round-off)."""
+    env = paper
+    rng = np.random.default_rng(1)
+    radar = np.column_stack(
+        [
+            rng.uniform(-300, 300, (3, 2)),
+            np.zeros(3),
+            rng.uniform(-3, 3, 3),
+            rng.uniform(-40, 40, 3),
+            np.zeros(3),
+        ]
+    )
+    mean = np.column_stack(
+        [rng.uniform(-200, 200, (4, 2)), rng.uniform(40, 80, 4), rng.uniform(-20, 20, (4, 3))]
+    )
+    pr, pt = np.array([2, 0, 1]), np.array([3, 1, 0, 2])
+    x = set_features(env, _obs(env, radar, mean), "v2")
+    xp = set_features(env, _obs(env, radar[pr], mean[pt]), "v2")
+    np.testing.assert_allclose(np.asarray(xp.radar), np.asarray(x.radar)[pr], atol=1e-5)
+    np.testing.assert_allclose(np.asarray(xp.pair), np.asarray(x.pair)[pr][:, pt], atol=1e-5)
+    params = init_params(16, jax.random.PRNGKey(1), False, "v2")
+    out, outp = SetNet(16).apply(params, x), SetNet(16).apply(params, xp)
+    np.testing.assert_allclose(np.asarray(outp), np.asarray(out)[pr], rtol=1e-4, atol=1e-5)
+
+
+def test_keepout_hinge_closed_form():
+    """One radar at rest at the origin heading +x, one still drone at (R2T, 0, 0): full
+    acceleration stops it at ā T² (v1 = ā T, s = ā T²/2 + ā T²/2), so the hinge is
+    ((margin + ā T²) / R2T)²; braking (a = -1) stops it at -ā T²; a drone past
+    R2T + margin + ā T² gives 0; absent drones and padded radars count nothing."""
+    from mjx_radar.learning.distill import Scales, keepout_hinge
+
+    s = Scales(400.0, 50.0, jnp.array([35.0]), 0.1, 125.0)
+    radar = jnp.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
+    target = jnp.zeros((1, 28)).at[0, 0].set(125.0 / 400.0).at[0, 27].set(1.0)
+    x = SetObs(radar, target, jnp.zeros((1, 1, 6)), jnp.ones(1), jnp.ones(1))
+    a = lambda acc: jnp.array([[acc, 0.0]])  # noqa: E731
+    at2 = 35.0 * 0.01
+    np.testing.assert_allclose(
+        float(keepout_hinge(a(1.0), x, s)), ((5 + at2) / 125) ** 2, rtol=1e-5
+    )
+    np.testing.assert_allclose(
+        float(keepout_hinge(a(-1.0), x, s)), ((5 - at2) / 125) ** 2, rtol=1e-5
+    )
+    far = x._replace(target=target.at[0, 0].set((130.5 + at2) / 400.0))
+    assert float(keepout_hinge(a(1.0), far, s)) == 0.0
+    gone = x._replace(target=target.at[0, 27].set(0.0))
+    assert float(keepout_hinge(a(1.0), gone, s)) == 0.0
+    grad = jax.grad(lambda u: keepout_hinge(a(u), x, s))(0.5)
+    assert float(grad) > 0  # accelerating towards the drone costs more
+    two = SetObs(
+        jnp.concatenate([radar, radar]),
+        target,
+        jnp.zeros((2, 1, 6)),
+        jnp.array([1.0, 0.0]),
+        jnp.ones(1),
+    )
+    s2 = s._replace(accel=jnp.array([35.0, 35.0]))
+    both = keepout_hinge(jnp.array([[1.0, 0.0], [1.0, 0.0]]), two, s2)
+    np.testing.assert_allclose(float(both), ((5 + at2) / 125) ** 2, rtol=1e-5)
