@@ -208,12 +208,17 @@ def test_algo_bad_input_is_one_line_exit_2(tmp_path, capsys):
         (base + ["dagger", "--hidden", "0"], "--hidden = 0: must be an integer >= 1"),
         (base + ["bc", "--buffer-size", "0"], "--buffer-size = 0"),
         (base + ["bc", "--lr", "0"], "--lr = 0.0"),
+        (base + ["bc", "--keepout-weight", "-1"], "--keepout-weight = -1.0"),
         (["smoke,nope", "--steps", "9", "--out", out, "--algo", "bc"], "nope"),
     ]
     for argv, message in cases:
         assert script.main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert message in err and "\n" not in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as exit_:
+        script.main(base + ["bc", "--features", "v3"])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and "--features: invalid choice: 'v3'" in err and "\n" not in err
     (tmp_path / "p").mkdir()
     (tmp_path / "p" / "policy.json").write_text(json.dumps({"scenario": "smoke", "config": {}}))
     assert script.main(base + ["bc"]) == 2

@@ -186,3 +186,19 @@ def test_keepout_hinge_closed_form():
     s2 = s._replace(accel=jnp.array([35.0, 35.0]))
     both = keepout_hinge(jnp.array([[1.0, 0.0], [1.0, 0.0]]), two, s2)
     np.testing.assert_allclose(float(both), ((5 + at2) / 125) ** 2, rtol=1e-5)
+
+
+def test_keepout_hinge_gradient_passes_the_speed_limit():
+    """A radar at full speed (v̄) towards a drone: accelerating further changes nothing
+    (the speed is clipped), yet the hinge's gradient in the action is positive (straight
+    through the clip), so the clone learns to brake; braking lowers the hinge."""
+    from mjx_radar.learning.distill import Scales, keepout_hinge
+
+    s = Scales(400.0, 50.0, jnp.array([35.0]), 0.1, 125.0)
+    radar = jnp.array([[0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0]])  # v = v̄ along +x
+    target = jnp.zeros((1, 28)).at[0, 0].set(150.0 / 400.0).at[0, 27].set(1.0)
+    x = SetObs(radar, target, jnp.zeros((1, 1, 6)), jnp.ones(1), jnp.ones(1))
+    h = lambda u: keepout_hinge(jnp.array([[u, 0.0]]), x, s)  # noqa: E731
+    assert float(h(0.5)) == float(h(1.0)) > 0
+    assert float(jax.grad(h)(0.5)) > 0
+    assert float(h(-1.0)) < float(h(0.0))

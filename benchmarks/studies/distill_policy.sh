@@ -16,12 +16,14 @@
 # SHIELD (1: the keep-out shield on the policy's controls, in training and in policy:DIR),
 # TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario),
 # FEATURES (v1, or v2: keep-out and ground / line-of-sight set features), KEEPOUT_WEIGHT
-# (the cloning loss's keep-out hinge, 0: off). BC_STEPS and DAGGER_STEPS default to 6 and
-# 20 iterations of NUM_ENVS trials x 150 periods x the TRAIN scenarios. The keep-out and
-# terrain run (paper_3r4t, paper_6r3t and hills_4r4t, one call):
+# (the cloning loss's keep-out hinge, 0: off), COMMAND (the result file's command line).
+# BC_STEPS and DAGGER_STEPS default to 6 and 20 iterations of NUM_ENVS trials x 150
+# periods x the TRAIN scenarios. The keep-out and terrain run (paper_3r4t, paper_6r3t and
+# hills_4r4t, one call; 4 + 8 iterations of the three scenarios):
 #   FEATURES=v2 KEEPOUT_WEIGHT=30 TRAIN=paper_3r4t,paper_4r4t,hills_4r4t \
-#   EVAL=paper_3r4t,paper_6r3t,hills_4r4t RUN=runs/distill_v2 \
-#   RESULT=benchmarks/results/distill_policy_v2_h200.json bash benchmarks/studies/distill_policy.sh
+#   EVAL=paper_3r4t,paper_6r3t,hills_4r4t BC_STEPS=460800 DAGGER_STEPS=1382400 \
+#   RUN=runs/distill_v2 RESULT=benchmarks/results/distill_policy_v2_h200.json \
+#   bash benchmarks/studies/distill_policy.sh
 set -euo pipefail
 RUN=${RUN:-runs/distill}
 TRIALS=${TRIALS:-500}
@@ -98,7 +100,7 @@ enough 120
 timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
   --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
   --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS, shield ${SHIELD:-0}$EXTRA; curve: $RUN/policy/curve.csv." \
-  --command "bash benchmarks/studies/distill_policy.sh" || {
+  --command "${COMMAND:-bash benchmarks/studies/distill_policy.sh}" || {
   echo "distill_policy: evaluation cut short, run the same command again to go on"
   save_out
   exit 0

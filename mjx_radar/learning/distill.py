@@ -24,6 +24,7 @@ action would bring each radar to a stop, as the keep-out shield predicts it
 (:mod:`mjx_radar.learning.shield`), differentiable in the action::
 
     v1 = clip(v + ā a T, -v̄, v̄),   s = (v + v1) T / 2 + v1 |v1| / (2 ā)
+    (the clip's gradient taken as 1: straight through)
     p̂ = p + s h,   q̂ = q + (T + |v1| / ā) q̇
     loss += w · mean_i Σ_j present_j · relu((R2T + margin - |p̂_i - q̂_j|) / R2T)²
 
@@ -159,7 +160,10 @@ def keepout_hinge(action, x: SetObs, scales: Scales, margin: float = 5.0) -> jax
     p = x.radar[..., :3] * s.half_width
     th = jnp.arctan2(x.radar[..., 4], x.radar[..., 3])
     v = x.radar[..., 5] * s.speed
-    v1 = jnp.clip(v + action[..., 0] * acc * s.dt, -s.speed, s.speed)
+    raw = v + action[..., 0] * acc * s.dt
+    # the speed limit clips v1, but the gradient passes as if it did not (straight
+    # through): a radar at full speed towards a drone still learns to brake
+    v1 = raw + jax.lax.stop_gradient(jnp.clip(raw, -s.speed, s.speed) - raw)
     travel = 0.5 * (v + v1) * s.dt + v1 * jnp.abs(v1) / (2.0 * amax)
     head = jnp.stack([jnp.cos(th), jnp.sin(th), jnp.zeros_like(th)], -1)
     p_stop = p + travel[..., None] * head  # [..., N, 3]
