@@ -152,26 +152,25 @@ def test_v2_features_and_network_are_permutation_equivariant(paper):
 
 
 def test_keepout_hinge_closed_form():
-    """One radar at rest at the origin heading +x, one still drone at (R2T, 0, 0): full
-    acceleration stops it at ā T² (v1 = ā T, s = ā T²/2 + ā T²/2), so the hinge is
-    ((margin + ā T²) / R2T)²; braking (a = -1) stops it at -ā T²; a drone past
-    R2T + margin + ā T² gives 0; absent drones and padded radars count nothing."""
-    from mjx_radar.learning.distill import Scales, keepout_hinge
+    """One radar at rest at the origin heading +x, one still drone at (R2T, 0, 0), K = 3
+    periods of T = 0.1 s: full acceleration moves the radar ā t²/2 = 1.575 m towards the
+    drone (t = 0.3 s), so the hinge is (1.575 / R2T)²; braking (a = -1) moves it away: 0;
+    a drone moving away at 10 m/s too: (1.575 - 3)₊ = 0; absent drones and padded radars
+    count nothing; the gradient in the action is positive."""
+    from mjx_radar.learning.distill import HINGE_PERIODS, Scales, keepout_hinge
 
+    assert HINGE_PERIODS == 3
     s = Scales(400.0, 50.0, jnp.array([35.0]), 0.1, 125.0)
     radar = jnp.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
     target = jnp.zeros((1, 28)).at[0, 0].set(125.0 / 400.0).at[0, 27].set(1.0)
     x = SetObs(radar, target, jnp.zeros((1, 1, 6)), jnp.ones(1), jnp.ones(1))
     a = lambda acc: jnp.array([[acc, 0.0]])  # noqa: E731
-    at2 = 35.0 * 0.01
-    np.testing.assert_allclose(
-        float(keepout_hinge(a(1.0), x, s)), ((5 + at2) / 125) ** 2, rtol=1e-5
-    )
-    np.testing.assert_allclose(
-        float(keepout_hinge(a(-1.0), x, s)), ((5 - at2) / 125) ** 2, rtol=1e-5
-    )
-    far = x._replace(target=target.at[0, 0].set((130.5 + at2) / 400.0))
-    assert float(keepout_hinge(a(1.0), far, s)) == 0.0
+    move = 0.5 * 35.0 * 0.3**2
+    want = (move / 125.0) ** 2
+    np.testing.assert_allclose(float(keepout_hinge(a(1.0), x, s)), want, rtol=1e-3)
+    assert float(keepout_hinge(a(-1.0), x, s)) == 0.0
+    away = x._replace(target=target.at[0, 3].set(10.0 / 50.0))
+    assert float(keepout_hinge(a(1.0), away, s)) == 0.0
     gone = x._replace(target=target.at[0, 27].set(0.0))
     assert float(keepout_hinge(a(1.0), gone, s)) == 0.0
     grad = jax.grad(lambda u: keepout_hinge(a(u), x, s))(0.5)
@@ -185,20 +184,22 @@ def test_keepout_hinge_closed_form():
     )
     s2 = s._replace(accel=jnp.array([35.0, 35.0]))
     both = keepout_hinge(jnp.array([[1.0, 0.0], [1.0, 0.0]]), two, s2)
-    np.testing.assert_allclose(float(both), ((5 + at2) / 125) ** 2, rtol=1e-5)
+    np.testing.assert_allclose(float(both), want, rtol=1e-3)
 
 
 def test_keepout_hinge_gradient_passes_the_speed_limit():
-    """A radar at full speed (v̄) towards a drone: accelerating further changes nothing
-    (the speed is clipped), yet the hinge's gradient in the action is positive (straight
-    through the clip), so the clone learns to brake; braking lowers the hinge."""
+    """A radar at full speed (v̄) towards a drone 130 m ahead: it covers v̄ t = 15 m in
+    t = 0.3 s whatever its acceleration (the speed is clipped), hinge (10 / R2T)², yet
+    the hinge's gradient in the action is positive (straight through the clip), so the
+    clone learns to brake; full braking covers (v̄ + v̄ - ā t) t / 2 = 13.425 m."""
     from mjx_radar.learning.distill import Scales, keepout_hinge
 
     s = Scales(400.0, 50.0, jnp.array([35.0]), 0.1, 125.0)
     radar = jnp.array([[0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0]])  # v = v̄ along +x
-    target = jnp.zeros((1, 28)).at[0, 0].set(150.0 / 400.0).at[0, 27].set(1.0)
+    target = jnp.zeros((1, 28)).at[0, 0].set(130.0 / 400.0).at[0, 27].set(1.0)
     x = SetObs(radar, target, jnp.zeros((1, 1, 6)), jnp.ones(1), jnp.ones(1))
     h = lambda u: keepout_hinge(jnp.array([[u, 0.0]]), x, s)  # noqa: E731
-    assert float(h(0.5)) == float(h(1.0)) > 0
+    assert float(h(0.5)) == float(h(1.0))
+    np.testing.assert_allclose(float(h(1.0)), (10.0 / 125.0) ** 2, rtol=1e-3)
     assert float(jax.grad(h)(0.5)) > 0
-    assert float(h(-1.0)) < float(h(0.0))
+    np.testing.assert_allclose(float(h(-1.0)), ((13.425 - 5.0) / 125.0) ** 2, rtol=1e-3)

@@ -20,7 +20,7 @@
 # BC_STEPS and DAGGER_STEPS default to 6 and 20 iterations of NUM_ENVS trials x 150
 # periods x the TRAIN scenarios. The keep-out and terrain run (paper_3r4t, paper_6r3t and
 # hills_4r4t, one call; 4 + 8 iterations of the three scenarios):
-#   FEATURES=v2 KEEPOUT_WEIGHT=30 TRAIN=paper_3r4t,paper_4r4t,hills_4r4t \
+#   FEATURES=v2 KEEPOUT_WEIGHT=1000 TRAIN=paper_3r4t,paper_4r4t,hills_4r4t \
 #   EVAL=paper_3r4t,paper_6r3t,hills_4r4t BC_STEPS=460800 DAGGER_STEPS=1382400 \
 #   RUN=runs/distill_v2 RESULT=benchmarks/results/distill_policy_v2_h200.json \
 #   bash benchmarks/studies/distill_policy.sh

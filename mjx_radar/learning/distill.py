@@ -20,17 +20,18 @@ the mean squared difference of the policy's action ``tanh(loc)`` and the teacher
 scenarios (each its own buffer: fleets of several sizes train one network).
 
 ``keepout_weight`` w > 0 (off by default) adds a keep-out hinge on where the policy's own
-action would bring each radar to a stop, as the keep-out shield predicts it
-(:mod:`mjx_radar.learning.shield`), differentiable in the action::
+action would bring each radar within K = :data:`HINGE_PERIODS` control periods (the
+action held, the drone at its estimated velocity), differentiable in the action::
 
-    v1 = clip(v + ā a T, -v̄, v̄),   s = (v + v1) T / 2 + v1 |v1| / (2 ā)
-    (the clip's gradient taken as 1: straight through)
-    p̂ = p + s h,   q̂ = q + (T + |v1| / ā) q̇
-    loss += w · mean_i Σ_j present_j · relu((R2T + margin - |p̂_i - q̂_j|) / R2T)²
+    t = K T,   v_K = clip(v + ā a t, -v̄, v̄)   (the clip's gradient taken as 1)
+    p̂ = p + (v + v_K) t / 2 · h,   q̂ = q + t q̇
+    loss += w · mean_i Σ_j present_j · relu((R2T - |p̂_i - q̂_j|) / R2T)²
 
-(everything read back from the set features: positions ``·L``, speeds ``·v̄``), so the
-clone learns to stop short of the keep-out on every buffered state, also where the
-teacher's label, a noisy MPPI mean, would not.
+(everything read back from the set features: positions ``·L``, speeds ``·v̄``). MPPI's
+own labels keep it zero on the states it drives through (its radars ride the keep-out's
+edge, a few metres out: a longer look-ahead or a margin would penalise the teacher's own
+controls), so it acts where the policy has driven a radar towards or into the keep-out:
+there it pulls the action out, also where the teacher's label does not.
 """
 
 from __future__ import annotations
@@ -149,31 +150,33 @@ def clone_loss(params, batch: Sample, hidden: int) -> jax.Array:
     return jnp.sum(mask * (pred - batch.action) ** 2) / (2.0 * jnp.maximum(jnp.sum(mask), 1.0))
 
 
-def keepout_hinge(action, x: SetObs, scales: Scales, margin: float = 5.0) -> jax.Array:
+#: control periods of the keep-out hinge's look-ahead (module docstring)
+HINGE_PERIODS = 3
+
+
+def keepout_hinge(action, x: SetObs, scales: Scales, periods: int = HINGE_PERIODS) -> jax.Array:
     """``[...]`` the keep-out hinge of the module docstring for actions ``[..., N, 2]``
     taken on the states ``x`` (batch axes alike), summed over drones, mean over the
     real radars."""
     s = scales
     n = action.shape[-2]
     acc = jnp.broadcast_to(jnp.asarray(s.accel, jnp.float32), (n,))
-    amax = jnp.maximum(acc, 1e-6)
+    t = periods * s.dt
     p = x.radar[..., :3] * s.half_width
     th = jnp.arctan2(x.radar[..., 4], x.radar[..., 3])
     v = x.radar[..., 5] * s.speed
-    raw = v + action[..., 0] * acc * s.dt
-    # the speed limit clips v1, but the gradient passes as if it did not (straight
+    raw = v + action[..., 0] * acc * t
+    # the speed limit clips v_K, but the gradient passes as if it did not (straight
     # through): a radar at full speed towards a drone still learns to brake
-    v1 = raw + jax.lax.stop_gradient(jnp.clip(raw, -s.speed, s.speed) - raw)
-    travel = 0.5 * (v + v1) * s.dt + v1 * jnp.abs(v1) / (2.0 * amax)
+    vk = raw + jax.lax.stop_gradient(jnp.clip(raw, -s.speed, s.speed) - raw)
     head = jnp.stack([jnp.cos(th), jnp.sin(th), jnp.zeros_like(th)], -1)
-    p_stop = p + travel[..., None] * head  # [..., N, 3]
-    tau = s.dt + jnp.abs(v1) / amax  # [..., N]
+    p_next = p + (0.5 * (v + vk) * t)[..., None] * head  # [..., N, 3]
     q = x.target[..., :3] * s.half_width  # [..., M, 3]
-    qdot = x.target[..., 3:6] * s.speed
-    q_stop = q[..., None, :, :] + tau[..., None, None] * qdot[..., None, :, :]
-    d = jnp.sqrt(jnp.sum((p_stop[..., None, :] - q_stop) ** 2, -1) + 1e-6)  # [..., N, M]
+    q_next = q + t * x.target[..., 3:6] * s.speed
+    gap = p_next[..., :, None, :] - q_next[..., None, :, :]
+    d = jnp.sqrt(jnp.sum(gap**2, -1) + 1e-6)  # [..., N, M]
     present = x.target_mask * (x.target[..., 27] > 0)  # [..., M]
-    hinge = jax.nn.relu((s.r2t + margin - d) / s.r2t) ** 2 * present[..., None, :]
+    hinge = jax.nn.relu((s.r2t - d) / s.r2t) ** 2 * present[..., None, :]
     per_radar = jnp.sum(hinge, -1)
     rmask = x.radar_mask
     return jnp.sum(per_radar * rmask, -1) / jnp.maximum(jnp.sum(rmask, -1), 1.0)

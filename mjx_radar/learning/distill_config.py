@@ -39,7 +39,7 @@ class DistillConfig:
         features: the set features' version (:mod:`mjx_radar.learning.set_features`):
             ``"v1"``, or ``"v2"`` with keep-out (closing rate, margin ahead, nearest
             drone) and ground (gradient, grade, line of sight) features.
-        keepout_weight: weight of the keep-out hinge on the policy's own predicted stop
+        keepout_weight: weight of the keep-out hinge on where the policy's own action leads
             (:func:`mjx_radar.learning.distill.keepout_hinge`) in the cloning loss (0: off).
     """
 
