@@ -203,3 +203,34 @@ def test_keepout_hinge_gradient_passes_the_speed_limit():
     np.testing.assert_allclose(float(h(1.0)), (10.0 / 125.0) ** 2, rtol=1e-3)
     assert float(jax.grad(h)(0.5)) > 0
     np.testing.assert_allclose(float(h(-1.0)), ((13.425 - 5.0) / 125.0) ** 2, rtol=1e-3)
+
+
+def test_v2_flattening_and_ppo_networks():
+    """v2 sets flatten and unflatten back bit for bit at their own size, and brax's set
+    networks of version v2 (PPO fine-tuning of a v2 clone) give the clone's action means
+    on the flattened observation."""
+    pytest.importorskip("brax")
+    from mjx_radar.learning.set_features import flat_size, flatten, unflatten
+    from mjx_radar.learning.set_ppo import make_set_ppo_networks
+
+    n, m = 3, 2
+    rs, ts, ps = SIZES["v2"]
+    k = jax.random.split(jax.random.PRNGKey(4), 3)
+    x = SetObs(
+        jax.random.normal(k[0], (n, rs)),
+        jax.random.normal(k[1], (m, ts)),
+        jax.random.normal(k[2], (n, m, ps)),
+        jnp.ones(n),
+        jnp.ones(m),
+    )
+    flat = flatten(x)
+    assert flat.shape == (flat_size(n, m, "v2"),) and flat_size(n, m, "v2") > flat_size(n, m)
+    for a, b in zip(unflatten(flat, n, m, "v2"), x, strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    nets = make_set_ppo_networks(
+        flat.shape[0], 2 * n, n_radars=n, n_targets=m, hidden=8, features="v2"
+    )
+    params = nets.policy_network.init(jax.random.PRNGKey(5))
+    out = nets.policy_network.apply(None, params, flat[None])
+    want = SetNet(8).apply(params["net"], x).reshape(-1)
+    np.testing.assert_allclose(np.asarray(out[0, : 2 * n]), np.asarray(want), atol=1e-6)
