@@ -113,7 +113,7 @@ def test_clone_reaches_the_teachers_controls(short, tmp_path):
     radar, target, pair, rmask, tmask, action, _, size = leaves[-8:]
     x = SetObs(*(jnp.asarray(a[: int(size)]) for a in (radar, target, pair, rmask, tmask)))
     teacher = np.asarray(action[: int(size)])
-    pred = np.asarray(policy_action(params, x, 32))
+    pred = np.asarray(jax.jit(policy_action, static_argnums=2)(params, x, 32))
     mse = float(np.mean((pred - teacher) ** 2))
     var = float(np.mean(np.var(teacher, axis=0)))
     print(f"clone: rms {mse**0.5:.3f}, mse / var {mse / var:.3f}, {wall:.1f} s")

@@ -228,6 +228,11 @@ def _new_state(scs, algo, method, config) -> dict:
     }
 
 
+#: the replay buffer's write as one compiled program (eager, each of its ops compiles
+#: on its own the first time)
+_ADD = jax.jit(replay.add)
+
+
 def _collect_all(collects, params, buffers, base, trial0, config, beta) -> list:
     """One iteration's rollouts of every scenario (trials ``trial0 ...``), each scenario's
     samples added to its buffer in place; returns their statistics."""
@@ -238,7 +243,7 @@ def _collect_all(collects, params, buffers, base, trial0, config, beta) -> list:
             trial0 + jnp.arange(config.num_envs)
         )
         samples, st = collect(params, keys, beta)
-        buffers[i] = replay.add(buffers[i], samples)
+        buffers[i] = _ADD(buffers[i], samples)
         stats.append(st)
     return stats
 

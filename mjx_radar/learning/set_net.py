@@ -103,7 +103,9 @@ def init_params(hidden: int, key, value: bool = False, features: str = "v1"):
     x = SetObs(
         jnp.zeros((2, rs)), jnp.zeros((2, ts)), jnp.zeros((2, 2, ps)), jnp.ones(2), jnp.ones(2)
     )
-    return SetNet(hidden, value).init(key, x)
+    # one compiled program: flax's eager init compiles every small op on its own (~10 s
+    # on 2 CPU cores, most of a tiny distillation's start-up)
+    return jax.jit(SetNet(hidden, value).init)(key, x)
 
 
 def policy_action(params, x: SetObs, hidden: int) -> jax.Array:
