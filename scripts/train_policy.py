@@ -84,6 +84,7 @@ def _parser() -> argparse.ArgumentParser:
         ("reward_scaling", "--reward-scaling"),
         ("init_noise_std", "--init-noise-std"),
         ("keepout_grade", "--keepout-grade"),
+        ("keepout_weight", "--keepout-weight"),  # distillation's: the loss's keep-out hinge
     ):
         p.add_argument(flag, dest=name, type=float, default=None)  # the algorithm's default
     p.add_argument(
@@ -103,6 +104,12 @@ def _parser() -> argparse.ArgumentParser:
         "--shield",
         action="store_true",
         help="pass the policy's control through the keep-out shield (training and evaluation)",
+    )
+    p.add_argument(
+        "--features",
+        choices=("v1", "v2"),
+        default=None,
+        help="bc, dagger: the set features (v2: keep-out and ground / line of sight; default v1)",
     )
     p.add_argument("--policy-hidden", default="128,128", help="policy MLP layer sizes")
     p.add_argument("--value-hidden", default="256,256", help="value MLP layer sizes")

@@ -113,7 +113,7 @@ def test_clone_reaches_the_teachers_controls(short, tmp_path):
     radar, target, pair, rmask, tmask, action, _, size = leaves[-8:]
     x = SetObs(*(jnp.asarray(a[: int(size)]) for a in (radar, target, pair, rmask, tmask)))
     teacher = np.asarray(action[: int(size)])
-    pred = np.asarray(policy_action(params, x, 32))
+    pred = np.asarray(jax.jit(policy_action, static_argnums=2)(params, x, 32))
     mse = float(np.mean((pred - teacher) ** 2))
     var = float(np.mean(np.var(teacher, axis=0)))
     print(f"clone: rms {mse**0.5:.3f}, mse / var {mse / var:.3f}, {wall:.1f} s")
@@ -208,12 +208,17 @@ def test_algo_bad_input_is_one_line_exit_2(tmp_path, capsys):
         (base + ["dagger", "--hidden", "0"], "--hidden = 0: must be an integer >= 1"),
         (base + ["bc", "--buffer-size", "0"], "--buffer-size = 0"),
         (base + ["bc", "--lr", "0"], "--lr = 0.0"),
+        (base + ["bc", "--keepout-weight", "-1"], "--keepout-weight = -1.0"),
         (["smoke,nope", "--steps", "9", "--out", out, "--algo", "bc"], "nope"),
     ]
     for argv, message in cases:
         assert script.main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert message in err and "\n" not in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as exit_:
+        script.main(base + ["bc", "--features", "v3"])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and "--features: invalid choice: 'v3'" in err and "\n" not in err
     (tmp_path / "p").mkdir()
     (tmp_path / "p" / "policy.json").write_text(json.dumps({"scenario": "smoke", "config": {}}))
     assert script.main(base + ["bc"]) == 2

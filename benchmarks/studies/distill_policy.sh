@@ -14,18 +14,30 @@
 # Settings (environment variables): RUN, TRIALS, BUDGET, BC_STEPS, DAGGER_STEPS,
 # PPO_STEPS (0: no fine-tuning), NUM_ENVS, UPDATES, RESULT (the benchmarks/results file),
 # SHIELD (1: the keep-out shield on the policy's controls, in training and in policy:DIR),
-# TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario).
+# TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario),
+# FEATURES (v1, or v2: keep-out and ground / line-of-sight set features), KEEPOUT_WEIGHT
+# (the cloning loss's keep-out hinge, 0: off), COMMAND (the result file's command line).
+# BC_STEPS and DAGGER_STEPS default to 6 and 20 iterations of NUM_ENVS trials x 150
+# periods x the TRAIN scenarios. The keep-out and terrain run (paper_3r4t, paper_6r3t and
+# hills_4r4t, one call; 4 + 8 iterations of the three scenarios):
+#   FEATURES=v2 KEEPOUT_WEIGHT=1000 TRAIN=paper_3r4t,paper_4r4t,hills_4r4t \
+#   EVAL=paper_3r4t,paper_6r3t,hills_4r4t BC_STEPS=460800 DAGGER_STEPS=1382400 \
+#   RUN=runs/distill_v2 RESULT=benchmarks/results/distill_policy_v2_h200.json \
+#   bash benchmarks/studies/distill_policy.sh
 set -euo pipefail
 RUN=${RUN:-runs/distill}
 TRIALS=${TRIALS:-500}
 BUDGET=${BUDGET:-540}
 NUM_ENVS=${NUM_ENVS:-256}
+TRAIN=${TRAIN:-paper_3r4t,paper_4r4t}
 # one iteration = NUM_ENVS trials x 150 periods x 2 scenarios = 76,800 labelled steps at 256
-BC_STEPS=${BC_STEPS:-460800}        # 6 iterations, MPPI driving
-DAGGER_STEPS=${DAGGER_STEPS:-1536000}  # 14 more, the policy driving
+ITER=$((NUM_ENVS * 150 * $(echo "$TRAIN" | tr ',' '\n' | grep -c .)))
+BC_STEPS=${BC_STEPS:-$((6 * ITER))}        # 6 iterations, MPPI driving (460800)
+DAGGER_STEPS=${DAGGER_STEPS:-$((20 * ITER))}  # 14 more, the policy driving (1536000)
 PPO_STEPS=${PPO_STEPS:-0}           # > DAGGER_STEPS: fine-tune on paper_3r4t to this total
 RESULT=${RESULT:-benchmarks/results/distill_policy_h200.json}
-TRAIN=${TRAIN:-paper_3r4t,paper_4r4t}
+FEATURES=${FEATURES:-v1}
+KEEPOUT_WEIGHT=${KEEPOUT_WEIGHT:-0}
 EVAL=${EVAL:-paper_3r4t,paper_6r3t}
 TUNE=${TUNE:-paper_3r4t}
 UPDATES=${UPDATES:-300}
@@ -59,6 +71,11 @@ enough() { # enough time left for a stage that needs $1 seconds (compile and one
 }
 COMMON=(--num-envs "$NUM_ENVS" --batch-size 512 --updates "$UPDATES" --hidden 64 --buffer-size 120000 --lr 1e-3)
 if [ "${SHIELD:-0}" = 1 ]; then COMMON+=(--shield); fi
+EXTRA=""
+if [ "$FEATURES" != v1 ] || [ "$KEEPOUT_WEIGHT" != 0 ]; then
+  COMMON+=(--features "$FEATURES" --keepout-weight "$KEEPOUT_WEIGHT")
+  EXTRA=", features $FEATURES, keep-out weight $KEEPOUT_WEIGHT"
+fi
 if [ "$(stage_steps bc)" -lt "$BC_STEPS" ]; then
   enough 150
   python3 scripts/train_policy.py "$TRAIN" --algo bc --steps "$BC_STEPS" \
@@ -82,8 +99,8 @@ fi
 enough 120
 timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
   --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
-  --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS, shield ${SHIELD:-0}; curve: $RUN/policy/curve.csv." \
-  --command "bash benchmarks/studies/distill_policy.sh" || {
+  --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS, shield ${SHIELD:-0}$EXTRA; curve: $RUN/policy/curve.csv." \
+  --command "${COMMAND:-bash benchmarks/studies/distill_policy.sh}" || {
   echo "distill_policy: evaluation cut short, run the same command again to go on"
   save_out
   exit 0

@@ -57,7 +57,7 @@ class BraxRadarEnv(Env):
             (:func:`mjx_radar.learning.shield.shield`) before it is applied.
         observation: ``"flat"`` (:func:`~mjx_radar.learning.features.features`) or
             ``"set"`` (the flattened :func:`~mjx_radar.learning.set_features.set_features`,
-            the set network's input).
+            the set network's input; ``"set-v2"``: their version v2).
 
     ``metrics`` (per period, float32): ``information`` (``-Σ log det P_pos``),
     ``penalty`` (the keep-out terms, unscaled) and the environment's metrics (``rmse_pos``,
@@ -72,12 +72,13 @@ class BraxRadarEnv(Env):
         shield: bool = False,
         observation: str = "flat",
     ):
-        if observation not in ("flat", "set"):
-            raise ValueError(f"observation = {observation!r}: flat or set")
+        if observation not in ("flat", "set", "set-v2"):
+            raise ValueError(f"observation = {observation!r}: flat, set or set-v2")
         check_setting("penalty_scale", penalty_scale)
         check_setting("keepout_grade", keepout_grade)
         self.radar_env = env
         self.observation = observation
+        self._version = "v2" if observation == "set-v2" else "v1"  # the set features'
         self.shield = bool(shield)
         self.penalty_scale = float(penalty_scale)
         self.keepout_grade = float(keepout_grade)
@@ -86,8 +87,8 @@ class BraxRadarEnv(Env):
     @property
     def observation_size(self) -> int:
         env = self.radar_env
-        if self.observation == "set":
-            return flat_size(env.n_radars, env.n_tracks)
+        if self.observation != "flat":
+            return flat_size(env.n_radars, env.n_tracks, self._version)
         return feature_size(env.n_radars, env.n_targets)
 
     @property
@@ -133,8 +134,10 @@ class BraxRadarEnv(Env):
         return self.keepout_grade * depth
 
     def _obs(self, s) -> jax.Array:
-        if self.observation == "set":
-            return flatten(set_features(self.radar_env, s.obs))  # already finite, clipped
+        if self.observation != "flat":
+            return flatten(
+                set_features(self.radar_env, s.obs, self._version)
+            )  # already finite, clipped
         f = features(self.radar_env, s.obs)
         return jnp.clip(jnp.nan_to_num(f, nan=0.0), -_CLIP, _CLIP)
 

@@ -18,6 +18,20 @@ and keeps ``(set_features(obs), control_to_action(u_T))`` of every period. The l
 the mean squared difference of the policy's action ``tanh(loc)`` and the teacher's, in
 ``[-1, 1]`` action units, over the real radars (``radar_mask``), averaged over the
 scenarios (each its own buffer: fleets of several sizes train one network).
+
+``keepout_weight`` w > 0 (off by default) adds a keep-out hinge on where the policy's own
+action would bring each radar within K = :data:`HINGE_PERIODS` control periods (the
+action held, the drone at its estimated velocity), differentiable in the action::
+
+    t = K T,   v_K = clip(v + ā a t, -v̄, v̄)   (the clip's gradient taken as 1)
+    p̂ = p + (v + v_K) t / 2 · h,   q̂ = q + t q̇
+    loss += w · mean_i Σ_j present_j · relu((R2T - |p̂_i - q̂_j|) / R2T)²
+
+(everything read back from the set features: positions ``·L``, speeds ``·v̄``). MPPI's
+own labels keep it zero on the states it drives through (its radars ride the keep-out's
+edge, a few metres out: a longer look-ahead or a margin would penalise the teacher's own
+controls), so it acts where the policy has driven a radar towards or into the keep-out:
+there it pulls the action out, also where the teacher's label does not.
 """
 
 from __future__ import annotations
@@ -52,7 +66,31 @@ class RolloutStats(NamedTuple):
     gap: jax.Array  # mean squared policy - teacher action difference (before updates)
 
 
-def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False):
+class Scales(NamedTuple):
+    """One scenario's constants that turn set features back into metres and seconds."""
+
+    half_width: float  # L [m]
+    speed: float  # v̄ [m/s]
+    accel: jax.Array  # [N] ā per radar [m/s²]
+    dt: float  # T, the control period [s]
+    r2t: float  # the radar-drone keep-out radius [m]
+
+
+def scales_of(env) -> Scales:
+    """The :class:`Scales` of a :class:`~mjx_radar.env.environment.RadarEnv`."""
+    sc = env.scenario
+    return Scales(
+        float(env.params.placement_half_width),
+        float(sc.limits.speed),
+        jnp.asarray(env.action_bounds[1][:, 0], jnp.float32),
+        float(sc.timing.dt_control),
+        float(env.params.r2t),
+    )
+
+
+def make_collect(
+    env, teacher, hidden: int, periods: int, shielded: bool = False, features: str = "v1"
+):
     """``collect(params, keys [E, 2], beta) -> (Sample [E·P], RolloutStats [E, P])``.
 
     Args:
@@ -61,6 +99,7 @@ def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False
         hidden: the set network's width.
         periods: control periods per rollout (P).
         shielded: the policy's control passes the keep-out shield before it is applied.
+        features: the set features' version (:func:`set_features`).
     """
 
     def trial(params, key, beta):
@@ -72,7 +111,7 @@ def make_collect(env, teacher, hidden: int, periods: int, shielded: bool = False
             pkey = jax.random.fold_in(streams_of(state.info["key"]).planner, state.info["period"])
             u_t, tcarry = teacher.plan(tcarry, obs, pkey)
             u_t = env.clip_action(u_t)
-            x = set_features(env, obs)
+            x = set_features(env, obs, features)
             a_p = policy_action(params, x, hidden)  # [N, 2]
             u_p = action_to_control(env, a_p.reshape(-1)).astype(u_t.dtype)
             if shielded:
@@ -111,12 +150,55 @@ def clone_loss(params, batch: Sample, hidden: int) -> jax.Array:
     return jnp.sum(mask * (pred - batch.action) ** 2) / (2.0 * jnp.maximum(jnp.sum(mask), 1.0))
 
 
-def make_update(hidden: int, tx, batch_size: int, updates: int):
+#: control periods of the keep-out hinge's look-ahead (module docstring)
+HINGE_PERIODS = 3
+
+
+def keepout_hinge(action, x: SetObs, scales: Scales, periods: int = HINGE_PERIODS) -> jax.Array:
+    """``[...]`` the keep-out hinge of the module docstring for actions ``[..., N, 2]``
+    taken on the states ``x`` (batch axes alike), summed over drones, mean over the
+    real radars."""
+    s = scales
+    n = action.shape[-2]
+    acc = jnp.broadcast_to(jnp.asarray(s.accel, jnp.float32), (n,))
+    t = periods * s.dt
+    p = x.radar[..., :3] * s.half_width
+    th = jnp.arctan2(x.radar[..., 4], x.radar[..., 3])
+    v = x.radar[..., 5] * s.speed
+    raw = v + action[..., 0] * acc * t
+    # the speed limit clips v_K, but the gradient passes as if it did not (straight
+    # through): a radar at full speed towards a drone still learns to brake
+    vk = raw + jax.lax.stop_gradient(jnp.clip(raw, -s.speed, s.speed) - raw)
+    head = jnp.stack([jnp.cos(th), jnp.sin(th), jnp.zeros_like(th)], -1)
+    p_next = p + (0.5 * (v + vk) * t)[..., None] * head  # [..., N, 3]
+    q = x.target[..., :3] * s.half_width  # [..., M, 3]
+    q_next = q + t * x.target[..., 3:6] * s.speed
+    gap = p_next[..., :, None, :] - q_next[..., None, :, :]
+    d = jnp.sqrt(jnp.sum(gap**2, -1) + 1e-6)  # [..., N, M]
+    present = x.target_mask * (x.target[..., 27] > 0)  # [..., M]
+    hinge = jax.nn.relu((s.r2t - d) / s.r2t) ** 2 * present[..., None, :]
+    per_radar = jnp.sum(hinge, -1)
+    rmask = x.radar_mask
+    return jnp.sum(per_radar * rmask, -1) / jnp.maximum(jnp.sum(rmask, -1), 1.0)
+
+
+def make_update(
+    hidden: int, tx, batch_size: int, updates: int, keepout: tuple = (), weight: float = 0.0
+):
     """``update(params, opt_state, buffers, key) -> (params, opt_state, losses [updates])``:
-    ``updates`` Adam steps, each on ``batch_size`` samples of every buffer."""
+    ``updates`` Adam steps, each on ``batch_size`` samples of every buffer (the clone
+    loss, plus ``weight`` times :func:`keepout_hinge` with each buffer's
+    :class:`Scales` in ``keepout`` when ``weight > 0``)."""
+
+    def one(params, b, i):
+        loss = clone_loss(params, b, hidden)
+        if weight > 0:  # off: the program has no such term
+            pred = policy_action(params, b.obs, hidden)
+            loss = loss + weight * jnp.mean(keepout_hinge(pred, b.obs, keepout[i]))
+        return loss
 
     def loss_fn(params, batches):
-        return jnp.mean(jnp.stack([clone_loss(params, b, hidden) for b in batches]))
+        return jnp.mean(jnp.stack([one(params, b, i) for i, b in enumerate(batches)]))
 
     def update(params, opt_state, buffers, key):
         def step(carry, k):

@@ -14,6 +14,8 @@ from mjx_radar.learning.config import MAX_STEPS, in_range
 
 #: the algorithms of ``train_policy.py --algo`` (bc and dagger: this module's settings)
 ALGOS = ("bc", "dagger", "ppo")
+#: the set features' versions (:data:`mjx_radar.learning.set_features.SIZES`)
+FEATURES = ("v1", "v2")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,6 +36,11 @@ class DistillConfig:
         seed: base seed of the trials and of the network's initialisation.
         shield: pass the policy's control through the keep-out shield
             (:mod:`mjx_radar.learning.shield`) where it drives, and in ``policy:DIR``.
+        features: the set features' version (:mod:`mjx_radar.learning.set_features`):
+            ``"v1"``, or ``"v2"`` with keep-out (closing rate, margin ahead, nearest
+            drone) and ground (gradient, grade, line of sight) features.
+        keepout_weight: weight of the keep-out hinge on where the policy's own action leads
+            (:func:`mjx_radar.learning.distill.keepout_hinge`) in the cloning loss (0: off).
     """
 
     num_envs: int = 64
@@ -47,6 +54,8 @@ class DistillConfig:
     beta: float = 0.0
     seed: int = 0
     shield: bool = False
+    features: str = "v1"
+    keepout_weight: float = 0.0
 
 
 RANGES = {
@@ -60,6 +69,7 @@ RANGES = {
     "learning_rate": (0.0, 1.0, True),
     "max_grad_norm": (0.0, float("inf"), True),
     "beta": (0.0, 1.0, False),
+    "keepout_weight": (0.0, 1e6, False),
 }
 
 
@@ -74,6 +84,8 @@ def check_distill(config: DistillConfig, steps: int, algo: str) -> None:
         in_range(name, getattr(config, name), lo, hi, lo_open)
     if not isinstance(config.shield, bool):
         raise ScenarioError(f"shield = {config.shield!r}: must be True or False")
+    if config.features not in FEATURES:
+        raise ScenarioError(f"features = {config.features!r}: must be one of {', '.join(FEATURES)}")
 
 
 def distill_config_of(state: dict) -> DistillConfig:

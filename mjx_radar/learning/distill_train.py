@@ -144,10 +144,12 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
     teachers = [make_planner("mppi", e) for e in envs]
     periods = [config.periods or e.episode_length for e in envs]
     tx = distill.optimizer(config.learning_rate, config.max_grad_norm)
-    params = init_params(config.hidden, jax.random.PRNGKey(config.seed))
+    params = init_params(config.hidden, jax.random.PRNGKey(config.seed), False, config.features)
     buffers = []
     for e in envs:
-        example = jax.eval_shape(lambda e=e: set_features(e, e.reset(jax.random.PRNGKey(0)).obs))
+        example = jax.eval_shape(
+            lambda e=e: set_features(e, e.reset(jax.random.PRNGKey(0)).obs, config.features)
+        )
         act = jax.ShapeDtypeStruct((e.n_radars, 2), jnp.float32)
         buffers.append(replay.empty(distill.Sample(example, act), config.buffer_size))
     full = (params, tx.init(params), buffers)
@@ -159,10 +161,10 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
         full = (params, tx.init(params), buffers)
         log(f"distill: {ckpt} has no state.npz: Adam and the buffers start afresh")
     collects = [
-        jax.jit(distill.make_collect(e, t, config.hidden, p, config.shield))
+        jax.jit(distill.make_collect(e, t, config.hidden, p, config.shield, config.features))
         for e, t, p in zip(envs, teachers, periods, strict=True)
     ]
-    update = jax.jit(distill.make_update(config.hidden, tx, config.batch_size, config.updates))
+    update = _update_program(envs, tx, config)
     beta = jnp.float32(1.0 if algo == "bc" else config.beta)
     base = jax.random.PRNGKey(config.seed)
     per_iter = config.num_envs * sum(periods)
@@ -197,6 +199,16 @@ def _run(scs, steps, out, algo, method, config, state, max_seconds, log) -> dict
     return state
 
 
+def _update_program(envs, tx, config):
+    """The jitted gradient steps of one iteration (:func:`distill.make_update`)."""
+    scales = tuple(distill.scales_of(e) for e in envs)
+    return jax.jit(
+        distill.make_update(
+            config.hidden, tx, config.batch_size, config.updates, scales, config.keepout_weight
+        )
+    )
+
+
 def _new_state(scs, algo, method, config) -> dict:
     """``policy.json`` of a distillation that starts now."""
     return {
@@ -216,6 +228,11 @@ def _new_state(scs, algo, method, config) -> dict:
     }
 
 
+#: the replay buffer's write as one compiled program (eager, each of its ops compiles
+#: on its own the first time)
+_ADD = jax.jit(replay.add)
+
+
 def _collect_all(collects, params, buffers, base, trial0, config, beta) -> list:
     """One iteration's rollouts of every scenario (trials ``trial0 ...``), each scenario's
     samples added to its buffer in place; returns their statistics."""
@@ -226,7 +243,7 @@ def _collect_all(collects, params, buffers, base, trial0, config, beta) -> list:
             trial0 + jnp.arange(config.num_envs)
         )
         samples, st = collect(params, keys, beta)
-        buffers[i] = replay.add(buffers[i], samples)
+        buffers[i] = _ADD(buffers[i], samples)
         stats.append(st)
     return stats
 

@@ -46,13 +46,26 @@ def from_distilled(distilled: dict, sc, method: str, config: PPOConfig) -> dict:
         "scenario": sc.name,
         "n_radars": sc.n_radars,
         "n_targets": sc.n_targets,
-        "observation_size": flat_size(sc.n_radars, sc.n_targets),
+        "observation_size": flat_size(sc.n_radars, sc.n_targets, features_of(distilled)),
         "action_size": 2 * sc.n_radars,
         "episode_length": sc.timing.steps // sc.timing.control_every,
         "config": dataclasses.asdict(config),
         "distill_config": distilled["config"],
         "schedule": schedule,
     }
+
+
+def features_of(state: dict | None) -> str:
+    """The set features' version of a distilled or fine-tuned set policy's state."""
+    state = state or {}
+    return state.get("distill_config", state.get("config", {})).get("features", "v1")
+
+
+def observation_of(config: PPOConfig, state: dict | None) -> str:
+    """The brax environment's observation for PPO with ``config`` from ``state``."""
+    if config.network != "set":
+        return "flat"
+    return "set-v2" if features_of(state) == "v2" else "set"
 
 
 def set_start(out: Path, state: dict | None, config: PPOConfig, sc):
@@ -64,13 +77,13 @@ def set_start(out: Path, state: dict | None, config: PPOConfig, sc):
     from mjx_radar.learning.distill_ckpt import load_leaves
     from mjx_radar.learning.set_net import init_params
 
-    n, m = sc.n_radars, sc.n_targets
-    factory = set_ppo.set_network_factory(n, m, config.hidden, config.init_noise_std)
+    n, m, version = sc.n_radars, sc.n_targets, features_of(state)
+    factory = set_ppo.set_network_factory(n, m, config.hidden, config.init_noise_std, version)
     distilled = out / str((state or {}).get("checkpoint")) / "params.npz"
     if not (state or {}).get("checkpoint") or not distilled.is_file():
         return factory, None
     key = jax.random.PRNGKey(config.seed)
-    params = load_leaves(distilled, init_params(config.hidden, key))
+    params = load_leaves(distilled, init_params(config.hidden, key, False, version))
     return factory, set_ppo.distilled_params(
-        params, n, m, config.hidden, config.init_noise_std, key
+        params, n, m, config.hidden, config.init_noise_std, key, version
     )

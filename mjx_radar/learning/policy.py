@@ -94,7 +94,7 @@ class PolicyPlanner(Planner):
 
     def plan(self, carry, obs, key):
         if self.state.get("network") == "set":
-            a = self._policy(set_features(self.env, obs)).reshape(-1)
+            a = self._policy(set_features(self.env, obs, _features(self.state))).reshape(-1)
         else:
             a, _ = self._policy(features(self.env, obs), key)
         u = action_to_control(self.env, a)
@@ -146,6 +146,12 @@ def load_policy(checkpoint, state: dict):
     return networks.make_inference_fn(network)(params, deterministic=True)
 
 
+def _features(state: dict) -> str:
+    """The set features' version a set policy was trained on (a fine-tuned one: its
+    distillation's)."""
+    return state.get("distill_config", state["config"]).get("features", "v1")
+
+
 def load_set_policy(checkpoint, state: dict):
     """``policy(SetObs) -> action [N, 2]`` of a set network's checkpoint (a distilled
     one, ``params.npz``, or a PPO fine-tuned one, brax's), deterministic, its parameters
@@ -156,7 +162,7 @@ def load_set_policy(checkpoint, state: dict):
     from mjx_radar.learning.set_net import init_params, policy_action
 
     hidden = int(state["config"]["hidden"])
-    template = init_params(hidden, jax.random.PRNGKey(0))
+    template = init_params(hidden, jax.random.PRNGKey(0), False, _features(state))
     if (checkpoint / "params.npz").is_file():  # distilled (not fine-tuned yet)
         params = load_leaves(checkpoint / "params.npz", template)
     else:

@@ -24,7 +24,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.learning.set_features import SetObs
+from mjx_radar.learning.set_features import SIZES, SetObs
 
 
 class MLP(nn.Module):
@@ -96,12 +96,16 @@ class SetNet(nn.Module):
         )(z)
 
 
-def init_params(hidden: int, key, value: bool = False):
-    """Parameters of a :class:`SetNet` (the same for every fleet size)."""
+def init_params(hidden: int, key, value: bool = False, features: str = "v1"):
+    """Parameters of a :class:`SetNet` (the same for every fleet size) for the set
+    features of version ``features`` (:data:`~mjx_radar.learning.set_features.SIZES`)."""
+    rs, ts, ps = SIZES[features]
     x = SetObs(
-        jnp.zeros((2, 7)), jnp.zeros((2, 28)), jnp.zeros((2, 2, 6)), jnp.ones(2), jnp.ones(2)
+        jnp.zeros((2, rs)), jnp.zeros((2, ts)), jnp.zeros((2, 2, ps)), jnp.ones(2), jnp.ones(2)
     )
-    return SetNet(hidden, value).init(key, x)
+    # one compiled program: flax's eager init compiles every small op on its own (~10 s
+    # on 2 CPU cores, most of a tiny distillation's start-up)
+    return jax.jit(SetNet(hidden, value).init)(key, x)
 
 
 def policy_action(params, x: SetObs, hidden: int) -> jax.Array:

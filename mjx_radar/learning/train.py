@@ -152,7 +152,7 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
         penalty_scale=config.penalty_scale,
         keepout_grade=config.keepout_grade,
         shield=config.shield,
-        observation="set" if config.network == "set" else "flat",
+        observation=finetune.observation_of(config, state),
     )
     factory, restore_params = network_factory(config), None
     normalize = config.network != "set"  # set features are O(1) by construction
