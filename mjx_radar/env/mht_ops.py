@@ -65,7 +65,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
             pd = detection.pair_probability(det.model, dp, d2)
             return pd if los is None else jnp.where(los[:, None, :], pd, 0.0)
 
-        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates, merge)
+        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates)
+        tail = (*tail, merge, int(t.branch_scans))
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
         if sc.filter.ground_prior:
