@@ -74,6 +74,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
         return (*joint(modes), modes)
 
     def begin(modes, mean, cov, k):  # appearing targets restart in every hypothesis
+        if t.branch_scans > 0:  # the scans before this one, from the loop's step k (1-based)
+            modes = modes._replace(scans=jnp.asarray(k, jnp.int32) - 1)
         if params.motion is None:
             return modes
         new = target_motion.appears_between(params.motion, (k - 1) * dt, k * dt)  # [M]
