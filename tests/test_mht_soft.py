@@ -198,3 +198,23 @@ def test_branch_scans_option_off_by_default_and_refused_out_of_range():
     s.replace(tracker={"association": "mht", "branch_scans": 20})
     with pytest.raises(ScenarioError, match="tracker.branch_scans"):
         s.replace(tracker={"association": "mht", "branch_scans": -1})
+
+
+@pytest.mark.slow  # three closed-loop programs (~1-2 min each on a busy CPU)
+def test_branch_scans_in_the_closed_loop(tiny):
+    """The loop's step counter drives the phase: a branch count past the run is the MHT
+    (float32 round-off of the program under ``lax.cond``), one branching scan is not."""
+    from mjx_radar.engine import runner
+
+    det = {"model": "fixed", "fixed_pd": 0.9, "clutter_range_max": 500.0, "clutter_density": 0.002}
+    base = tiny.replace(filter={"structure": "per-target"}, detection=det)
+    trials = np.arange(2)
+
+    def run(**kw):
+        s = base.replace(tracker={"association": "mht", "hypotheses": 4, **kw})
+        return runner.run_trials(s, "stationary", 2, trials, 30)
+
+    tree, late, soft = run(), run(branch_scans=100000), run(branch_scans=1)
+    np.testing.assert_allclose(late["rmse_pos"], tree["rmse_pos"], rtol=1e-4, atol=1e-4)
+    assert np.all(np.isfinite(soft["rmse_pos"])) and not soft["diverged"].any()
+    assert np.abs(soft["rmse_pos"] - tree["rmse_pos"]).max() > 1e-3
