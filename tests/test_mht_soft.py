@@ -212,7 +212,7 @@ def test_branch_scans_in_the_closed_loop(tiny):
 
     def run(**kw):
         s = base.replace(tracker={"association": "mht", "hypotheses": 4, **kw})
-        return runner.run_trials(s, "stationary", 2, trials, 30)
+        return runner.run_trials(s, "stationary", 2, trials, 32)
 
     tree, late, soft = run(), run(branch_scans=100000), run(branch_scans=1)
     np.testing.assert_allclose(late["rmse_pos"], tree["rmse_pos"], rtol=1e-4, atol=1e-4)
