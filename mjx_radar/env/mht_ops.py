@@ -9,7 +9,10 @@ the K heaviest (:func:`mjx_radar.estimation.mht.update_bank`). The joint estimat
 loop carries (``mean [6M]``, ``cov [6M, 6M]``: metrics, lost-track detector, planner)
 is the heaviest hypothesis's bank, so the planner plans for the best hypothesis. The
 filter's Pd of a pair is the model's at each hypothesis's predicted range (0 where the
-line of sight is blocked), as in the PDA and JPDA banks.
+line of sight is blocked), as in the PDA and JPDA banks. With ``branch_scans = B > 0`` only
+the first B scans branch (``begin`` sets the state's scan counter from the loop's step);
+later scans give each hypothesis JPDA's soft update weighted by its likelihood
+(:func:`mjx_radar.estimation.mht.soft_update`).
 """
 
 from __future__ import annotations

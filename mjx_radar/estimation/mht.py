@@ -26,7 +26,10 @@ posterior over association histories (``tests/test_mht.py`` enumerates it); with
 it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened
 and near-duplicates merged before the K heaviest are kept
 (:mod:`~mjx_radar.estimation.mht_merge`). The estimate is the heaviest hypothesis's bank
-(MAP).
+(MAP). With ``branch > 0`` (:func:`update_bank`) only the first scans branch; afterwards
+each hypothesis sums its children (:func:`soft_update`: its JPDA update, its weight times
+the scan's likelihood), a bank of JPDA filters started from the first scans' K best
+associations.
 
 Pure JAX on pytrees, static shapes (K, M, G, L), ``vmap``-able over trials.
 """
