@@ -9,6 +9,7 @@
 #   source scripts/gpu_setup.sh && bash benchmarks/studies/clutter_trackers.sh [OUT] [TRIALS]
 #   STEPS=40 PREFIX=20 TAG=cpu VARIANTS=jpda,mht bash benchmarks/studies/clutter_trackers.sh /tmp/ct 2
 #   VARIANTS=mht-1024 TAG=h200_k1024 bash benchmarks/studies/clutter_trackers.sh   # K = 1024 alone
+#   VARIANTS=jpda,mht-jpda,mht-jpda-b4 TAG=h200_branch bash benchmarks/studies/clutter_trackers.sh  # branch, then JPDA
 #
 # The labelled observer's figures (the bound the goals are stated against) come from
 # benchmarks/studies/association_bound.py; BOUND=1 adds its 200-step run afterwards.

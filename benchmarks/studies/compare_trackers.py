@@ -18,6 +18,10 @@ for every variant) of the given methods. The variants are the scenario with
     mht-256    mht with K = 256 (merge_screen = 2)
     mht-1024   mht with K = 1024 (no merging: merge_screen = 1)
     mht-16-labels, mht-64-labels   mht with K = 16, 64 and label-free merging
+    mht-jpda   mht with K = 64 (merge_screen = 2) branching over the first scan only
+               (branch_scans = 1), then JPDA within each hypothesis
+    mht-jpda-16, mht-jpda-256   mht-jpda with K = 16 (merge_screen = 4), K = 256
+    mht-jpda-b4   mht-jpda branching over the first 4 scans (branch_scans = 4)
 
 Prints one line per variant and method as each study finishes, and rewrites
 ``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
@@ -60,6 +64,16 @@ VARIANTS = {
     "mht-1024": {"tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 1}},
     "mht-16-labels": {"tracker": {"association": "mht", "merge_labels": True}},
     "mht-64-labels": {"tracker": {"association": "mht", "hypotheses": 64, "merge_labels": True}},
+    "mht-jpda": {
+        "tracker": {"association": "mht", "hypotheses": 64, "merge_screen": 2, "branch_scans": 1}
+    },
+    "mht-jpda-16": {"tracker": {"association": "mht", "branch_scans": 1}},
+    "mht-jpda-b4": {
+        "tracker": {"association": "mht", "hypotheses": 64, "merge_screen": 2, "branch_scans": 4}
+    },
+    "mht-jpda-256": {
+        "tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2, "branch_scans": 1}
+    },
 }
 
 

@@ -9,7 +9,10 @@ the K heaviest (:func:`mjx_radar.estimation.mht.update_bank`). The joint estimat
 loop carries (``mean [6M]``, ``cov [6M, 6M]``: metrics, lost-track detector, planner)
 is the heaviest hypothesis's bank, so the planner plans for the best hypothesis. The
 filter's Pd of a pair is the model's at each hypothesis's predicted range (0 where the
-line of sight is blocked), as in the PDA and JPDA banks.
+line of sight is blocked), as in the PDA and JPDA banks. With ``branch_scans = B > 0`` only
+the first B scans branch (``begin`` sets the state's scan counter from the loop's step);
+later scans give each hypothesis JPDA's soft update weighted by its likelihood
+(:func:`mjx_radar.estimation.mht.soft_update`).
 """
 
 from __future__ import annotations
@@ -65,7 +68,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
             pd = detection.pair_probability(det.model, dp, d2)
             return pd if los is None else jnp.where(los[:, None, :], pd, 0.0)
 
-        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates, merge)
+        tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates)
+        tail = (*tail, merge, int(t.branch_scans))
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
         if sc.filter.ground_prior:
@@ -73,6 +77,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
         return (*joint(modes), modes)
 
     def begin(modes, mean, cov, k):  # appearing targets restart in every hypothesis
+        if t.branch_scans > 0:  # the scans before this one, from the loop's step k (1-based)
+            modes = modes._replace(scans=jnp.asarray(k, jnp.int32) - 1)
         if params.motion is None:
             return modes
         new = target_motion.appears_between(params.motion, (k - 1) * dt, k * dt)  # [M]

@@ -57,6 +57,7 @@ __all__ = [  # noqa: RUF022
     "star_mask",
     "n_events",
     "permutations",
+    "scatter",
 ]
 
 
@@ -133,7 +134,7 @@ def star_mask(logw, meas, logr):
     return logw >= jnp.max(sib_w, axis=1)
 
 
-def _scatter(beta_c, idx, n_meas):
+def scatter(beta_c, idx, n_meas):
     """Candidate weights ``[M, G]`` onto the scan's ``[M, L]`` (padded candidates carry 0)."""
     m = idx.shape[0]
     out = jnp.zeros((m, n_meas), beta_c.dtype)
@@ -160,7 +161,7 @@ def exact_marginals(logr, g: int, star: bool = False):
     p = jax.nn.softmax(logw)  # the all-missed event is always finite
     onehot = jnp.asarray(np.eye(g + 1)[events], p.dtype)  # [E, M, G + 1]
     beta = jnp.einsum("e,etg->tg", p, onehot)
-    return beta[:, 0], _scatter(beta[:, 1:], idx, n_meas)
+    return beta[:, 0], scatter(beta[:, 1:], idx, n_meas)
 
 
 def gnn_weights(logr, g: int):
@@ -171,4 +172,4 @@ def gnn_weights(logr, g: int):
     logw, _ = event_log_weights(top, idx, events)
     best = jnp.asarray(events)[jnp.argmax(logw)]  # [M]
     onehot = jax.nn.one_hot(best, g + 1, dtype=logr.dtype)
-    return onehot[:, 0], _scatter(onehot[:, 1:], idx, n_meas)
+    return onehot[:, 0], scatter(onehot[:, 1:], idx, n_meas)

@@ -26,7 +26,10 @@ posterior over association histories (``tests/test_mht.py`` enumerates it); with
 it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened
 and near-duplicates merged before the K heaviest are kept
 (:mod:`~mjx_radar.estimation.mht_merge`). The estimate is the heaviest hypothesis's bank
-(MAP).
+(MAP). With ``branch > 0`` (:func:`update_bank`) only the first scans branch; afterwards
+each hypothesis sums its children (:func:`soft_update`: its JPDA update, its weight times
+the scan's likelihood), a bank of JPDA filters started from the first scans' K best
+associations.
 
 Pure JAX on pytrees, static shapes (K, M, G, L), ``vmap``-able over trials.
 """
@@ -37,19 +40,30 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar.estimation import association, filter_bank, linalg, mht_merge, pda
 
-__all__ = ["HypState", "init", "predict", "radar_update", "update_bank", "best"]
+__all__ = [  # noqa: RUF022
+    "HypState",
+    "init",
+    "predict",
+    "radar_update",
+    "soft_update",
+    "update_bank",
+    "best",
+]
 
 
 class HypState(NamedTuple):
     """K global hypotheses: ``means [K, M, 6]``, ``covs [K, M, 6, 6]``, ``logw [K]``
-    (normalised, ``logsumexp(logw) = 0``; −inf for an empty slot)."""
+    (normalised, ``logsumexp(logw) = 0``; −inf for an empty slot), and ``scans []`` int32,
+    the scans updated so far (counted only with ``branch > 0``, :func:`update_bank`)."""
 
     means: jax.Array
     covs: jax.Array
     logw: jax.Array
+    scans: jax.Array | int = 0
 
 
 def init(means, covs, k: int) -> HypState:
@@ -58,7 +72,8 @@ def init(means, covs, k: int) -> HypState:
     means = jnp.asarray(means)
     rep = lambda a: jnp.broadcast_to(a, (k, *a.shape))  # noqa: E731
     logw = jnp.full((k,), -jnp.inf, means.dtype).at[0].set(0.0)
-    return HypState(rep(means), rep(jnp.asarray(covs, means.dtype)), logw)
+    scans = jnp.zeros((), jnp.int32)
+    return HypState(rep(means), rep(jnp.asarray(covs, means.dtype)), logw, scans)
 
 
 def predict(hyp: HypState, A6, Q6) -> HypState:
@@ -141,7 +156,7 @@ def radar_update(
         perms = association.permutations(m) if labels else None
         top, keep = jax.lax.top_k(mht_merge.merge_duplicates(means, covs, top, tau, perms), k)
         means, covs, parent = means[keep], covs[keep], parent[keep]
-    return _clean(HypState(means, covs, top)), parent
+    return _clean(HypState(means, covs, top, hyp.scans)), parent
 
 
 def _clean(hyp: HypState) -> HypState:
@@ -152,7 +167,48 @@ def _clean(hyp: HypState) -> HypState:
     logw = logw - jax.scipy.special.logsumexp(logw)
     i = jnp.argmax(logw)
     sel = lambda a: jnp.where(ok.reshape((-1,) + (1,) * (a.ndim - 1)), a, a[i][None])  # noqa: E731
-    return HypState(sel(hyp.means), sel(hyp.covs), logw)
+    return HypState(sel(hyp.means), sel(hyp.covs), logw, hyp.scans)
+
+
+def soft_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, residual=None):
+    """One radar's scan without branching: every hypothesis takes the JPDA update.
+
+    Hypothesis h's children (the events θ of :func:`radar_update`, weights
+    ``w_{h,θ} ∝ w_h p(Z_n, θ | h)``) are summed instead of pruned: its new weight is
+    ``w_h p(Z_n | h) = Σ_θ w_{h,θ}`` (the scan's predictive likelihood under h, up to the
+    factor every hypothesis shares), and each target takes the moment-matched mixture of
+    its children's Kalman updates, which is the exact JPDA's PDA mixture with
+    ``β_htj = Σ_{θ: θ(t) = j} w_{h,θ} / Σ_θ w_{h,θ}`` (:func:`pda.mixture`). With K = 1 it
+    is the JPDA bank (``marginals = "exact"``, G candidates). Arguments as
+    :func:`radar_update` (no merging, no parents: the K hypotheses stay in their slots).
+
+    Returns:
+        The updated :class:`HypState` (weights renormalised).
+    """
+    m = hyp.means.shape[1]
+    score, (K, S, nu, idx) = _children(hyp, z, valid, h, R, pd, density, gate, pg, g, residual)
+    logw = jax.scipy.special.logsumexp(score, axis=1)  # [K]
+    alive = jnp.isfinite(logw)[:, None]
+    p = jnp.where(alive, jnp.exp(score - jnp.where(alive, logw[:, None], 0.0)), 0.0)
+    p = jnp.where(alive, p, jnp.zeros_like(p).at[:, 0].set(1.0))  # empty: all missed
+    onehot = jnp.asarray(np.eye(g + 1)[association.event_table(m, g)], p.dtype)  # [E, M, G+1]
+    beta = jnp.einsum("ke,etg->ktg", p, onehot)  # [K, M, G + 1]
+    n_meas = z.shape[0]
+    full = jax.vmap(lambda b, i: association.scatter(b, i, n_meas))(beta[..., 1:], idx)
+    mix = jax.vmap(jax.vmap(pda.mixture))
+    means, covs = mix(hyp.means, hyp.covs, K, S, nu, beta[..., 0], full)
+    return _clean(HypState(means, covs, logw, hyp.scans))
+
+
+def _scan(hyp, pd, update, radars, branching):
+    """Radar after radar; ``pd [N, K, M]`` follows each child's parent when branching."""
+    for i in range(radars):  # static N
+        if branching:
+            hyp, parent = update(hyp, i, pd[i])
+            pd = pd[:, parent]
+        else:
+            hyp = update(hyp, i, pd[i])
+    return hyp
 
 
 def update_bank(
@@ -169,6 +225,7 @@ def update_bank(
     pg,
     g,
     merge=(0.0, 1, False),
+    branch: int = 0,
 ):
     """Every radar's scan, radar after radar, each pruned to the K best.
 
@@ -181,15 +238,33 @@ def update_bank(
         density, gate, pg: clutter density λ, gate γ, gate probability P_G.
         g: candidates per target G (static; capped at L).
         merge: ``(τ, screen, labels)`` (:func:`radar_update`).
+        branch: static; 0: every scan branches (:func:`radar_update`); B > 0: the first B
+            scans branch (``hyp.scans < B``), the later ones take :func:`soft_update`
+            (each hypothesis a JPDA bank weighted by its likelihood).
 
     Returns:
-        The posterior :class:`HypState`.
+        The posterior :class:`HypState` (``scans`` one more when ``branch > 0``).
     """
     g = min(g, zs.shape[1])
     pd = pd_fn(hyp.means[..., :3])  # [N, K, M], as the PDA and JPDA banks: at the prediction
-    for i in range(radar_pos.shape[0]):  # radar after radar (static N)
-        h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
-        args = (zs[i], valid[i], h, R, pd[i], density, gate, pg, g, model.residual, merge)
-        hyp, parent = radar_update(hyp, *args)
-        pd = pd[:, parent]
-    return hyp
+    n = radar_pos.shape[0]
+
+    def one(rule, extra):
+        def upd(hyp, i, pd_i):
+            h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
+            args = (zs[i], valid[i], h, R, pd_i, density, gate, pg, g, model.residual)
+            return rule(hyp, *args, *extra)
+
+        return upd
+
+    def tree(h):
+        return _scan(h, pd, one(radar_update, (merge,)), n, True)
+
+    if branch <= 0:
+        return tree(hyp)
+
+    def soft(h):
+        return _scan(h, pd, one(soft_update, ()), n, False)
+
+    hyp = jax.lax.cond(hyp.scans < branch, tree, soft, hyp)
+    return hyp._replace(scans=hyp.scans + 1)

@@ -109,6 +109,18 @@ class TrackerConfig:
         default=False,
         metadata=flag("mht: merge hypotheses that are label permutations of each other (M <= 6)"),
     )
+    branch_scans: int = field(
+        default=0,
+        metadata=rule(
+            int,
+            0,
+            100000,
+            doc=(
+                "mht: scans in which the hypotheses branch (0: every scan); later scans "
+                "give each hypothesis JPDA's soft update, weighted by its likelihood"
+            ),
+        ),
+    )
     management: str = field(
         default="known",
         metadata=choice(
