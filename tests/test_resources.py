@@ -241,6 +241,36 @@ def test_estimate_covers_the_h200s_out_of_memory_request():
     assert lo <= est / asked <= hi, est / asked
 
 
+# The joint filter's SFIM of 20, 24 and 32 drones on one H200 (XLA fuses its expectations
+# up to 20 drones, not from 24 on): GPU_JOINT_FUSED_TARGETS and GPU_JOINT_UNFUSED
+JOINT_SWARM_ROWS = json.loads(
+    (REPO / "benchmarks/results/memory_model_gpu_joint_swarm_h200.json").read_text()
+)["rows"]
+
+
+@pytest.fixture(scope="module")
+def swarm_files(tmp_path_factory):
+    """The swarms of the rows as scripts/make_swarm.py writes them (seed 0)."""
+    folder = tmp_path_factory.mktemp("swarms")
+    for m in (20, 24):
+        cmd = [sys.executable, str(REPO / "scripts/make_swarm.py"), "--radars", str(m)]
+        cmd += ["--targets", str(m), "--seed", "0", "--out", str(folder / f"swarm_{m}r{m}t.toml")]
+        subprocess.run(cmd, check=True, capture_output=True)
+    return folder
+
+
+@pytest.mark.parametrize("row", JOINT_SWARM_ROWS, ids=lambda r: f"{r[0]}-{r[4]}")
+def test_gpu_estimate_of_the_joint_swarms_within_25_percent(row, swarm_files):
+    name, structure, kind, _, trials, xla, peak = row
+    path = swarm_files / f"{name}.toml"
+    s = _with(load_scenario(path if path.exists() else name), structure)
+    est = sum(resources.device_terms(s, trials, "gpu", kind, True, runner_segment(s)).values())
+    lo, hi = memory_model.BUNDLED_FACTOR
+    assert lo <= est / xla <= hi, (name, trials, est / xla)
+    if peak:
+        assert lo <= memory_model.device_peak(est, "gpu") / peak <= hi
+
+
 @pytest.mark.parametrize("row", GPU_ROWS["rows"], ids=lambda r: "-".join(map(str, r[:5])))
 def test_gpu_estimate_within_25_percent_of_the_h200(row):
     """The GPU terms against XLA's figure, the runtime's floor against the device's peak."""

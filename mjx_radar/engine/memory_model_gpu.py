@@ -6,8 +6,9 @@ symbols ``T, S, H, P, M, N, D, Z, F``: :mod:`mjx_radar.engine.memory_model`):
 
 * planner expectations: ``T·S·H·(P·M·A + N·M)·F``, the kept arrays ``[S, H, P·M]`` and
   one number a sample, horizon step and radar-target pair (the pair's geometry).
-  :data:`GPU_OBJECTIVE_ARRAYS`: the joint filter's SFIM is fused (``A = 0``), its PFIM
-  keeps one array per radar (``A = N``); the per-target bank keeps ``1.65·(N - 1)``
+  :data:`GPU_OBJECTIVE_ARRAYS`: the joint filter's SFIM is fused (``A = 0``) up to
+  :data:`GPU_JOINT_FUSED_TARGETS` targets and keeps ``A = 1.5·N`` above (``3.4·N`` for
+  one trial, :data:`GPU_JOINT_UNFUSED`), its PFIM keeps one array per radar (``A = N``); the per-target bank keeps ``1.65·(N - 1)``
   (SFIM) and ``3 + 1.2N`` (PFIM), ``+1.9N`` / ``+0.85N`` with clutter. A study's
   program holds the larger of its branches;
 * cuBLAS workspace: a program with a large matrix product (a planner of ``S ≥ 128``
@@ -42,6 +43,11 @@ GPU_OBJECTIVE_ARRAYS = {
     ("per-target", "sfim"): (-1.65, 1.65),
     ("per-target", "pfim"): (3.0, 1.2),
 }
+#: the joint filter's SFIM expectations are fused up to this many targets (20 measured
+#: fused, 24 and 32 not); above it a trial keeps ``b·N`` arrays ``[S, H, P·M]``, b from
+#: GPU_JOINT_UNFUSED: one trial (the plain loop) keeps about twice a batched trial's
+GPU_JOINT_FUSED_TARGETS = 20
+GPU_JOINT_UNFUSED = {"one trial": 3.4, "batched": 1.5}
 #: extra arrays per radar with the detection-weighted information and clutter
 GPU_CLUTTER_ARRAYS = {"sfim": 1.9, "pfim": 0.85}
 #: numbers of an MJX rollout kept per sample and body (N radars + the world)
@@ -92,6 +98,8 @@ def gpu_terms(
     best = None
     for info in infos:  # a study's program holds the larger of its branches
         a, b = GPU_OBJECTIVE_ARRAYS[(scenario.filter.structure, info)]
+        if joint and info == "sfim" and m > GPU_JOINT_FUSED_TARGETS:  # not fused
+            a, b = 0.0, GPU_JOINT_UNFUSED["one trial" if trials == 1 else "batched"]
         arrays = a + b * n + (GPU_CLUTTER_ARRAYS[info] * n if clutter else 0.0)
         kept = trials * s * h * p * m * arrays * f  # the [S, H, P·M] arrays
         pairs = trials * s * h * n * m * f  # one number a sample, step and radar-target pair
