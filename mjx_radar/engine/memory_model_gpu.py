@@ -9,8 +9,8 @@ symbols ``T, S, H, P, M, N, D, Z, F``: :mod:`mjx_radar.engine.memory_model`):
   :data:`GPU_OBJECTIVE_ARRAYS`: the joint filter's SFIM is fused (``A = 0``) up to
   :data:`GPU_JOINT_FUSED_TARGETS` targets and keeps ``A = 1.5·N`` above (``3.4·N`` for
   one trial, :data:`GPU_JOINT_UNFUSED`), its PFIM keeps one array per radar (``A = N``);
-  the per-target bank keeps ``1.65·(N - 1)`` (SFIM) and ``3 + 1.2N`` (PFIM), ``+1.9N`` / ``+0.85N`` with clutter. A study's
-  program holds the larger of its branches;
+  the per-target bank keeps ``1.65·(N - 1)`` (SFIM) and ``3 + 1.2N`` (PFIM), ``+1.9N`` /
+  ``+0.85N`` with clutter. A study's program holds the larger of its branches;
 * cuBLAS workspace: a program with a large matrix product (a planner of ``S ≥ 128``
   samples; without a planner the per-target bank, ``D ≥ 48`` or ``≥ 200`` obstacle
   faces) holds a 32 MiB workspace, in the same buffers as the kept arrays (planner) or
