@@ -82,7 +82,7 @@ class RadarEnv:
         self.n_tracks = sc.n_targets if self._table is None else sc.tracker.max_tracks
         m, n = self.n_tracks, sc.n_radars
         self.observation_size = 6 * n + 6 * m + 21 * m + m + n * m
-        lower, upper = control_box(sc)
+        lower, upper = control_box(task.fleet)
         self.action_bounds = (lower.reshape(n, 2), upper.reshape(n, 2))
 
     @staticmethod
