@@ -195,9 +195,10 @@ def test_slope_beyond_the_limit_stops_the_plant(tmp_path):
 def test_slope_cost_closed_form(tmp_path):
     """terrain_slope = alpha_slope * sum_n relu(grade - tan(max_slope))."""
     from mjx_radar.task import costs
+    from mjx_radar.world.components import Ground, World
 
     t = _ramp(tmp_path, 0.6, 0.8, 0.0, max_slope_deg=30.0, alpha_slope=7.0)  # grade 1.0
-    task = type("T", (), {"scenario": type("S", (), {"terrain": t})()})()
+    task = type("T", (), {"world": World(ground=Ground(t))})()  # the term reads the ground
     radar = jnp.zeros((4, 3, 6)).at[..., 0].set(jnp.arange(3.0) * 10)
     hz = costs.Horizon(jnp.zeros((4, 3, 2)), radar, None, None)
     got = np.asarray(jax.jit(lambda hz: costs.terrain_slope(hz, task, None))(hz))
