@@ -9,8 +9,10 @@ missing, before anything is traced:
   environment, with ``init()`` and ``plan(carry, obs, key) -> (action [N, 2], carry)``
   (``record(carry, action)`` optional);
 * :class:`TrackerFactory`: ``factory(task, params) -> FilterOps``;
-* :class:`SensorPlugin`: a ``MeasurementModel`` subclass made without arguments, with
-  ``dim >= 1`` and its five methods.
+* :class:`SensorPlugin`: a ``MeasurementModel`` subclass made without arguments, or an
+  instance of one that carries its own parameters, with ``dim >= 1`` and its five methods;
+* :class:`CostTermPlugin`: ``fn(h: Horizon, task, params) -> [H]``, a cost per horizon
+  step (``mjx_radar.register_cost_term``, which also takes the scenarios it is for).
 
 A base class's method that only raises (``Planner.plan``, ``MeasurementModel.predict``)
 is marked :func:`placeholder`: a subclass that does not override it (``plan``
@@ -64,6 +66,12 @@ class SensorPlugin(Protocol):
     def residual(self, a: Any, b: Any) -> Any: ...
 
     def pair_information(self, dx: Any, dy: Any, dz: Any, params: Any, ccr: Any) -> Any: ...
+
+
+class CostTermPlugin(Protocol):
+    """``fn(h, task, params) -> [H]`` (:class:`mjx_radar.task.costs.Horizon`): pure JAX."""
+
+    def __call__(self, h: Any, task: Any, params: Any) -> Any: ...
 
 
 #: each kind's methods and how many arguments each takes (after ``self``)
@@ -154,20 +162,42 @@ def check(kind: str, name: str, obj: Any) -> None:
                 f"tracker {name!r}: the factory {getattr(obj, '__name__', what)}"
                 f"{inspect.signature(obj)} must take (task, params)"
             )
-    elif kind == "sensor":
-        if not inspect.isclass(obj):
-            raise PluginError(f"sensor {name!r}: a MeasurementModel subclass, not a {what}")
-        _check_methods("sensor", name, obj)
-        try:
-            made = obj()
-        except Exception as err:  # noqa: BLE001 -- the user's class: one line
+    elif kind == "cost term":
+        if not takes(obj, 3):
             raise PluginError(
-                f"sensor {name!r}: {obj.__name__}() cannot be made without arguments "
-                f"({type(err).__name__}: {err})"
-            ) from None
+                f"cost term {name!r}: {getattr(obj, '__name__', what)}() must take "
+                "(h, task, params)"
+            )
+    elif kind == "sensor":
+        made, label = _made_sensor(name, obj)
         dim = getattr(made, "dim", None)
         if isinstance(dim, bool) or not isinstance(dim, int) or dim < 1:
             raise PluginError(
-                f"sensor {name!r}: {obj.__name__}.dim = {dim!r}: must be an integer >= 1 "
+                f"sensor {name!r}: {label}.dim = {dim!r}: must be an integer >= 1 "
                 "(components per measurement)"
             )
+
+
+def _made_sensor(name: str, obj: Any) -> tuple[Any, str]:
+    """``(the sensor made, its name in messages)`` of a registered sensor: a class made
+    without arguments, or an instance carrying its own parameters (hashable: the
+    compiled programs are keyed on it)."""
+    if inspect.isclass(obj):
+        _check_methods("sensor", name, obj)
+        try:
+            return obj(), obj.__name__
+        except Exception as err:  # noqa: BLE001 -- the user's class: one line
+            raise PluginError(
+                f"sensor {name!r}: {obj.__name__}() cannot be made without arguments "
+                f"({type(err).__name__}: {err}); or register an instance that carries "
+                "its parameters"
+            ) from None
+    _check_methods("sensor", name, type(obj))
+    try:
+        hash(obj)
+    except TypeError:
+        raise PluginError(
+            f"sensor {name!r}: the {type(obj).__name__} instance is not hashable; make "
+            "the class a frozen dataclass (compiled programs are keyed on the sensor)"
+        ) from None
+    return obj, type(obj).__name__

@@ -49,7 +49,8 @@ def code_digest(obj: Any) -> str:
 
     Functions hash their bytecode; classes every function in their own and their
     bases' namespaces (``object`` excluded); ``functools.partial`` its function and
-    arguments; anything else its ``repr``.
+    arguments; an instance its class and its attributes' values (a sensor that carries
+    its parameters); anything else its ``repr``.
     """
     h = hashlib.sha256()
     if isinstance(obj, functools.partial):
@@ -69,6 +70,12 @@ def code_digest(obj: Any) -> str:
                     h.update(f"{name}={value!r}".encode())
     elif inspect.isfunction(obj):
         _update_function(h, obj)
+    elif callable(getattr(obj, "code_parts", None)):  # an entry made of user functions
+        for part in obj.code_parts():
+            h.update(code_digest(part).encode())
+    elif hasattr(obj, "__dict__") and not inspect.isroutine(obj):  # an instance: its
+        h.update(code_digest(type(obj)).encode())  # class's code and its own values
+        h.update(repr(sorted(vars(obj).items())).encode())
     else:
         h.update(repr(obj).encode())
     return h.hexdigest()[:16]
@@ -232,6 +239,24 @@ TRACKERS = Registry(
         "gnn": "mjx_radar.env.association_ops:gnn_bank",
         "mht": "mjx_radar.env.mht_ops:mht_bank",
         "managed": "mjx_radar.env.managed:managed_tracker",
+    },
+)
+#: cost terms of the planner's objective by name (:mod:`mjx_radar.task.costs`): the
+#: built-in ones, each in the objective of the scenarios it applies to, then those of
+#: :func:`mjx_radar.register_cost_term` in order of registration
+COST_TERMS = Registry(
+    "cost term",
+    {
+        name: f"mjx_radar.task.costs:{name}"
+        for name in (
+            "information",
+            "radar_radar",
+            "radar_target",
+            "obstacle",
+            "moving_obstacle",
+            "terrain_slope",
+            "control_effort",
+        )
     },
 )
 #: sensors (measurement models) by name (:mod:`mjx_radar.estimation.measurement`):

@@ -54,6 +54,7 @@ def test_names_are_case_insensitive():
         (["--distributed", "--num-processes", "0"], "--num-processes = 0"),
         (["--distributed", "--coordinator", "nohostport"], "must be HOST:PORT"),
         (["--distributed", "--shard", "0/2"], "--shard and --distributed: choose one"),
+        (["--distributed"], "--distributed: no coordinator given and no cluster found (give"),
         (["--planners", ""], "--planners = '': give one or more planner names"),
         (["--planners", " , "], "give one or more planner names"),
         (["--planners", "policy"], "give policy:DIR"),

@@ -136,6 +136,8 @@ def _worker(args):
             jax.distributed.initialize(**kw)
         except (ValueError, RuntimeError) as err:  # no cluster found, coordinator unreachable
             first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            if args.coordinator is None and "coordinator_address" in first:
+                first = "no coordinator given and no cluster found"
             raise InputError(
                 f"--distributed: {first} (give --coordinator HOST:PORT, --num-processes N and "
                 "--process-id I, or run under SLURM)"

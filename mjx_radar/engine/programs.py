@@ -42,7 +42,7 @@ from mjx_radar.env import records
 from mjx_radar.planners import records as plan_records
 from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
-from mjx_radar.task import costs
+from mjx_radar.task import cost_plugins
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import shape_key, task_params
 
@@ -84,7 +84,7 @@ def _variant(planner: str = "mppi") -> tuple:
     return (
         bool(jax.config.jax_enable_x64),
         precision.describe(),
-        costs.registry_key(),
+        cost_plugins.registry_key(),
         planner,
         PLANNERS.key((planner,)),
         TRACKERS.key(),

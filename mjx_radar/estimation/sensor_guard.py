@@ -9,7 +9,10 @@ the loop is traced, one line naming the sensor and the method, with the user's f
 
 from __future__ import annotations
 
+import copy
 import functools
+
+import jax.numpy as jnp
 
 from mjx_radar.contracts import METHODS
 from mjx_radar.plugin_errors import guarded_call
@@ -17,11 +20,17 @@ from mjx_radar.registry import SENSORS
 
 
 def make(name: str):
-    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name)."""
-    cls = SENSORS.get(name)
-    if isinstance(name, str) and name.lower() in SENSORS.registered():
-        cls = guarded(name.lower(), cls)
-    return cls()
+    """The sensor called ``name``, made (one-line ``ValueError`` for an unknown name): a
+    registered class made without arguments, or a copy of a registered instance (which
+    carries its own parameters), either with its contract methods guarded."""
+    obj = SENSORS.get(name)
+    if not (isinstance(name, str) and name.lower() in SENSORS.registered()):
+        return obj() if isinstance(obj, type) else obj
+    if isinstance(obj, type):
+        return guarded(name.lower(), obj)()
+    made = copy.copy(obj)  # the same parameters, the guarded methods
+    object.__setattr__(made, "__class__", guarded(name.lower(), type(obj)))
+    return made
 
 
 @functools.cache
@@ -32,7 +41,10 @@ def guarded(name: str, cls: type) -> type:
     def method(call):
         def fn(self, *args, **kwargs):
             inner = getattr(super(wrapped, self), call)
-            return guarded_call("sensor", name, call, inner)(*args, **kwargs)
+            out = guarded_call("sensor", name, call, inner)(*args, **kwargs)
+            if call == "predict":
+                _check_predict(name, self.dim, *args, out)
+            return out
 
         return fn
 
@@ -40,3 +52,17 @@ def guarded(name: str, cls: type) -> type:
     ns.update(__qualname__=cls.__qualname__, __module__=cls.__module__, __doc__=cls.__doc__)
     wrapped = type(cls.__name__, (cls,), ns)
     return wrapped
+
+
+def _check_predict(name: str, dim: int, radar_pos, target_pos, out) -> None:
+    """A registered sensor's ``predict`` must return ``[..., N, M, dim]`` (one line if not)."""
+    from mjx_radar.contracts import PluginError
+
+    n, m = jnp.shape(radar_pos)[-2], jnp.shape(target_pos)[-2]
+    got = tuple(jnp.shape(out))
+    if got[-3:] != (n, m, dim):
+        want = [*got[:-3], n, m, dim] if len(got) > 3 else [n, m, dim]
+        raise PluginError(
+            f"sensor {name!r}: predict() returned shape {list(got)}; expected {want} "
+            f"([..., N, M, dim] with N = {n} radars, M = {m} targets, dim = {dim})"
+        )

@@ -18,19 +18,30 @@ MODELS = {"range": RangeModel, "range-azimuth": RangeAzimuthModel}
 
 
 def register_sensor(name: str, model=None):
-    """Registers a sensor: a :class:`MeasurementModel` subclass (usable as a decorator).
+    """Registers a sensor: a :class:`MeasurementModel` subclass (usable as a decorator),
+    or an instance of one that carries its own parameters (a frozen dataclass).
 
-    Select it in a scenario with ``[measurement] model = "name"``. Its code is part of
-    the program cache key.
+    Select it in a scenario with ``[measurement] model = "name"``. Its code, and an
+    instance's parameters, are part of the program cache key.
+
+    Example:
+        >>> import dataclasses
+        >>> @dataclasses.dataclass(frozen=True)
+        ... class Ranging(RangeModel):
+        ...     bias_m: float = 0.0  # a parameter of the sensor's own
+        >>> register_sensor("ranging-2m", Ranging(bias_m=2.0))  # doctest: +SKIP
 
     Raises:
-        TypeError: ``model`` is not a MeasurementModel subclass.
+        TypeError: ``model`` is neither a MeasurementModel subclass nor an instance of one.
     """
 
-    def add(cls):
-        if not (isinstance(cls, type) and issubclass(cls, MeasurementModel)):
-            raise TypeError(f"sensor {name!r}: a MeasurementModel subclass, not {cls!r}")
-        return SENSORS.register(name, cls)
+    def add(obj):
+        is_class = isinstance(obj, type) and issubclass(obj, MeasurementModel)
+        if not (is_class or isinstance(obj, MeasurementModel)):
+            raise TypeError(
+                f"sensor {name!r}: a MeasurementModel subclass or instance, not {obj!r}"
+            )
+        return SENSORS.register(name, obj)
 
     return add if model is None else add(model)
 

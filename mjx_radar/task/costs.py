@@ -23,15 +23,14 @@ t+1 and E_p the mean over the CKF cubature points of the target states at that t
 * ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``.
 
 Adding a term: write ``def my_term(h: Horizon, task, params) -> [H]`` here and list it
-in :func:`builtin_terms` (docs/extending.md), or register it from a script with
-:func:`register_cost_term` (``mjx_radar.register_cost_term``): registered terms follow the
-built-in ones, and their code is part of every program cache key (:func:`registry_key`).
+in :func:`builtin_terms` and :data:`mjx_radar.registry.COST_TERMS` (docs/extending.md), or
+register it from a script (``mjx_radar.register_cost_term``,
+:mod:`mjx_radar.task.cost_plugins`): registered terms follow the built-in ones, and their
+code is part of every program cache key.
 """
 
 from __future__ import annotations
 
-import hashlib
-import marshal
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -40,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.estimation import detection, fisher, measurement, pda
+from mjx_radar.task import cost_plugins
 from mjx_radar.task.method import information_of
 from mjx_radar.world import moving
 from mjx_radar.world.components import make_world
@@ -183,88 +183,8 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
     return task.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
 
 
-#: terms registered from scripts: name -> (fn, enabled(scenario) -> bool, guarded fn,
-#: guarded enabled): the guarded ones raise a one-line PluginError for the term's own
-#: exception (mjx_radar.plugin_errors), made once so a task's terms stay equal
-_REGISTERED: dict[str, tuple[Callable, ...]] = {}
 BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "moving_obstacle")
 BUILT_IN += ("terrain_slope", "control_effort")
-
-
-def register_cost_term(
-    name: str,
-    fn: Callable[[Horizon, Any, Any], jax.Array],
-    enabled: Callable[[Any], bool] | None = None,
-) -> None:
-    """Adds a cost term to every objective built afterwards (replacing one of that name).
-
-    Args:
-        name: the term's name in ``Plan.terms`` (not a built-in term's name).
-        fn: ``fn(h: Horizon, task, params) -> [H]`` per-step cost (undiscounted), pure JAX.
-        enabled: ``enabled(scenario) -> bool``: the scenarios whose objective gets the term
-            (default all).
-
-    The term's code (and the scalar globals and closure values it reads) is part of the
-    program caches' keys, so changing it recompiles; other state it reads is not.
-
-    Example:
-        >>> def stay_home(h, task, params):  # metres beyond 300 m from the origin
-        ...     r = jnp.linalg.norm(h.radar[..., :2], axis=-1)  # [H, N]
-        ...     return 10.0 * jax.nn.relu(r - 300.0).sum(-1)
-        >>> register_cost_term("stay_home", stay_home)
-    """
-    if not isinstance(name, str) or not name.isidentifier() or name in BUILT_IN:
-        raise ValueError(f"cost term name {name!r}: must be an identifier, not a built-in term")
-    if not callable(fn) or (enabled is not None and not callable(enabled)):
-        raise TypeError(f"cost term {name!r}: fn and enabled must be callables")
-    from mjx_radar.contracts import PluginError, takes
-    from mjx_radar.plugin_errors import guarded_call
-
-    for f, n, args in ((fn, 3, "(h, task, params)"), (enabled, 1, "(scenario)")):
-        if f is not None and not takes(f, n):
-            what = getattr(f, "__name__", type(f).__name__)
-            raise PluginError(f"cost term {name!r}: {what}() must take {args}")
-    enabled = enabled or (lambda scenario: True)
-    guard = guarded_call("cost term", name, getattr(fn, "__name__", name), fn)
-
-    def term(h: Horizon, task, params) -> jax.Array:  # one cost per horizon step
-        out = guard(h, task, params)
-        if jnp.shape(out) != jnp.shape(h.controls)[:1]:
-            raise PluginError(
-                f"cost term {name!r}: returned shape {list(jnp.shape(out))}; expected "
-                f"[{jnp.shape(h.controls)[0]}] (one cost per horizon step)"
-            )
-        return out
-
-    _REGISTERED[name] = (fn, enabled, term, guarded_call("cost term", name, "enabled", enabled))
-
-
-def unregister_cost_term(name: str) -> None:
-    """Removes a registered term (no error if absent)."""
-    _REGISTERED.pop(name, None)
-
-
-def _code_digest(fn: Callable) -> str:
-    h = hashlib.sha256()
-    code = getattr(fn, "__code__", None)
-    if code is None:
-        h.update(repr(fn).encode())
-        return h.hexdigest()
-    h.update(marshal.dumps(code))
-    for cell in fn.__closure__ or ():
-        h.update(repr(cell.cell_contents).encode())
-    for gname in code.co_names:  # scalar globals the code reads (e.g. a weight)
-        value = fn.__globals__.get(gname)
-        if isinstance(value, int | float | str | bool | tuple):
-            h.update(f"{gname}={value!r}".encode())
-    return h.hexdigest()[:16]
-
-
-def registry_key() -> tuple:
-    """``((name, code digest), ...)`` of the registered terms: part of every cache key."""
-    return tuple(
-        (name, _code_digest(fn), _code_digest(en)) for name, (fn, en, *_) in _REGISTERED.items()
-    )
 
 
 def builtin_terms(world, mpc) -> tuple[CostTerm, ...]:
@@ -289,7 +209,7 @@ def builtin_terms(world, mpc) -> tuple[CostTerm, ...]:
 
 def registered_terms(shape) -> tuple[CostTerm, ...]:
     """The terms registered from scripts whose ``enabled(scenario)`` accepts ``shape``."""
-    return tuple(CostTerm(n, fn) for n, (_, _, fn, en) in _REGISTERED.items() if en(shape))
+    return tuple(CostTerm(t.name, t) for t in cost_plugins.registered() if t.applies(shape))
 
 
 def cost_terms(scenario) -> tuple[CostTerm, ...]:

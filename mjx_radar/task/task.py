@@ -36,7 +36,7 @@ from mjx_radar.scenario.schema import (
     Timing,
     TrackerConfig,
 )
-from mjx_radar.task import costs
+from mjx_radar.task import cost_plugins, costs
 from mjx_radar.task.planner import Fleet
 from mjx_radar.world.components import Ground, World, make_world
 
@@ -119,8 +119,8 @@ def _rollout_backend(scenario: Scenario, ground: Ground) -> Callable:
 
 def make_task(shape: Scenario, kind: str = "all") -> RadarTask:
     """Builds the task of a scenario shape (cached: one task per shape, program kind,
-    registered cost terms (:func:`mjx_radar.task.costs.registry_key`) and process)."""
-    return _task_of_kind(shape, costs.registry_key(), kind)
+    registered cost terms (:func:`mjx_radar.task.cost_plugins.registry_key`) and process)."""
+    return _task_of_kind(shape, cost_plugins.registry_key(), kind)
 
 
 @functools.cache
