@@ -22,7 +22,7 @@ class BestOfK(mjx_radar.Planner):
     def plan(self, carry, obs, key):
         lower, upper = self.env.action_bounds  # [N, 2] each
         u = jax.random.uniform(key, (K, *lower.shape), minval=lower, maxval=upper)  # [K, N, 2]
-        horizon = self.env.scenario.mpc.horizon
+        horizon = self.env.task.mpc.horizon
         seqs = jnp.repeat(u[:, None], horizon, axis=1).reshape(K, horizon, -1)  # [K, H, 2N]
         cost, _ = jax.vmap(self.env.objective(obs))(seqs)
         return u[jnp.argmin(cost)], carry

@@ -21,7 +21,9 @@ a.b``, ``from a import b`` with b a submodule, relative imports. Reported:
   leave the list.
 
 The summary also counts the modules outside ``scenario/``, ``api/`` and ``cli/`` that take
-or read a scenario (:func:`reads_scenario`; the lower floors should take sub-configs).
+or read a scenario (:func:`reads_scenario`; the lower floors should take sub-configs);
+more than :data:`MAX_SCENARIO_READERS`, a ceiling that only shrinks, is a problem, and
+so is fewer (the ceiling comes down with them).
 
 There is no allowance list for imports: a problem is fixed in the code, never excused
 here.
@@ -38,10 +40,11 @@ PACKAGE = Path(__file__).resolve().parent.parent / "mjx_radar"
 MAX_LINES = 300
 MAX_FUNCTION_LINES = 80
 #: functions still over MAX_FUNCTION_LINES (module:function -> lines): only shrinks
-LONG_FUNCTIONS: dict[str, int] = {
-    "api.simulate:simulate": 106,
-    "learning.train:_train": 102,
-}
+LONG_FUNCTIONS: dict[str, int] = {}
+#: modules outside scenario/, api/ and cli/ that take or read a scenario (reads_scenario):
+#: a ceiling that only shrinks (the lower floors take the task's tables and world
+#: components instead); lower it as modules leave, never raise it
+MAX_SCENARIO_READERS = 47
 SKIP = re.compile(r"#\s*fmt:\s*(skip|off)")
 # lowest floor first; a module imports only from its own floor and the ones below it
 FLOORS = [
@@ -162,6 +165,15 @@ def reads_scenario(tree: ast.AST) -> bool:
     return False
 
 
+def reader_problems(found: int, ceiling: int) -> list[str]:
+    """The scenario readers over their ceiling, or fewer: then the ceiling must come down."""
+    if found > ceiling:
+        return [f"{found} scenario readers outside scenario/ api/ cli/ (> {ceiling}, the ceiling)"]
+    if found < ceiling:
+        return [f"{found} scenario readers now; lower MAX_SCENARIO_READERS ({ceiling}) to {found}"]
+    return []
+
+
 def function_problems(found: dict[str, int], ceiling: dict[str, int]) -> list[str]:
     """Functions over the rule and not in ``ceiling``, grown past it, or listed but fit."""
     out = []
@@ -273,6 +285,8 @@ def check(root: Path) -> tuple[list[str], str]:
                 problems.append(f"{mod}: imports private {', '.join(private)} from {target}")
     ceiling = LONG_FUNCTIONS if root == PACKAGE else {}  # the list is the package's
     problems += function_problems(long, ceiling)
+    if root == PACKAGE:
+        problems += reader_problems(readers, MAX_SCENARIO_READERS)
     problems += [f"package cycle: {' <-> '.join(c)}" for c in cycles(pgraph)]
     circles = cycles(graph)
     problems += [f"module cycle: {' <-> '.join(c)}" for c in circles]

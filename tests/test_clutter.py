@@ -8,7 +8,8 @@ import pytest
 from scipy.stats import norm
 
 from mjx_radar.engine import runner
-from mjx_radar.estimation import clutter, detection, pda
+from mjx_radar.estimation import clutter, pda
+from mjx_radar.task.params import detection_of
 
 STEPS = 40
 TRIALS = np.arange(4)
@@ -34,7 +35,7 @@ def test_clutter_counts_are_poisson_within_the_window(tiny):
     s = tiny.replace(filter={"structure": "per-target"},
                      detection={"clutter_density": 0.002, "clutter_range_min": 100.0,
                                 "clutter_range_max": 600.0})  # fmt: skip
-    p = detection.detection_params(s)
+    p = detection_of(s)
     sample = jax.jit(jax.vmap(lambda k: clutter.sample_clutter(k, p, 2, 8, 1)))  # one program
     z, valid, count = sample(jax.random.split(jax.random.PRNGKey(0), 4000))
     lam = 0.002 * 500.0

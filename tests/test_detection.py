@@ -12,6 +12,7 @@ from mjx_radar.estimation import detection
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.rundir import results
 from mjx_radar.scenario.schema import DetectionConfig
+from mjx_radar.task.params import detection_of
 
 STEPS = 40  # ten control periods of the tiny scenario
 TRIALS = np.arange(4)
@@ -36,7 +37,7 @@ def test_swerling1_formula_matches_monte_carlo_of_exponential_returns(pfa, snr):
 
 def test_pair_probability_uses_the_radar_equation_snr(tiny):
     s = tiny.replace(detection={"model": "swerling1", "gain_db": 30.0, "pfa": 1e-4})
-    p = detection.detection_params(s)
+    p = detection_of(s)
     eq = s.radar_eq
     d = np.array([100.0, 400.0, 900.0])
     snr = 10 ** ((eq.snr_db + 30.0) / 10) / s.n_targets * (eq.r_ref / d) ** 4

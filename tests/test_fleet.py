@@ -11,7 +11,7 @@ import numpy as np
 from mjx_radar.estimation import measurement, measurement_filter
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task.method import parse_method
-from mjx_radar.task.params import task_params
+from mjx_radar.task.params import detection_of, task_params
 
 LIGHT = 299_792_458.0
 BASE = {
@@ -140,7 +140,7 @@ def test_detection_snr_is_per_radar_in_a_mixed_fleet():
     s = mjx_radar.load_scenario("mixed_6r4t").replace(
         detection={"model": "swerling1", "gain_db": 10.0}
     )
-    k = np.asarray(detection.detection_params(s).k_snr)
+    k = np.asarray(detection_of(s).k_snr)
     m = s.n_targets
     want = [10.0 ** ((-15.0 + 10.0) / 10.0) / m * 1500.0**4] * 2 + [
         10.0 ** ((s.radar_eq.snr_db + 10.0) / 10.0) / m * s.radar_eq.r_ref**4
@@ -148,5 +148,5 @@ def test_detection_snr_is_per_radar_in_a_mixed_fleet():
     assert k.shape == (6, 1)
     np.testing.assert_allclose(k[:, 0], want, rtol=1e-6)
     d2 = np.full((6, m), 400.0**2)
-    pd = np.asarray(detection.pair_probability("swerling1", detection.detection_params(s), d2))
+    pd = np.asarray(detection.pair_probability("swerling1", detection_of(s), d2))
     assert pd[:2].min() > pd[2:].max()  # the long-range sites detect better at the same range

@@ -138,3 +138,11 @@ def test_every_package_is_installed():
     assert found - listed == set(), (
         f"pyproject.toml [tool.setuptools] packages lacks {found - listed}"
     )
+
+
+def test_scenario_readers_ceiling_only_shrinks():
+    """More readers than the ceiling is refused; fewer asks for the ceiling to come down."""
+    check = _checker()
+    assert check.reader_problems(10, 10) == []
+    assert "> 10" in check.reader_problems(11, 10)[0]
+    assert "lower MAX_SCENARIO_READERS (10) to 9" in check.reader_problems(9, 10)[0]

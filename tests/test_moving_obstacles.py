@@ -105,7 +105,7 @@ def test_plan_visibility_uses_horizon_times(tiny):
     params = params._replace(plan_time=jnp.float32(4.4))  # t_k = 4.5 .. 5.0: car x -5 .. 0
     radar = jnp.broadcast_to(jnp.asarray([[2.0, -130.0, 0.0], [300.0, 0.0, 0.0]]), (6, 2, 3))
     tgt = jnp.broadcast_to(jnp.asarray([[2.0, -70.0, 2.0]]), (6, 1, 3))
-    plan_visibility = jax.jit(lambda params: moving.plan_visibility(task, params, radar, tgt))
+    plan_visibility = jax.jit(lambda params: moving.plan_visibility(task.world, params, radar, tgt))
     vis = np.asarray(plan_visibility(params))  # one program for both planning times
     car_x = -50.0 + 10.0 * (4.4 + 0.1 * np.arange(1, 7))
     clear = np.abs(car_x - 2.0) > 3.0  # the sight line x = 2 is outside the car's length

@@ -195,9 +195,10 @@ def test_slope_beyond_the_limit_stops_the_plant(tmp_path):
 def test_slope_cost_closed_form(tmp_path):
     """terrain_slope = alpha_slope * sum_n relu(grade - tan(max_slope))."""
     from mjx_radar.task import costs
+    from mjx_radar.world.components import Ground, World
 
     t = _ramp(tmp_path, 0.6, 0.8, 0.0, max_slope_deg=30.0, alpha_slope=7.0)  # grade 1.0
-    task = type("T", (), {"scenario": type("S", (), {"terrain": t})()})()
+    task = type("T", (), {"world": World(ground=Ground(t))})()  # the term reads the ground
     radar = jnp.zeros((4, 3, 6)).at[..., 0].set(jnp.arange(3.0) * 10)
     hz = costs.Horizon(jnp.zeros((4, 3, 2)), radar, None, None)
     got = np.asarray(jax.jit(lambda hz: costs.terrain_slope(hz, task, None))(hz))
@@ -295,7 +296,7 @@ def test_planner_rollouts_and_terms_know_the_terrain():
     s = load_scenario(HILLS).replace(mpc={"rollout": "analytic", "los": True})
     task, _ = build(s)
     assert "terrain_slope" in [t.name for t in task.terms]
-    assert task.plan_occluders is not None and task.plan_occluders.terrain is not None
+    assert task.world.plan_occluders is not None and task.world.plan_occluders.terrain is not None
     state = jnp.array([[0.0, 0.0, 0.0, 0.0, 10.0, 0.0], [150.0, -200.0, 0.0, 1.0, 5.0, 0.1],
                        [-300.0, 280.0, 0.0, 2.0, 0.0, 0.0],
                        [220.0, 0.0, 0.0, -1.0, 3.0, 0.0]])  # fmt: skip
@@ -303,7 +304,7 @@ def test_planner_rollouts_and_terms_know_the_terrain():
     z = terrain.height_np(s.terrain, traj[..., :2].astype(float)) + s.terrain.antenna_height
     np.testing.assert_allclose(traj[..., 2], z, atol=1e-3)
     off, _ = build(s.replace(mpc={"los": False}))
-    assert off.plan_occluders is None and off.occluders.terrain is not None
+    assert off.world.plan_occluders is None and off.world.occluders.terrain is not None
     from mjx_radar.physics import rollout_radars  # the public entry point (MJX)
 
     traj = np.asarray(rollout_radars(s, state, jnp.ones((3, 4, 2))))

@@ -45,17 +45,15 @@ def simulate(
         scenario: a :class:`~mjx_radar.Scenario`, a bundled scenario name or a TOML path.
         method: ``"stationary"``, ``"ccr-sfim"``, ``"ccr-pfim"``, ``"ddr-sfim"`` or
             ``"ddr-pfim"`` (case-insensitive), or ``"METHOD+PLANNER"``.
-        trials: a count T (trials ``0..T-1``; default 1, as ``mjx-radar run``) or explicit
-            trial indices (common random numbers: trial i is the same world for every
-            method).
+        trials: a count T (trials ``0..T-1``; default 1) or explicit trial indices (common
+            random numbers: trial i is the same world for every method).
         steps: filter steps (default the scenario's ``timing.steps``); a multiple of
             ``dt_control / dt_filter``.
         seed: base seed (default the scenario's).
         progress: show a progress bar on stderr.
         cache: use the persistent compilation cache (as the command line does).
-        view: a live 3-D view while it simulates (``run --view``, docs/viewer.md): URL on
-            stderr; after the run the server keeps serving the whole run (a page opened
-            then replays it from the start) for ``linger`` seconds, then this returns.
+        view: a live 3-D view while it simulates (``run --view``, docs/viewer.md; URL on
+            stderr), served after the run (replayed from the start) for ``linger`` seconds.
         view_port: its port on 127.0.0.1 (default 8765; 0: any free one; implies ``view``).
         linger: with the view, seconds it stays after the run (``run --view-linger``):
             ``None`` (default): until Ctrl-C (``KeyboardInterrupt``, caught: the run is
@@ -67,13 +65,10 @@ def simulate(
         association: ``"pda"``, ``"jpda"``, ``"gnn"`` or ``"mht"``: the scenario's ``[tracker]
             association`` for this run (``run --association``; docs/tracking.md).
         precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
-        deterministic: deterministic GPU kernels, the same numbers from every
-            compilation and on any number of GPUs (:mod:`mjx_radar.engine.determinism`).
-            ``None`` (default): on where JAX has not started its GPU backend yet (XLA's
-            flag is set first), else what the process has; ``True`` / ``False``
-            (``--deterministic`` / ``--no-deterministic``): as asked, a one-line
-            ``InputError`` where the running backend has the other setting.
-            ``run.meta["deterministic"]`` says what the run had (``True`` on CPUs).
+        deterministic: deterministic GPU kernels (:mod:`mjx_radar.engine.determinism`):
+            ``None`` (default) on where JAX's GPU backend has not started, else as the
+            process has; ``True`` / ``False`` as asked (``InputError`` where the running
+            backend differs); ``run.meta["deterministic"]`` says what the run had.
         cache_dir: the persistent compilation cache's folder (``--cache-dir``).
         plugins: Python files run first, e.g. to register planners (``--plugin``).
         gospa_cutoff, gospa_order: GOSPA / OSPA cutoff c [m] and order p
@@ -86,11 +81,9 @@ def simulate(
         The run (not saved; :meth:`Run.save` writes it).
 
     Raises:
-        ScenarioError: an invalid scenario, method, trial list, step count or seed (one
-            line, the same message a TOML file or the command line gives); nothing is
-            compiled.
-        InputError: the radars cannot be placed, the run does not fit in memory, or a bad
-            or busy ``view_port``.
+        ScenarioError: an invalid scenario or option (one line, as a TOML file or the
+            command line gives); nothing is compiled.
+        InputError: unplaceable radars, not enough memory, a bad or busy ``view_port``.
 
     Example:
         >>> import mjx_radar
@@ -99,29 +92,18 @@ def simulate(
     """
     from mjx_radar.api import run_case
 
-    req = run_case.request(
-        scenario,
-        method=method,
-        planner=planner,
-        trials=trials,
-        steps=steps,
-        seed=seed,
-        rollouts=rollouts,
-        association=association,
-        precision=precision,
-        deterministic=deterministic,
-        cache=cache,
-        cache_dir=cache_dir,
-        plugins=plugins,
-        gospa_cutoff=gospa_cutoff,
-        gospa_order=gospa_order,
-        masks=masks,
-    )
+    given = locals()  # the run's options, by their names in RUN_DEFAULTS
+    req = run_case.request(scenario, **{k: given[k] for k in run_case.RUN_DEFAULTS})
+    check_linger(linger)
+    return _simulate(req, progress, (view or view_port is not None, view_port, linger))
+
+
+def check_linger(linger) -> None:
+    """``linger``: None or seconds >= 0 (one-line :class:`InputError` otherwise)."""
     if linger is not None and (
         isinstance(linger, bool) or not isinstance(linger, int | float) or not 0 <= linger < 1e9
     ):
         raise InputError(f"linger = {linger!r}: must be None or seconds >= 0")
-    return _simulate(req, progress, (view or view_port is not None, view_port, linger))
 
 
 def bar_phase(bar):

@@ -18,11 +18,11 @@ from mjx_radar.task.task import RadarTask
 
 def jpda_bank(task: RadarTask, params) -> FilterOps:
     """``"jpda"``: JPDA of cluttered scans (``tracker.marginals``: exact, lbp or multisensor)."""
-    t = task.scenario.tracker
+    t = task.tracker
     assoc = jpda.rule(t.marginals, t.candidates, t.lbp_iterations, t.jpda_star, t.tuples)
     return clutter_bank(task, params, assoc)
 
 
 def gnn_bank(task: RadarTask, params) -> FilterOps:
     """``"gnn"``: global nearest neighbour (the most probable joint event, hard weights)."""
-    return clutter_bank(task, params, jpda.rule("gnn", task.scenario.tracker.candidates))
+    return clutter_bank(task, params, jpda.rule("gnn", task.tracker.candidates))

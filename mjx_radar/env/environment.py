@@ -65,24 +65,26 @@ class RadarEnv:
     """
 
     def __init__(self, task, params, steps: int | None = None):
-        sc = task.scenario
-        self.task, self.params, self.scenario = task, params, sc
-        self.every = sc.timing.control_every
-        steps = sc.timing.steps if steps is None else steps
+        #: the scenario shape: for plug-ins and the floors above (the environment reads
+        #: the task's tables and world)
+        self.scenario = task.scenario
+        self.task, self.params, t = task, params, task.timing
+        self.every = t.control_every
+        steps = t.steps if steps is None else steps
         if steps % self.every:
             raise ValueError(f"steps: {steps} must be a multiple of {self.every}")
         self.episode_length = steps // self.every
-        self.dt = sc.timing.dt_control
-        self.n_radars, self.n_targets = sc.n_radars, sc.n_targets
-        self.action_size = 2 * sc.n_radars
-        self._form = ckf_sqrt.form_ops(sc.filter.form)
+        self.dt = t.dt_control
+        self.n_radars, self.n_targets = task.fleet.n_radars, task.n_targets
+        self.action_size = 2 * self.n_radars
+        self._form = ckf_sqrt.form_ops(task.filter.form)
         self._tracker = filter_ops.make(task, params)
         self._table = self._tracker.tracks  # None: the joint estimate, indexed like the truth
         #: tracks the planner sees: M (the joint estimate) or the table's K slots
-        self.n_tracks = sc.n_targets if self._table is None else sc.tracker.max_tracks
-        m, n = self.n_tracks, sc.n_radars
+        self.n_tracks = self.n_targets if self._table is None else task.tracker.max_tracks
+        m, n = self.n_tracks, self.n_radars
         self.observation_size = 6 * n + 6 * m + 21 * m + m + n * m
-        lower, upper = control_box(sc)
+        lower, upper = control_box(task.fleet)
         self.action_bounds = (lower.reshape(n, 2), upper.reshape(n, 2))
 
     @staticmethod
@@ -133,7 +135,7 @@ class RadarEnv:
         candidate sequences."""
         ctx = objective.plan_context(self.task, obs.radar_state, obs.mean, obs.cov)
         fn, params = objective.make_objective(self.task), self.planning_params(obs)
-        return lambda u: fn(u.reshape(self.scenario.mpc.horizon, -1), ctx, params)
+        return lambda u: fn(u.reshape(self.task.mpc.horizon, -1), ctx, params)
 
     def observation_vector(self, obs: Observation) -> jax.Array:
         """``[observation_size]`` flat features: radar states, track means, the upper
@@ -154,17 +156,17 @@ class RadarEnv:
     # -- internals ----------------------------------------------------------------------
 
     def _reset(self, key) -> State:
-        sc, params = self.scenario, self.params
-        init = placement.initial_conditions(sc, params, streams_of(key))
+        params, m = self.params, self.n_targets
+        init = placement.initial_conditions(self.scenario, params, streams_of(key))
         loop = LoopState(
             data=physics.init_data(self.task.truth, init.radar_state, init.target_state),
             mean=init.mean,
             cov=self._form.carry(init.cov),
-            pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (sc.n_targets, 6, 6)),
-            health=track_health.init_health(sc.n_targets),
+            pfim=jnp.broadcast_to(jnp.eye(6) / params.p0, (m, 6, 6)),
+            health=track_health.init_health(m),
             modes=self._tracker.init(init.mean, init.cov),
         )
-        none_seen = jnp.zeros((sc.n_radars, self.n_tracks), bool)
+        none_seen = jnp.zeros((self.n_radars, self.n_tracks), bool)
         period = jnp.int32(0)
         zero = jnp.zeros((), init.mean.dtype)
         metrics = {k: zero for k in METRICS}
@@ -206,16 +208,15 @@ class RadarEnv:
     def _observe(self, loop: LoopState, j, seen, bad) -> Observation:
         """What the planner of control period ``j`` knows (the loop after ``j`` periods;
         ``bad``: the last action held NaN or inf)."""
-        sc = self.scenario
-        t = j * self.every * sc.timing.dt_filter
+        t = j * self.every * self.task.timing.dt_filter
         if self._table is not None:
             return self._observe_table(loop, j, t, bad)
         pm, pc = loop.mean, loop.cov
-        if not sc.mpc.aligned:  # the paper code's one-filter-step lead of the targets
+        if not self.task.mpc.aligned:  # the paper code's one-filter-step lead of the targets
             pm, pc = self._tracker.predict(loop.mean, loop.cov, loop.modes)[:2]
         weight = presence.plan_params(self.params, t).target_weight
         if weight is None:
-            weight = jnp.ones(sc.n_targets, pm.dtype)
+            weight = jnp.ones(self.n_targets, pm.dtype)
         return Observation(
             radar_state=physics.radar_state(self.task.truth, loop.data),
             mean=pm,
@@ -230,7 +231,7 @@ class RadarEnv:
     def _observe_table(self, loop: LoopState, j, t, bad) -> Observation:
         """What the planner knows with a track table: its K slots (never the truth)."""
         modes = loop.modes
-        if not self.scenario.mpc.aligned:
+        if not self.task.mpc.aligned:
             modes = self._tracker.predict(loop.mean, loop.cov, modes)[2]
         v = self._table(modes)
         k = v.mean.shape[0]
@@ -248,15 +249,14 @@ class RadarEnv:
     def _reward(self, loop: LoopState, j):
         """``-Σ_m log det P_m,pos`` over the targets present after ``j`` periods (a
         track table: over its tracks, with the planner's weights)."""
-        sc = self.scenario
         if self._table is not None:
             v = self._table(loop.modes)
             return -jnp.sum(v.weight * jax.vmap(linalg.logdet_psd)(v.cov[:, :3, :3]))
         cov = self._form.cov(loop.cov)
-        m = sc.n_targets
+        m = self.n_targets
         pos = jnp.stack([cov[6 * i : 6 * i + 3, 6 * i : 6 * i + 3] for i in range(m)])
         logdet = jax.vmap(linalg.logdet_psd)(pos)  # [M]
-        t = j * self.every * sc.timing.dt_filter
+        t = j * self.every * self.task.timing.dt_filter
         weight = presence.plan_params(self.params, t).target_weight
         weight = jnp.ones(m, logdet.dtype) if weight is None else weight
         return -jnp.sum(weight * logdet)

@@ -58,20 +58,22 @@ class FilterOps(NamedTuple):
     tracks: Callable | None = None
 
 
-def tracker_name(scenario) -> str:
-    """The scenario's tracker: ``[filter] tracker``, or by its options (clutter:
-    ``[tracker] association``, ``"pda"`` by default,
-    ``filter.motion = "imm"``: ``"imm"``, per-target: ``"bank"``, else ``"ckf"``)."""
-    name = getattr(scenario.filter, "tracker", "auto")
-    if getattr(getattr(scenario, "tracker", None), "management", "known") == "managed":
+def tracker_name(tables) -> str:
+    """The tracker of ``tables``' ``filter``, ``tracker`` and ``detection`` tables (a
+    :class:`~mjx_radar.task.task.RadarTask` or a scenario): ``[filter] tracker``, or by
+    their options (``[tracker] management = "managed"``: ``"managed"``; clutter:
+    ``[tracker] association``, ``"pda"`` by default, ``filter.motion = "imm"``:
+    ``"imm"``, per-target: ``"bank"``, else ``"ckf"``)."""
+    filt, tracker = tables.filter, tables.tracker
+    if tracker.management == "managed":
         return "managed"
-    if name != "auto":
-        return name
-    if scenario.detection.clutter:  # [tracker] association: pda, jpda, gnn or mht
-        return scenario.tracker.association
-    if scenario.filter.motion == "imm":
+    if filt.tracker != "auto":
+        return filt.tracker
+    if tables.detection.clutter:  # [tracker] association: pda, jpda, gnn or mht
+        return tracker.association
+    if filt.motion == "imm":
         return "imm"
-    return "bank" if scenario.filter.structure == "per-target" else "ckf"
+    return "bank" if filt.structure == "per-target" else "ckf"
 
 
 def make(task: RadarTask, params) -> FilterOps:
@@ -80,7 +82,7 @@ def make(task: RadarTask, params) -> FilterOps:
     A registered tracker's factory must return a :class:`FilterOps` (one-line
     :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception, in the
     factory or in one of its functions while the loop is traced)."""
-    name = tracker_name(task.scenario)
+    name = tracker_name(task)
     factory = TRACKERS.get(name)
     if name.lower() not in TRACKERS.registered():
         return factory(task, params)
@@ -152,11 +154,10 @@ def keep(ok_pred, ok, post, pred, prev):
 
 def _cv_ops(task: RadarTask, params, per_target: bool) -> FilterOps:
     """The CV trackers: joint CKF or per-target bank, covariance or square-root form."""
-    sc = task.scenario
     model = task.measurement
     r_filter = measurement_filter.noise_cov_fn(model, params.noise, params.method.ccr)
     residual = measurement_filter.flat_residual(model) if model.dim > 1 else None
-    form = sc.filter.form
+    form = task.filter.form
     filt = ckf_sqrt.form_ops(form)  # process noise: Q, or a factor of it
     a_f = task.a_filter
     q_f = filt.noise(process_noise(task, params))
@@ -183,7 +184,7 @@ def _cv_ops(task: RadarTask, params, per_target: bool) -> FilterOps:
             h = measurement_filter.measurement_function(model, radar_pos)
             kw = {} if residual is None else {"residual": residual}
             mean, cov = filt.update(mean, cov, z.reshape(-1), h, r_filter, mask=keep_, **kw)
-        if sc.filter.ground_prior:
+        if task.filter.ground_prior:
             mean, cov = ground_prior.apply_ground_prior(mean, cov)
         return mean, cov, modes
 
@@ -209,7 +210,7 @@ def pda_bank(task: RadarTask, params) -> FilterOps:
 def clutter_bank(task: RadarTask, params, assoc=None) -> FilterOps:
     """The per-target bank (covariance form) updating from cluttered scans: per-target PDA,
     or with ``assoc`` a joint association rule (:mod:`mjx_radar.env.association_ops`)."""
-    sc, model = task.scenario, task.measurement
+    model = task.measurement
     bank = _cv_ops(task, params, per_target=True)
 
     def update(mean, cov, modes, z, radar_pos, scan_, los=None):
@@ -218,7 +219,7 @@ def clutter_bank(task: RadarTask, params, assoc=None) -> FilterOps:
         from mjx_radar.env.scan import pda_update
 
         ccr = params.method.ccr
-        post = pda_update(sc, params, model, ccr, mean, cov, scan_, radar_pos, los, assoc)
+        post = pda_update(task, params, model, ccr, mean, cov, scan_, radar_pos, los, assoc)
         return (*post, modes)
 
     return bank._replace(update=update)
@@ -226,19 +227,18 @@ def clutter_bank(task: RadarTask, params, assoc=None) -> FilterOps:
 
 def imm_bank(task: RadarTask, params) -> FilterOps:
     """``"imm"``: the IMM bank (covariance form, per target; io.plausibility enforces both)."""
-    sc = task.scenario
     model = task.measurement
     r_filter = measurement_filter.noise_cov_fn(model, params.noise, params.method.ccr)
     residual = measurement_filter.flat_residual(model) if model.dim > 1 else None
-    q6 = ckf_sqrt.form_ops(sc.filter.form).noise(params.sigma_w2 * task.w6_filter_unit)
+    q6 = ckf_sqrt.form_ops(task.filter.form).noise(params.sigma_w2 * task.w6_filter_unit)
 
     def h_pair(r, x6):
         return model.predict(r[None], x6[None, :3]).reshape(model.dim)
 
-    dt = sc.timing.dt_filter
+    dt = task.timing.dt_filter
     dtype = q6.dtype
-    F = jnp.asarray(imm.mode_transitions(sc.filter.imm_turn_rate, dt), dtype)
-    Pi = jnp.asarray(imm.markov_matrix(sc.filter.imm_switch_prob, dt), dtype)
+    F = jnp.asarray(imm.mode_transitions(task.filter.imm_turn_rate, dt), dtype)
+    Pi = jnp.asarray(imm.markov_matrix(task.filter.imm_switch_prob, dt), dtype)
     motion = params.motion
 
     def joint(modes):
@@ -252,7 +252,7 @@ def imm_bank(task: RadarTask, params) -> FilterOps:
         modes = imm.update_bank(
             modes, z, radar_pos, h_pair, r_filter, mask=scan.seen, residual=residual
         )
-        if sc.filter.ground_prior:  # each mode reflected to z >= 0
+        if task.filter.ground_prior:  # each mode reflected to z >= 0
             refl = jax.vmap(jax.vmap(ground_prior.apply_ground_prior))
             means, covs = refl(modes.means, modes.covs)
             modes = modes._replace(means=means, covs=covs)

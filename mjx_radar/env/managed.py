@@ -35,16 +35,15 @@ DENSITY_FLOOR = 1e-6
 
 
 def managed_tracker(task, params, associator=None) -> FilterOps:
-    """The managed tracker of ``task.scenario.tracker`` (module docstring).
+    """The managed tracker of ``task.tracker`` (module docstring).
 
     Args:
         task, params: the scenario's task and runtime parameters.
         associator: ``factory(task, params) -> associate`` (the signature of
             :mod:`~mjx_radar.estimation.track_update`); default per-track PDA.
     """
-    sc, model = task.scenario, task.measurement
-    cfg = sc.tracker
-    n, k = sc.n_radars, cfg.max_tracks
+    model, cfg = task.measurement, task.tracker
+    n, k = task.fleet.n_radars, cfg.max_tracks
     hit_r, birth_r = cfg.radars_needed(n, model.dim)
     rules = track_table.LifeRules(cfg.confirm_m, cfg.confirm_n, cfg.delete_misses, cfg.delete_cov)
     births = track_birth.BirthSettings(
@@ -55,17 +54,17 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     dp, ccr = params.detection, params.method.ccr
     p_empty = params.p0
     if associator is None:
-        density = clutter.density(dp, model.dim) if sc.detection.clutter else DENSITY_FLOOR
+        density = clutter.density(dp, model.dim) if task.detection.clutter else DENSITY_FLOOR
         associate = track_update.pda_associator(
             model,
             params.noise,
             ccr,
-            sc.detection.model,
+            task.detection.model,
             dp,
             density,
             dp.gate,
             dp.gate_probability,
-            sc.filter.ground_prior,
+            task.filter.ground_prior,
         )
     else:
         associate = associator(task, params)

@@ -39,15 +39,14 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
     ``loop`` is an :class:`~mjx_radar.env.state.LoopState`, ``k`` the filter step
     (traced int, 1-based), ``u`` ``[N, 2]`` the radars' held control.
     """
-    sc = task.scenario
-    n, m = sc.n_radars, sc.n_targets
+    n, m = task.fleet.n_radars, task.n_targets
     model, noise = task.measurement, params.noise
     plant = task.truth
     w6 = params.sigma_w2 * task.w6_filter_unit
     streams = streams_of(key)
-    filt = ckf_sqrt.form_ops(sc.filter.form)  # "sqrt": the carried cov is S of P = S Sᵀ
+    filt = ckf_sqrt.form_ops(task.filter.form)  # "sqrt": the carried cov is S of P = S Sᵀ
     motion = params.motion  # None without [[target_motion]] (the paper's CV drones)
-    dt = sc.timing.dt_filter
+    dt = task.timing.dt_filter
 
     def filter_step(loop, k, u):
         data, mean0, cov0, pfim, health, modes0 = loop
@@ -62,13 +61,13 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
             jax.random.fold_in(streams.measurement, k), radars[:, :3], truth[:, :3], noise
         )
         # [N, M] line of sight (truth geometry, vehicles at t_k; None: all clear)
-        vis = moving.truth_visibility(task, params, radars[:, :3], truth[:, :3], k * dt)
+        vis = moving.truth_visibility(task.world, params, radars[:, :3], truth[:, :3], k * dt)
         # [M] present targets (absent: not measured); tracks start as targets appear
         here, vis, (mean, cov, pfim) = presence.begin_step(
             motion, k, dt, vis, (mean, cov, pfim), truth, filt, streams.estimate, params.p0, n
         )
         modes_p = tracker.begin(modes_p, mean, cov, k)  # the IMM's modes of appearing targets
-        obs = scan.observe(sc.detection, params, key, k, radars[:, :3], truth[:, :3], z, vis)
+        obs = scan.observe(task.detection, params, key, k, radars[:, :3], truth[:, :3], z, vis)
         post = tracker.update(mean, cov, modes_p, z, radars[:, :3], obs, vis)
         mean, cov, modes, blown = finite_update((mean0, cov0, modes0), (mean, cov, modes_p), post)
         (track_pos, track_exist), (mean, cov) = tracks_of(

@@ -66,7 +66,7 @@ def observe(det_cfg, params, key, k, radar_pos, target_pos, z, vis) -> Scan:
     return Scan(seen, n_vis, n_det, n_fa, zs, valid)
 
 
-def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, los, assoc=None):
+def pda_update(task, params, model, ccr, mean, cov, scan: Scan, radar_pos, los, assoc=None):
     """Sequential PDA per target of a scan with clutter (per-target bank, covariance form),
     or with ``assoc`` a joint association rule (:func:`mjx_radar.estimation.jpda.rule`) of
     all targets per radar (:func:`mjx_radar.estimation.jpda.update_bank`).
@@ -78,7 +78,7 @@ def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, l
     Returns:
         ``(mean[6M], cov[6M, 6M])`` with a block-diagonal covariance.
     """
-    det_cfg = scenario.detection
+    det_cfg = task.detection
     means, covs = filter_bank.joint_to_bank(mean, cov)
     d2 = jnp.sum((means[None, :, :3] - radar_pos[:, None, :]) ** 2, -1)  # [N, M]
     pd = detection.pair_probability(det_cfg.model, params.detection, d2)
@@ -91,6 +91,6 @@ def pda_update(scenario, params, model, ccr, mean, cov, scan: Scan, radar_pos, l
     else:
         post = jpda.update_bank(*args, *tail, assoc)
     mean, cov = filter_bank.bank_to_joint(*post)
-    if scenario.filter.ground_prior:
+    if task.filter.ground_prior:
         mean, cov = ground_prior.apply_ground_prior(mean, cov)
     return mean, cov

@@ -102,22 +102,23 @@ def chi2_quantile(p: float, dof: int) -> float:
     return float(chi2.ppf(p, dof))
 
 
-def detection_params(scenario, dtype=None) -> DetectionParams:
-    """The :class:`DetectionParams` of a scenario (host float64, returned as ``dtype``)."""
-    det = scenario.detection
-    dt = dtype or jnp.result_type(float)
-    k = snr_constant(scenario.radar_eq, scenario.n_targets, det.gain_db)
-    if any(ov.radar_eq for ov in scenario.radar_override):  # a mixed fleet: k_snr [N, 1]
-        from mjx_radar.scenario.fleet import radar_equation
+def detection_params(det, radar_eq, n_targets: int, dim: int, dtype=None) -> DetectionParams:
+    """The :class:`DetectionParams` of a ``[detection]`` table (host float64, returned as
+    ``dtype``).
 
-        k = np.array(
-            [
-                [snr_constant(radar_equation(scenario, i), scenario.n_targets, det.gain_db)]
-                for i in range(scenario.n_radars)
-            ]
-        )
+    Args:
+        det: the :class:`~mjx_radar.scenario.schema.DetectionConfig`.
+        radar_eq: the :class:`~mjx_radar.scenario.schema.RadarEquation` of every radar, or
+            a tuple of N, one per radar (a mixed fleet: ``k_snr`` ``[N, 1]``).
+        n_targets: M (the noise power carries the factor M, SPEC §1).
+        dim: the measurement's dimension (1: range, 2: range and azimuth; the gate).
+    """
+    dt = dtype or jnp.result_type(float)
+    if isinstance(radar_eq, tuple | list):  # a mixed fleet: k_snr [N, 1]
+        k = np.array([[snr_constant(eq, n_targets, det.gain_db)] for eq in radar_eq])
+    else:
+        k = snr_constant(radar_eq, n_targets, det.gain_db)
     width = max(det.clutter_range_max - det.clutter_range_min, 0.0)
-    dim = 1 if scenario.measurement.model == "range" else 2
     vals = (
         k,
         det.pfa,

@@ -69,11 +69,11 @@ def set_features(env, obs, version: str = "v1") -> SetObs:
     Returns:
         float32 sets, every feature O(1); NaN and inf replaced and clipped to ±1000.
     """
-    sc = env.scenario
+    limits = env.task.fleet.limits
     m = obs.mean.shape[0] // 6
     big_l = jnp.asarray(env.params.placement_half_width, jnp.float32)
     r2t = jnp.asarray(env.params.r2t, jnp.float32)
-    vbar, wbar = jnp.float32(sc.limits.speed), jnp.float32(sc.limits.omega)
+    vbar, wbar = jnp.float32(limits.speed), jnp.float32(limits.omega)
     rs = obs.radar_state.astype(jnp.float32)  # [N, 6] x y z θ v ω
     th = rs[:, 3]
     radar = jnp.concatenate(
@@ -105,13 +105,13 @@ def set_features(env, obs, version: str = "v1") -> SetObs:
 
 def _ground(env, rs) -> jax.Array:
     """``[N, 3]`` the ground's gradient under each radar and its grade over the limit."""
-    t = env.scenario.terrain
-    if t is None:
+    ground = env.task.world.ground
+    if not ground.present:
         return jnp.zeros((rs.shape[0], 3), jnp.float32)
     from mjx_radar.world import terrain
 
-    grid = terrain.terrain_grid(t)
-    g = terrain.gradient(grid, rs[:, :2]).astype(jnp.float32)
+    t = ground.config
+    g = terrain.gradient(ground.grid, rs[:, :2]).astype(jnp.float32)
     limit = jnp.tan(jnp.deg2rad(jnp.float32(min(t.max_slope_deg, 89.0))))
     grade = jnp.sqrt(jnp.sum(g * g, -1, keepdims=True))
     return jnp.concatenate([g, grade / limit], 1)
@@ -119,18 +119,18 @@ def _ground(env, rs) -> jax.Array:
 
 def _keepout(env, rs, mean, weight, gap, d3) -> jax.Array:
     """``[N, M, 4]``: closing rate, margin ahead, nearest-drone flag, line of sight."""
-    sc = env.scenario
-    r2t, vbar = jnp.asarray(env.params.r2t, jnp.float32), jnp.float32(sc.limits.speed)
+    task = env.task
+    r2t, vbar = jnp.asarray(env.params.r2t, jnp.float32), jnp.float32(task.fleet.limits.speed)
     th, v = rs[:, 3], rs[:, 4]
     vr = jnp.stack([v * jnp.cos(th), v * jnp.sin(th), jnp.zeros_like(v)], -1)  # [N, 3]
     dv = mean[None, :, 3:] - vr[:, None]  # [N, M, 3]
     rate = jnp.sum(gap * dv, -1) / (d3 * vbar)
-    tau = jnp.float32(sc.mpc.horizon * sc.timing.dt_control)
+    tau = jnp.float32(task.mpc.horizon * task.timing.dt_control)
     ahead = jnp.sqrt(jnp.sum((gap + tau * dv) ** 2, -1) + 1e-6) / r2t - 1.0
     present = (weight > 0)[None, :]
     far = jnp.where(present, d3, jnp.inf)
     nearest = (far <= jnp.min(far, 1, keepdims=True)) & present
-    occ = env.task.occluders
+    occ = task.world.occluders
     if occ is None:
         los = jnp.ones_like(d3)
     else:

@@ -146,24 +146,14 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
     from mjx_radar.learning import brax_env
 
     t0 = time.perf_counter()
-    env = brax_env.make(
-        sc,
-        method,
-        penalty_scale=config.penalty_scale,
-        keepout_grade=config.keepout_grade,
-        shield=config.shield,
-        observation=finetune.observation_of(config, state),
-    )
+    env = training_env(sc, method, config, state)
     factory, restore_params = network_factory(config), None
     normalize = config.network != "set"  # set features are O(1) by construction
     if config.network == "set":
         factory, restore_params = finetune.set_start(out, state, config, sc)
     state = new_ppo_state(sc, method, env, config) if state is None else state
     penalty_step(state, config.penalty_scale)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise ScenarioError(f"out = {str(out)!r}: cannot be made ({err.strerror})") from None
+    _make_folder(out)
     remaining = steps - state["steps_done"]
     if remaining <= 0:
         log(f"train: {out} already holds {state['steps_done']} >= {steps} steps")
@@ -212,21 +202,9 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
             num_timesteps=remaining,
             wrap_env_fn=brax_env.wrap_for_training,
             episode_length=env.episode_length,
-            num_envs=config.num_envs,
-            unroll_length=config.unroll_length,
-            batch_size=config.batch_size,
-            num_minibatches=config.num_minibatches,
-            num_updates_per_batch=config.num_updates_per_batch,
-            learning_rate=config.learning_rate,
-            entropy_cost=config.entropy_cost,
-            discounting=config.discounting,
-            gae_lambda=config.gae_lambda,
-            clipping_epsilon=config.clipping_epsilon,
-            reward_scaling=config.reward_scaling,
-            max_grad_norm=config.max_grad_norm,
+            **ppo_settings(config),
             normalize_observations=normalize,
             num_evals=n_iters + 1,
-            num_eval_envs=config.num_eval_envs,
             deterministic_eval=True,
             run_evals=config.evaluate,
             network_factory=factory,
@@ -241,6 +219,42 @@ def _train(sc, steps, out, method, config, state, max_seconds, log) -> dict:
         log(f"train: stopped at {state['steps_done']} of {steps} steps (time budget)")
     _write_state(out, state)
     return state
+
+
+#: the PPOConfig fields passed to brax PPO's train under their own names
+PPO_SETTINGS = (
+    "num_envs unroll_length batch_size num_minibatches num_updates_per_batch learning_rate"
+    " entropy_cost discounting gae_lambda clipping_epsilon reward_scaling max_grad_norm"
+    " num_eval_envs"
+).split()
+
+
+def ppo_settings(config) -> dict:
+    """brax PPO's keyword arguments of :data:`PPO_SETTINGS` from the :class:`PPOConfig`."""
+    return {name: getattr(config, name) for name in PPO_SETTINGS}
+
+
+def training_env(sc, method, config, state: dict | None = None):
+    """The brax environment PPO trains on: the config's reward shaping, shield and
+    observation (set features, of the distilled policy's version in ``state``, for the
+    set network, else the flat vector)."""
+    from mjx_radar.learning import brax_env
+
+    return brax_env.make(
+        sc,
+        method,
+        penalty_scale=config.penalty_scale,
+        keepout_grade=config.keepout_grade,
+        shield=config.shield,
+        observation=finetune.observation_of(config, state),
+    )
+
+
+def _make_folder(out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ScenarioError(f"out = {str(out)!r}: cannot be made ({err.strerror})") from None
 
 
 def _write_state(out: Path, state: dict) -> None:

@@ -66,7 +66,7 @@ def rollout(env: RadarEnv, planner, carry: LoopCarry, periods: int):
         ``periods * control_every``, :class:`ControlRecord` with leading size ``periods``.
     """
 
-    shape = record_shape(env.scenario.mpc, env.scenario.mppi)
+    shape = record_shape(env.task.mpc, env.task.mppi)
 
     def control_period(lc: LoopCarry, _):
         state = lc.state
@@ -108,16 +108,15 @@ def simulate(task, params, trial, steps: int | None = None, planner: str = "mppi
         task: the scenario's task (static).
         params: runtime parameters (method, numbers, seed).
         trial: trial index (traced int; vmap over it for many trials).
-        steps: number of filter steps K (static); default ``scenario.timing.steps``.
+        steps: number of filter steps K (static); default ``task.timing.steps``.
         planner: the planner's registered name (static; default the paper's MPPI).
 
     Returns:
         :class:`TrialResult` with ``steps`` of leading size K and ``controls`` of
         leading size K / control_every.
     """
-    sc = task.scenario
-    k_total = sc.timing.steps if steps is None else steps
-    every = sc.timing.control_every
+    k_total = task.timing.steps if steps is None else steps
+    every = task.timing.control_every
     if k_total % every:
         raise ValueError(f"steps: {k_total} must be a multiple of {every}")
     carry, ok = init_carry(task, params, trial, planner)

@@ -4,7 +4,7 @@ A planner moves the radars of one environment (:class:`mjx_radar.env.RadarEnv`),
 hydrax's controllers and brax's policies. It is made once per environment and is then
 pure (jit-able, vmap-able over trials)::
 
-    planner = PLANNERS.get("mppi")(env)      # static settings, read from env.scenario
+    planner = PLANNERS.get("mppi")(env)      # static settings, read from env.task
     carry = planner.init()                   # its state: a warm start, filters, ...
     action, carry = planner.plan(carry, obs, key)   # action [N, 2]: [a, alpha] per radar
 
@@ -50,7 +50,7 @@ class Planner:
     """Base class of planners (subclass it and register it, or duck-type the three methods).
 
     Args:
-        env: the environment whose radars it moves (``env.scenario``, ``env.task``,
+        env: the environment whose radars it moves (``env.task``: its tables and world,
             ``env.params``, ``env.action_bounds``, ``env.objective``).
     """
 
@@ -63,8 +63,7 @@ class Planner:
     @property
     def record_shape(self) -> tuple[int, int]:
         """``(horizon, kept samples)`` of its records (``[mpc] horizon``, ``[mppi] samples``)."""
-        sc = self.env.scenario
-        return record_shape(sc.mpc, sc.mppi)
+        return record_shape(self.env.task.mpc, self.env.task.mppi)
 
     def init(self) -> Any:
         """The planner's initial carry (a pytree; ``()`` if it keeps none)."""

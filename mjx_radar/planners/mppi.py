@@ -49,23 +49,22 @@ class MPPIPlanner(Planner):
         )
 
     def init(self) -> MPPICarry:
-        sc = self.env.scenario
-        u_plan = jnp.zeros((sc.mpc.horizon, 2 * sc.n_radars))
-        return MPPICarry(u_plan, idle_record(jnp.zeros((sc.n_radars, 2)), *self.record_shape))
+        n = self.env.n_radars
+        u_plan = jnp.zeros((self.task.mpc.horizon, 2 * n))
+        return MPPICarry(u_plan, idle_record(jnp.zeros((n, 2)), *self.record_shape))
 
     def _idle(self, carry: MPPICarry):
-        zeros = jnp.zeros((self.env.scenario.n_radars, 2))
+        zeros = jnp.zeros((self.env.n_radars, 2))
         return zeros, MPPICarry(carry.u_plan, idle_record(zeros, *self.record_shape))
 
     def _mppi(self, carry: MPPICarry, obs, key, optimize=None):
-        sc = self.env.scenario
         params = self.env.planning_params(obs)  # presence weights, vehicles' time
         res, mean_plan = (optimize or self._optimize)(
             obs.radar_state, obs.mean, obs.cov, carry.u_plan, key, params
         )
         keep = slice(0, self.record_shape[1])
         rec = plan_record(
-            res.mean[0].reshape(sc.n_radars, 2),
+            res.mean[0].reshape(self.env.n_radars, 2),
             mean_plan.radar_xy,
             res.aux.radar_xy[keep],
             res.weights[keep],
@@ -107,4 +106,4 @@ class HoldPlanner(Planner):
     name = "hold"
 
     def plan(self, carry, obs, key):
-        return jnp.zeros((self.env.scenario.n_radars, 2)), carry
+        return jnp.zeros((self.env.n_radars, 2)), carry

@@ -35,13 +35,13 @@ class SequencePlanner(Planner):
 
     def __init__(self, env):
         super().__init__(env)
-        sc = env.scenario
-        self.horizon, self.n = sc.mpc.horizon, sc.n_radars
+        task = env.task
+        self.horizon, self.n = task.mpc.horizon, env.n_radars
         self.lower = env.action_bounds[0].reshape(-1)
         self.upper = env.action_bounds[1].reshape(-1)
-        self.std = proposal_std(sc, self.upper)
-        self.samples, self.iterations = sc.mppi.samples, sc.mppi.iterations
-        self.settings = sc.planner  # the [planner] table
+        self.std = proposal_std(task.mppi, self.upper)
+        self.samples, self.iterations = task.mppi.samples, task.mppi.iterations
+        self.settings = task.planner  # the [planner] table
 
     def init(self) -> PlanCarry:
         zeros = jnp.zeros((self.n, 2))

@@ -13,7 +13,8 @@ from pathlib import Path
 
 from mjx_radar.io.checks import Rows, Rule
 from mjx_radar.scenario.reader import EXTRA_KEYS, config_fields, toml_name
-from mjx_radar.scenario.schema import MovingObstacle, RadarOverride, Scenario, TargetMotion, Terrain
+from mjx_radar.scenario.schema import Scenario
+from mjx_radar.scenario.sections import SECTIONS
 
 BEGIN, END = "<!-- fields:begin -->", "<!-- fields:end -->"
 
@@ -65,39 +66,10 @@ def fields_markdown() -> str:
     lines = ["### Top level", "", *_HEAD]
     lines += [f"| `{k}` | {d} | - | - | {doc} |" for k, (d, doc) in EXTRA_KEYS.items()]
     lines += _table(Scenario, "")
-    lines += [
-        "",
-        "### `[[target_motion]]` — per-target motion and presence (one table per "
-        "target; `path`: a CSV of `t, x, y, z`)",
-        "",
-        *_HEAD,
-        *_table(TargetMotion, ""),
-    ]
-    lines += [
-        "",
-        "### `[[radar_override]]` — one radar of a mixed fleet (sub-tables "
-        "`radar_equation`: any `[radar_equation]` field; `limits`: `accel`, `alpha`)",
-        "",
-        *_HEAD,
-        *_table(RadarOverride, ""),
-    ]
-    lines += [
-        "",
-        "### `[terrain]` — height field the radars drive on (docs/terrain.md)",
-        "",
-        *_HEAD,
-        "| `path` | required | - | an existing .npy or .png file, relative to "
-        "the scenario file | height field (float/integer array, or grayscale PNG) |",
-        *_table(Terrain, ""),
-    ]
-    lines += [
-        "",
-        "### `[[moving_obstacles]]` — a vehicle on a path (docs/maps.md; `size`: "
-        "box `[half length, half width]`, cylinder `[radius]`)",
-        "",
-        *_HEAD,
-        *_table(MovingObstacle, ""),
-    ]
+    for section in SECTIONS:  # the optional tables with a field table
+        if section.title is not None:
+            lines += ["", section.title, "", *_HEAD, *section.doc_rows]
+            lines += _table(section.dataclass, "")
     return "\n".join([BEGIN, *lines, END]) + "\n"
 
 

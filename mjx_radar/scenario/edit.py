@@ -23,23 +23,15 @@ from pathlib import Path
 from typing import Any
 
 from mjx_radar.io.checks import ScenarioError, key_name, show
-from mjx_radar.scenario.schema import Obstacle, Scenario, Terrain
+from mjx_radar.scenario.schema import Scenario
 
 __all__ = ["replace", "scenario_to_dict", "to_toml", "validate"]
-
-
-def _plain(value: Any) -> Any:
-    """``value`` with tuples / numpy arrays as lists and numpy scalars as Python scalars."""
-    if hasattr(value, "tolist") and not isinstance(value, str):  # numpy arrays and scalars
-        return value.tolist()
-    if isinstance(value, tuple | list):
-        return [_plain(v) for v in value]
-    return value
 
 
 def _table(obj: Any) -> dict:
     """A config dataclass as its TOML table (every field that carries a rule or table)."""
     from mjx_radar.scenario.reader import config_fields, toml_name
+    from mjx_radar.scenario.sections import plain
 
     if not dataclasses.is_dataclass(obj):
         return obj  # not a config: scenario_from_dict names the field and refuses it
@@ -49,20 +41,8 @@ def _table(obj: Any) -> dict:
         if "table" in f.metadata:
             out[toml_name(f)] = _table(value)
         elif not (f.name == "radar_init" and len(value) == 0):  # optional rows
-            out[toml_name(f)] = _plain(value)
+            out[toml_name(f)] = plain(value)
     return out
-
-
-def _obstacle(o: Obstacle) -> dict:
-    if not isinstance(o, Obstacle):
-        return o
-    raw: dict[str, Any] = {"kind": o.kind, "pos": _plain(o.pos)}
-    if o.kind == "mesh":
-        raw |= {"path": o.path, "scale": _plain(o.scale)}
-    else:
-        raw["size"] = _plain(o.size)
-    raw["yaw"] = _plain(o.yaw)
-    return raw
 
 
 def scenario_to_dict(s: Scenario) -> dict:
@@ -73,51 +53,17 @@ def scenario_to_dict(s: Scenario) -> dict:
     """
     if not isinstance(s, Scenario):
         raise ScenarioError(f"scenario = {show(s)}: must be a mjx_radar.Scenario")
-    raw = _table(s)
-    obstacles = s.obstacles
-    if not isinstance(obstacles, tuple | list):
-        raise ScenarioError(f"obstacles = {show(obstacles)}: must be a tuple of Obstacle")
-    if obstacles:
-        raw["obstacles"] = [_obstacle(o) for o in obstacles]
-        if any(isinstance(o, Obstacle) and o.kind == "mesh" for o in obstacles):
-            raw["allow_external_paths"] = True  # mesh paths are absolute in a Scenario
-    motions = s.target_motion
-    if not isinstance(motions, tuple | list):
-        raise ScenarioError(f"target_motion = {show(motions)}: must be a tuple of TargetMotion")
-    if motions:
-        from mjx_radar.scenario import motion as scenario_motion
+    from mjx_radar.scenario.sections import write_sections
 
-        raw["target_motion"] = [scenario_motion.to_dict(t) for t in motions]
-        if any(getattr(t, "model", "") == "track" for t in motions):
-            raw["allow_external_paths"] = True  # track paths are absolute in a Scenario
-    fleet = s.radar_override
-    if not isinstance(fleet, tuple | list):
-        raise ScenarioError(f"radar_override = {show(fleet)}: must be a tuple of RadarOverride")
-    if fleet:
-        from mjx_radar.scenario import fleet as scenario_fleet
-
-        raw["radar_override"] = [scenario_fleet.to_dict(o) for o in fleet]
-    if getattr(s, "moving_obstacles", ()):
-        from mjx_radar.scenario.moving import to_dict
-
-        mov = s.moving_obstacles
-        raw["moving_obstacles"] = (
-            [to_dict(m) for m in mov] if isinstance(mov, tuple | list) else mov
-        )
-    terrain = getattr(s, "terrain", None)
-    if terrain is not None:
-        raw["terrain"] = _terrain(terrain)
-        raw["allow_external_paths"] = True  # the height-field path is absolute
-    return raw
+    return _table(s) | write_sections(s)
 
 
-def _terrain(t: Any) -> Any:
-    """The ``[terrain]`` table of a :class:`~mjx_radar.scenario.schema.Terrain` or a dict (path
-    made absolute against the working directory, as Python callers give it)."""
-    raw = {"path": t.path, **_table(t)} if isinstance(t, Terrain) else t
-    if isinstance(raw, dict) and isinstance(raw.get("path"), str) and raw["path"]:
-        raw = {**raw, "path": str(Path(raw["path"]).absolute())}
-    return raw
+def sections_by_field() -> dict:
+    """The optional sections by the Scenario field they fill
+    (:data:`mjx_radar.scenario.sections.BY_FIELD`)."""
+    from mjx_radar.scenario.sections import BY_FIELD
+
+    return BY_FIELD
 
 
 def validate(s: Scenario) -> Scenario:
@@ -176,12 +122,12 @@ def _merge(obj: Any, changes: dict, prefix: str) -> Any:
         f = names.get(key)
         if f is None or (f.name not in [x.name for x in dataclasses.fields(obj)]):
             raise ScenarioError(f"{prefix}{key_name(key)}: unknown field{_allowed(obj, prefix)}")
-        current = getattr(obj, f.name)
+        current, section = getattr(obj, f.name), sections_by_field().get(f.name)
         if isinstance(value, dict) and dataclasses.is_dataclass(current):
             value = _merge(current, value, f"{prefix}{key}.")
-        elif f.name == "terrain" and isinstance(value, dict):  # a new [terrain] table
-            value = _merge(Terrain(), value, f"{prefix}{key}.")
-        elif f.name in ("obstacles", "target_motion", "radar_override", "moving_obstacles"):
+        elif section is not None and not section.rows and isinstance(value, dict):
+            value = _merge(section.dataclass(), value, f"{prefix}{key}.")  # a new [terrain]
+        elif section is not None and section.rows:
             junk = isinstance(value, str | bytes | dict) or not hasattr(value, "__iter__")
             value = () if value is None else value if junk else tuple(value)  # junk: refused
         kwargs[f.name] = value

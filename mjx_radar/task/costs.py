@@ -23,7 +23,7 @@ t+1 and E_p the mean over the CKF cubature points of the target states at that t
 * ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``.
 
 Adding a term: write ``def my_term(h: Horizon, task, params) -> [H]`` here and list it
-in :func:`cost_terms` and :data:`mjx_radar.registry.COST_TERMS` (docs/extending.md), or
+in :func:`builtin_terms` and :data:`mjx_radar.registry.COST_TERMS` (docs/extending.md), or
 register it from a script (``mjx_radar.register_cost_term``,
 :mod:`mjx_radar.task.cost_plugins`): registered terms follow the built-in ones, and their
 code is part of every program cache key.
@@ -41,7 +41,8 @@ import numpy as np
 from mjx_radar.estimation import detection, fisher, measurement, pda
 from mjx_radar.task import cost_plugins
 from mjx_radar.task.method import information_of
-from mjx_radar.world import moving, obstacles
+from mjx_radar.world import moving
+from mjx_radar.world.components import make_world
 
 
 class Horizon(NamedTuple):
@@ -86,11 +87,11 @@ def _components(h: Horizon, task, params, target_major: bool):
     pts = jnp.swapaxes(tgt, 1, 2) if target_major else tgt  # per trial, not per sample
     xyz = tuple(pts[..., c].reshape(hh, p * m) for c in range(3))
     mask = None  # [H, N, P·M] line of sight to the predicted target means (mpc.los)
-    vis = moving.plan_visibility(task, params, radar_pos, tgt.mean(1))  # [H, N, M] or None
+    vis = moving.plan_visibility(task.world, params, radar_pos, tgt.mean(1))  # [H, N, M] or None
     if vis is not None:
         vis = vis[:, :, :, None] if target_major else vis[:, :, None]
         mask = jnp.broadcast_to(vis, (hh, vis.shape[1], *pts.shape[1:3])).reshape(hh, -1, p * m)
-    det = task.scenario.detection
+    det = task.detection
     if (det.detects or det.clutter) and det.planner:  # expected FIM (docs/detection.md)
         pd = detection.planner_weights(
             det.model,
@@ -162,56 +163,58 @@ def _point_weights(params, p: int, m: int, dtype) -> jax.Array:
 
 
 def obstacle(h: Horizon, task, params) -> jax.Array:
-    mpc = task.scenario.mpc
-    depth = jax.nn.relu(mpc.obs_margin - obstacles.sdf(task.obstacle_grid, h.radar[..., :2]))
+    mpc = task.mpc
+    depth = jax.nn.relu(mpc.obs_margin - task.world.obstacles.signed_distance(h.radar[..., :2]))
     return mpc.alpha_obs * jnp.sum(depth, axis=-1)
 
 
 def moving_obstacle(h: Horizon, task, params) -> jax.Array:
-    return moving.keep_out_cost(h, task, params)
+    return moving.keep_out_cost(h, task.world.moving, task.mpc, params)
 
 
 def terrain_slope(h: Horizon, task, params) -> jax.Array:
     """``α_slope Σ_n relu(|∇h(p_n(t))| − tan(max_slope))``: grade beyond the vehicle limit."""
-    from mjx_radar.world.terrain import max_grade, slope, terrain_grid
-
-    t = task.scenario.terrain
-    grade = slope(terrain_grid(t), h.radar[..., :2])  # [H, N]
-    return t.alpha_slope * jnp.sum(jax.nn.relu(grade - max_grade(t)), axis=-1)
+    return task.world.ground.slope_cost(h.radar[..., :2])  # [H]
 
 
 def control_effort(h: Horizon, task, params) -> jax.Array:
-    lim = task.scenario.limits
+    lim = task.fleet.limits
     scaled = h.controls / jnp.asarray([lim.accel, lim.alpha], h.controls.dtype)
-    return task.scenario.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
+    return task.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
 
 
-BUILT_IN = (
-    "information",
-    "radar_radar",
-    "radar_target",
-    "obstacle",
-    "moving_obstacle",
-    "terrain_slope",
-    "control_effort",
-)
+BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "moving_obstacle")
+BUILT_IN += ("terrain_slope", "control_effort")
 
 
-def cost_terms(scenario) -> tuple[CostTerm, ...]:
-    """The terms of a scenario's objective, in reporting order (registered terms last)."""
+def builtin_terms(world, mpc) -> tuple[CostTerm, ...]:
+    """The built-in terms of an objective, in reporting order: the information and the
+    keep-outs, then each world component's term where it is present and weighted
+    (``world`` a :class:`~mjx_radar.world.components.World`, ``mpc`` the ``[mpc]`` table)."""
     terms = [
         CostTerm("information", information),
         CostTerm("radar_radar", radar_radar),
         CostTerm("radar_target", radar_target),
     ]
-    if scenario.obstacles and scenario.mpc.alpha_obs > 0:
+    if world.obstacles.present and mpc.alpha_obs > 0:
         terms.append(CostTerm("obstacle", obstacle))
-    if getattr(scenario, "moving_obstacles", ()) and scenario.mpc.alpha_obs > 0:
+    if world.moving.present and mpc.alpha_obs > 0:
         terms.append(CostTerm("moving_obstacle", moving_obstacle))
-    terrain = getattr(scenario, "terrain", None)
-    if terrain is not None and terrain.alpha_slope > 0:
+    if world.ground.slope_cost_on:
         terms.append(CostTerm("terrain_slope", terrain_slope))
-    if scenario.mpc.alpha_effort > 0:
+    if mpc.alpha_effort > 0:
         terms.append(CostTerm("control_effort", control_effort))
-    terms += [CostTerm(t.name, t) for t in cost_plugins.registered() if t.applies(scenario)]
     return tuple(terms)
+
+
+def registered_terms(shape) -> tuple[CostTerm, ...]:
+    """The terms registered from scripts whose ``enabled(scenario)`` accepts ``shape``."""
+    return tuple(CostTerm(t.name, t) for t in cost_plugins.registered() if t.applies(shape))
+
+
+def cost_terms(scenario) -> tuple[CostTerm, ...]:
+    """The terms of a scenario's objective, in reporting order (registered terms last):
+    the task's ``terms`` (:func:`builtin_terms` of its world, :func:`registered_terms`)."""
+    s = scenario
+    parts = (s.terrain, s.obstacles, s.moving_obstacles, s.timing.dt_control, s.mpc)
+    return builtin_terms(make_world(*parts, s.placement_half_width), s.mpc) + registered_terms(s)

@@ -61,10 +61,9 @@ def plan_context(task, radar_state, mean, cov) -> PlanContext:
             tracks planned for: the drones, or a track table's slots).
         cov: [6M, 6M] its covariance.
     """
-    sc = task.scenario
-    m, h = mean.shape[0] // 6, sc.mpc.horizon
+    m, h = mean.shape[0] // 6, task.mpc.horizon
     blocks = jnp.stack([cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] for i in range(m)])
-    if sc.filter.structure == "per-target":
+    if task.filter.structure == "per-target":
         # Independent targets: 12 cubature points per target, point i of every target
         # in configuration i (each target's expectation is over its own points).
         a6 = task.a6.astype(mean.dtype)
@@ -93,8 +92,7 @@ def make_objective(task):
 
 
 def _objective(task):
-    sc = task.scenario
-    h, n = sc.mpc.horizon, sc.n_radars
+    h, n = task.mpc.horizon, task.fleet.n_radars
 
     @precision.pinned  # cubature expectations in full float32 (mjx_radar.precision)
     def cost(u_flat, ctx: PlanContext, params):

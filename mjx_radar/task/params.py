@@ -92,10 +92,23 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         r2r=arr(mpc.r2r),
         alpha_r2r=arr(mpc.alpha_r2r),
         alpha_r2t=arr(mpc.alpha_r2t),
-        detection=detection.detection_params(scenario, dtype),
+        detection=detection_of(scenario, dtype),
         motion=motion,
         moving=moving_params(scenario.moving_obstacles, dtype),
     )
+
+
+def detection_of(scenario: Scenario, dtype=None):
+    """The scenario's :class:`~mjx_radar.estimation.detection.DetectionParams`: its
+    ``[detection]`` table with the radar equation of every radar (each its own in a
+    mixed fleet whose ``[[radar_override]]`` tables give one)."""
+    eq = scenario.radar_eq
+    if any(ov.radar_eq for ov in scenario.radar_override):
+        from mjx_radar.scenario.fleet import radar_equation
+
+        eq = tuple(radar_equation(scenario, i) for i in range(scenario.n_radars))
+    dim = 1 if scenario.measurement.model == "range" else 2
+    return detection.detection_params(scenario.detection, eq, scenario.n_targets, dim, dtype)
 
 
 def _blank(value):

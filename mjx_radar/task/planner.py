@@ -10,6 +10,7 @@ both time and run the same step.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import jax
@@ -18,31 +19,46 @@ import jax.numpy as jnp
 from mjx_radar import precision
 from mjx_radar.control import mppi
 from mjx_radar.physics import kinematics
+from mjx_radar.scenario.schema import MPPIConfig, RadarLimits
 from mjx_radar.task import objective
 
 
-def control_box(scenario) -> tuple[jax.Array, jax.Array]:
+@dataclasses.dataclass(frozen=True)
+class Fleet:
+    """The radars as the planner and the environment see them.
+
+    Attributes:
+        n_radars: N.
+        limits: the fleet's :class:`~mjx_radar.scenario.schema.RadarLimits`.
+        bounds: a mixed fleet's per-radar ``(|a| [N], |alpha| [N])`` bounds, 0 for its
+            fixed sites (``[[radar_override]]``, :func:`mjx_radar.scenario.fleet.control_bounds`),
+            or None (every radar has ``limits``).
+    """
+
+    n_radars: int
+    limits: RadarLimits
+    bounds: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+
+
+def control_box(fleet: Fleet) -> tuple[jax.Array, jax.Array]:
     """Lower and upper bounds ``[2N]`` of the radars' flattened controls ``[a0, α0, a1, ...]``.
 
     ``|a| <= limits.accel``, ``|α| <= limits.alpha``; a mixed fleet's per-radar limits,
     and 0 for its fixed sites (``[[radar_override]]``).
     """
-    n = scenario.n_radars
-    lower, upper = kinematics.control_bounds(scenario.limits)
-    lower, upper = jnp.tile(lower, n), jnp.tile(upper, n)
-    if scenario.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
-        from mjx_radar.scenario.fleet import control_bounds
-
-        upper = jnp.asarray(control_bounds(scenario), lower.dtype).T.reshape(-1)
+    lower, upper = kinematics.control_bounds(fleet.limits)
+    lower, upper = jnp.tile(lower, fleet.n_radars), jnp.tile(upper, fleet.n_radars)
+    if fleet.bounds is not None:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
+        upper = jnp.asarray(fleet.bounds, lower.dtype).T.reshape(-1)
         lower = -upper
     return lower, upper
 
 
-def proposal_std(scenario, upper: jax.Array) -> jax.Array:
-    """``[2N]`` sampling std ``[std_accel, std_alpha, ...]`` (rad/s²), 0 where ``upper``
-    is 0 (the fixed sites of a mixed fleet never move)."""
-    std = jnp.array([scenario.mppi.std_accel, jnp.deg2rad(scenario.mppi.std_alpha_deg)])
-    return jnp.where(upper > 0, jnp.tile(std, scenario.n_radars), 0.0)
+def proposal_std(mppi: MPPIConfig, upper: jax.Array) -> jax.Array:
+    """``[2N]`` sampling std ``[std_accel, std_alpha, ...]`` (rad/s²) of the ``[mppi]``
+    table, 0 where ``upper`` ``[2N]`` is 0 (the fixed sites of a mixed fleet never move)."""
+    std = jnp.array([mppi.std_accel, jnp.deg2rad(mppi.std_alpha_deg)])
+    return jnp.where(upper > 0, jnp.tile(std, upper.shape[0] // 2), 0.0)
 
 
 def make_planner(task) -> Callable:
@@ -56,17 +72,16 @@ def make_planner(task) -> Callable:
     Dots are traced at :data:`mjx_radar.precision.ESTIMATION`, the MPPI sampling at
     :data:`~mjx_radar.precision.PLANNER`.
     """
-    sc = task.scenario
     cost_fn = objective.make_objective(task)
-    lower, upper = control_box(sc)
-    init_std = proposal_std(sc, upper)
+    lower, upper = control_box(task.fleet)
+    init_std = proposal_std(task.mppi, upper)
 
     @precision.pinned
     def plan(radar_state: jax.Array, mean: jax.Array, cov: jax.Array, u_plan, key, params):
         ctx = objective.plan_context(task, radar_state, mean, cov)
         with precision.scope("planner"):  # MPPI sampling and refit; the cost re-pins
             res = mppi.optimize(
-                lambda u: cost_fn(u, ctx, params), u_plan, key, sc.mppi, init_std, lower, upper
+                lambda u: cost_fn(u, ctx, params), u_plan, key, task.mppi, init_std, lower, upper
             )
         return res, cost_fn(res.mean, ctx, params)[1]
 

@@ -1,10 +1,15 @@
 """The radar task, built once per scenario shape (hydrax's Task, brax's System).
 
 A :class:`RadarTask` holds everything static that the closed loop and the planner
-need: the scenario shape (:func:`mjx_radar.task.params.shape_key`), the truth and
-planner plants, the planner's rollout backend, the measurement model, the cost
-terms, the CV matrices of the filter and planning clocks and the obstacle data.
-Everything numeric that users vary is in :class:`mjx_radar.task.params.TaskParams`.
+need: the typed parts of the scenario shape (:func:`mjx_radar.task.params.shape_key`)
+the lower floors read (clocks, MPC, MPPI, filter, tracker, detection, the fleet), the
+world's components built once (:class:`~mjx_radar.world.components.World`: ground,
+static and moving obstacles, lines of sight), the truth and planner plants, the
+planner's rollout backend, the measurement model, the cost terms and the CV matrices of
+the filter and planning clocks. Everything numeric that users vary is in
+:class:`mjx_radar.task.params.TaskParams`. The floors from ``env/`` down read these
+parts, never ``task.scenario``: that is kept for the floors above and for plug-ins
+(registered cost terms, trackers and planners).
 """
 
 from __future__ import annotations
@@ -21,9 +26,19 @@ from mjx_radar.estimation import measurement
 from mjx_radar.physics import kinematics, motion
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics.rollout import radar_rollout
-from mjx_radar.scenario.schema import Scenario
+from mjx_radar.scenario.schema import (
+    DetectionConfig,
+    FilterConfig,
+    MPCConfig,
+    MPPIConfig,
+    PlannerConfig,
+    Scenario,
+    Timing,
+    TrackerConfig,
+)
 from mjx_radar.task import cost_plugins, costs
-from mjx_radar.world import obstacles, occlusion, terrain
+from mjx_radar.task.planner import Fleet
+from mjx_radar.world.components import Ground, World, make_world
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -31,14 +46,16 @@ class RadarTask:
     """Static parts of a scenario (hashable by identity: a ``jit`` static).
 
     Attributes:
-        scenario: the scenario shape (runtime numbers blanked).
+        scenario: the scenario shape (runtime numbers blanked), for plug-ins and the
+            floors above the environment.
+        n_targets: M; fleet: the radars (:class:`~mjx_radar.task.planner.Fleet`).
+        timing, mpc, mppi, filter, tracker, detection, planner: the scenario's tables.
+        world: the :class:`~mjx_radar.world.components.World` (ground, obstacles,
+            vehicles, lines of sight).
         measurement: the measurement model (range, range + azimuth, ...).
         terms: the objective's cost terms.
         rollout: ``(radar_state[N,6], u[H,N,2]) -> [H,N,6]`` planner rollout.
         truth: the truth plant (radars, drones, obstacles).
-        occluders: obstacles for line of sight (truth always, planner if ``mpc.los``).
-        plan_occluders: ``occluders`` if the planner is occlusion-aware, else None.
-        obstacle_grid: signed-distance grid of footprints (obstacle cost) or None.
         a_filter, q_filter_unit: CV transition and process noise per unit σ_W² at
             the filter step, ``[6M, 6M]``.
         a_control: CV transition at the control step ``[6M, 6M]``.
@@ -50,13 +67,20 @@ class RadarTask:
     """
 
     scenario: Scenario
+    n_targets: int
+    fleet: Fleet
+    timing: Timing
+    mpc: MPCConfig
+    mppi: MPPIConfig
+    filter: FilterConfig
+    tracker: TrackerConfig
+    detection: DetectionConfig
+    planner: PlannerConfig
+    world: World
     measurement: Any
     terms: tuple[costs.CostTerm, ...]
     rollout: Callable
     truth: physics.Plant
-    occluders: Any
-    plan_occluders: Any
-    obstacle_grid: Any
     a_filter: jax.Array
     q_filter_unit: jax.Array
     a_control: jax.Array
@@ -67,7 +91,7 @@ class RadarTask:
     kind: str = "all"
 
 
-def _rollout_backend(scenario: Scenario) -> Callable:
+def _rollout_backend(scenario: Scenario, ground: Ground) -> Callable:
     """``(state[N,6], u[H,N,2]) -> [H,N,6]``, each control held for ``mpc.substeps`` steps."""
     k, limits = scenario.mpc.substeps, scenario.limits
     dt = scenario.timing.dt_control / k
@@ -82,12 +106,11 @@ def _rollout_backend(scenario: Scenario) -> Callable:
         def integrate(state, u):
             return kinematics.unicycle_rollout(state, u, dt, limits)
 
-    if scenario.terrain is not None:  # z on the ground: the analytic lookup (no contacts)
-        grid, antenna = terrain.terrain_grid(scenario.terrain), scenario.terrain.antenna_height
+    if ground.present:  # z on the ground: the analytic lookup (no contacts)
         flat = integrate
 
         def integrate(state, u):
-            return terrain.on_ground(grid, flat(state, u), antenna)
+            return ground.on_ground(flat(state, u))
 
     if k == 1:
         return integrate
@@ -112,24 +135,36 @@ def _task_of_kind(shape: Scenario, registry: tuple, kind: str) -> RadarTask:
 
 @functools.cache
 def _make_task(shape: Scenario, registry: tuple) -> RadarTask:
-    t, m, mpc = shape.timing, shape.n_targets, shape.mpc
-    occ = occlusion.occluders(shape.obstacles) if shape.obstacles else None
-    if shape.terrain is not None:  # the ground masks lines of sight too
-        occ = occlusion.with_terrain(occ, terrain.terrain_grid(shape.terrain))
-    grid = None
-    if shape.obstacles and mpc.alpha_obs > 0:
-        grid = obstacles.sdf_grid(
-            shape.obstacles, shape.placement_half_width, max(64.0, 4.0 * mpc.obs_margin)
-        )
+    t, m = shape.timing, shape.n_targets
+    world = make_world(
+        shape.terrain,
+        shape.obstacles,
+        shape.moving_obstacles,
+        t.dt_control,
+        shape.mpc,
+        shape.placement_half_width,
+    )
+    bounds = None
+    if shape.radar_override:  # a mixed fleet: per-radar bounds, fixed sites bound to 0
+        from mjx_radar.scenario.fleet import control_bounds
+
+        bounds = tuple(tuple(b) for b in control_bounds(shape))
     return RadarTask(
         scenario=shape,
+        n_targets=m,
+        fleet=Fleet(shape.n_radars, shape.limits, bounds),
+        timing=t,
+        mpc=shape.mpc,
+        mppi=shape.mppi,
+        filter=shape.filter,
+        tracker=shape.tracker,
+        detection=shape.detection,
+        planner=shape.planner,
+        world=world,
         measurement=measurement.make_model(shape.measurement.model),
-        terms=costs.cost_terms(shape),
-        rollout=_rollout_backend(shape),
+        terms=costs.builtin_terms(world, shape.mpc) + costs.registered_terms(shape),
+        rollout=_rollout_backend(shape, world.ground),
         truth=physics.truth_plant(shape),
-        occluders=occ,
-        plan_occluders=occ if (occ is not None and mpc.los) else None,
-        obstacle_grid=grid,
         a_filter=motion.cv_transition(t.dt_filter, m),
         q_filter_unit=motion.cv_process_noise(t.dt_filter, 1.0, m),
         a_control=motion.cv_transition(t.dt_control, m),

@@ -103,18 +103,26 @@ def footprint_sdf(moving, xy, unit, p):
     return moving_footprint_sdf(moving, xy, unit, p, jnp)
 
 
-def plan_times(task, params, h: int):
-    """``[H]`` times of the horizon's radar states: ``t_plan + (k + 1) dt_control``."""
+def plan_times(dt, params, h: int):
+    """``[H]`` times of the horizon's radar states: ``t_plan + (k + 1) dt`` (``dt`` the
+    control period [s])."""
     t0 = 0.0 if params.plan_time is None else params.plan_time
-    dt = task.scenario.timing.dt_control
     return t0 + dt * jnp.arange(1, h + 1, dtype=params.moving.speed.dtype)
 
 
-def keep_out_cost(h, task, params) -> jax.Array:
-    """``[H]`` cost ``α_obs Σ_n relu(margin − min_k φ_k(p_n(t_k), t_k))`` (moving footprints)."""
-    mpc, moving = task.scenario.mpc, task.scenario.moving_obstacles
-    xy, unit = pose(params.moving, plan_times(task, params, h.radar.shape[0]))  # [H, K, 2]
-    phi = footprint_sdf(moving, xy[:, None], unit[:, None], h.radar[..., :2])  # [H, N, K]
+def keep_out_cost(h, vehicles, mpc, params) -> jax.Array:
+    """``[H]`` cost ``α_obs Σ_n relu(margin − min_k φ_k(p_n(t_k), t_k))`` (moving footprints).
+
+    Args:
+        h: the :class:`~mjx_radar.task.costs.Horizon`; vehicles: the
+            :class:`~mjx_radar.world.components.MovingObstacles`; mpc: the ``[mpc]`` table
+            (``alpha_obs``, ``obs_margin``); params: the runtime parameters (``moving``).
+    """
+    times = plan_times(vehicles.dt_control, params, h.radar.shape[0])
+    xy, unit = pose(params.moving, times)  # [H, K, 2]
+    phi = footprint_sdf(
+        vehicles.vehicles, xy[:, None], unit[:, None], h.radar[..., :2]
+    )  # [H, N, K]
     depth = jax.nn.relu(mpc.obs_margin - phi.min(-1))
     return mpc.alpha_obs * jnp.sum(depth, axis=-1)
 
@@ -160,29 +168,31 @@ def blocked(moving, mp: MovingParams, t, a, b):
     return occlusion.segment_blocked(occluders_at(moving, xy, unit), a, b)
 
 
-def truth_visibility(task, params, radar_pos, target_pos, t):
+def truth_visibility(world, params, radar_pos, target_pos, t):
     """``[N, M]`` line of sight of the truth at time ``t`` (static occluders and terrain,
-    moving obstacles), or None when the scene has no occluder (every pair visible)."""
+    moving obstacles), or None when the scene has no occluder (every pair visible).
+    ``world`` is the :class:`~mjx_radar.world.components.World`."""
     vis = None
-    if task.occluders is not None:
-        vis = occlusion.line_of_sight(task.occluders, radar_pos, target_pos)
+    if world.occluders is not None:
+        vis = occlusion.line_of_sight(world.occluders, radar_pos, target_pos)
     if params.moving is None:
         return vis
     a, b = radar_pos[:, None, :], target_pos[None, :, :]
-    clear = ~blocked(task.scenario.moving_obstacles, params.moving, t, a, b)
+    clear = ~blocked(world.moving.vehicles, params.moving, t, a, b)
     return clear if vis is None else vis & clear
 
 
-def plan_visibility(task, params, radar_pos, target_mean):
+def plan_visibility(world, params, radar_pos, target_mean):
     """``[H, N, M]`` planner line of sight (``mpc.los``) at the horizon's times, or None
-    (planner blind to occlusion): ``radar_pos [H, N, 3]``, ``target_mean [H, M, 3]``."""
+    (planner blind to occlusion): ``world`` the :class:`~mjx_radar.world.components.World`,
+    ``radar_pos [H, N, 3]``, ``target_mean [H, M, 3]``."""
     vis = None
-    if task.plan_occluders is not None:
-        vis = occlusion.line_of_sight(task.plan_occluders, radar_pos, target_mean)
-    if params.moving is None or not task.scenario.mpc.los:
+    if world.plan_occluders is not None:
+        vis = occlusion.line_of_sight(world.plan_occluders, radar_pos, target_mean)
+    if params.moving is None or not world.plan_los:
         return vis
-    moving = task.scenario.moving_obstacles
-    times = plan_times(task, params, radar_pos.shape[0])
+    moving = world.moving.vehicles
+    times = plan_times(world.moving.dt_control, params, radar_pos.shape[0])
     step = lambda t, r, m: ~blocked(moving, params.moving, t, r[:, None], m[None])  # noqa: E731
     clear = jax.vmap(step)(times, radar_pos, target_mean)
     return clear if vis is None else vis & clear
