@@ -4,6 +4,8 @@ with nothing left at the output path."""
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 import mjx_radar
@@ -54,7 +56,6 @@ def test_names_are_case_insensitive():
         (["--distributed", "--num-processes", "0"], "--num-processes = 0"),
         (["--distributed", "--coordinator", "nohostport"], "must be HOST:PORT"),
         (["--distributed", "--shard", "0/2"], "--shard and --distributed: choose one"),
-        (["--distributed"], "--distributed: no coordinator given and no cluster found (give"),
         (["--planners", ""], "--planners = '': give one or more planner names"),
         (["--planners", " , "], "give one or more planner names"),
         (["--planners", "policy"], "give policy:DIR"),
@@ -94,3 +95,19 @@ def test_a_plugin_folder_is_named_as_a_folder(tmp_path):
 
     with pytest.raises(ScenarioError, match="a folder, not a Python file"):
         load_plugins([tmp_path])
+
+
+def test_distributed_without_a_coordinator_is_one_line(tmp_path):
+    """In a fresh process (JAX's distributed start must come first): our own line."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "study"
+    cmd = [sys.executable, "-m", "mjx_radar", "study", "smoke", "--distributed"]
+    cmd += ["--trials", "2", "--out", str(out)]
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("SLURM_", "JAX_COORD"))}
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1, proc.stderr
+    assert "--distributed: no coordinator given and no cluster found (give" in lines[0]
+    assert not out.exists()

@@ -184,3 +184,22 @@ def test_bad_corpus_validate_subprocess(name):
     assert proc.returncode == 2, proc.stderr
     assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
     assert _expected(path) in lines[0]
+
+
+def test_deep_geojson_is_refused_whatever_the_recursion_limit(monkeypatch):
+    """The GeoJSON depth check does not rest on the interpreter's recursion limit (a test
+    library may raise it in the same process)."""
+    import sys
+
+    from mjx_radar.cli.main import main
+
+    path = Path(__file__).parent / "bad_inputs" / "buildings_deep_nesting.toml"
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(50_000)
+    try:
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            code = main(["validate", str(path)])
+    finally:
+        sys.setrecursionlimit(old)
+    assert code == 2 and "nested too deeply" in err.getvalue(), err.getvalue()

@@ -34,6 +34,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -52,6 +53,8 @@ LONLAT_NAMES = (
     "CRS84",
 )
 MAX_BUILDINGS = 2000
+#: nesting levels of a GeoJSON file (a MultiPolygon's coordinates in a feature: ~8)
+MAX_JSON_DEPTH = 64
 MAX_VERTICES = 256  # per polygon: the convex split grows as n^3 (256: ~10 s, 800: ~100 s)
 
 
@@ -120,10 +123,21 @@ def read_geojson(path: str | Path, crs: str, origin=None, height_key: str = "hei
     return out
 
 
+def _json_depth(text: str) -> int:
+    """The deepest nesting of ``[`` and ``{`` in JSON ``text`` (brackets in strings skipped)."""
+    bare = re.sub(r'"(?:\\.|[^"\\])*"', "", text).encode()
+    c = np.frombuffer(bare, np.uint8)
+    step = np.isin(c, (ord("["), ord("{"))).astype(np.int32) - np.isin(c, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0))
+
+
 def _features(path, crs: str) -> list:
     """The features of a GeoJSON FeatureCollection file, its declared CRS checked."""
     try:
-        doc = json.loads(Path(path).read_text())
+        text = Path(path).read_text()
+        if _json_depth(text) > MAX_JSON_DEPTH:  # whatever the interpreter's recursion limit
+            raise RecursionError
+        doc = json.loads(text)
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise MapError(f"not a readable JSON file ({str(err).splitlines()[0]})") from None
     except RecursionError:
