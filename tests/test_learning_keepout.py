@@ -207,6 +207,7 @@ def test_keepout_hinge_gradient_passes_the_speed_limit():
     np.testing.assert_allclose(float(h(-1.0)), ((13.425 - 5.0) / 125.0) ** 2, rtol=1e-3)
 
 
+@pytest.mark.slow  # ~20 s: brax's PPO networks compiled (CI keeps the v2 features' references)
 def test_v2_flattening_and_ppo_networks():
     """v2 sets flatten and unflatten back bit for bit at their own size, and brax's set
     networks of version v2 (PPO fine-tuning of a v2 clone) give the clone's action means

@@ -136,6 +136,7 @@ def _jax(means, covs, scans, k):
         return jax.tree_util.tree_map(np.asarray, hyp)
 
 
+@pytest.mark.slow  # ~95 s on 2 cores: 91 histories enumerated (CI keeps the K = 1 reference)
 def test_soft_scan_after_branching_matches_enumeration():
     means, covs, scans = _problem()
     lw, xs, Ps = _brute(means, covs, scans)
