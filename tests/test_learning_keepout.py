@@ -42,14 +42,8 @@ def paper():
     return make("paper_3r4t")
 
 
-def test_v2_pair_features_against_finite_differences(paper):
-    """The closing rate is the time derivative of d₃ (central difference of the moved
-    positions, 1e-3 s), the margin ahead is d₃ after the horizon at constant velocity
-    over R2T minus 1 (numpy), the nearest flag marks each radar's closest present drone
-    (an absent one, weight 0, never), line of sight is clear without obstacles; v1's
-    six features are v2's first six."""
-    env = paper
-    rng = np.random.default_rng(0)
+def _radars_and_drones(rng):
+    """3 radar states ``[x, y, 0, θ, v, 0]`` and 4 drone estimates ``[x, y, z, vx, vy, vz]``."""
     radar = np.column_stack(
         [
             rng.uniform(-300, 300, (3, 2)),
@@ -62,6 +56,18 @@ def test_v2_pair_features_against_finite_differences(paper):
     mean = np.column_stack(
         [rng.uniform(-200, 200, (4, 2)), rng.uniform(40, 80, 4), rng.uniform(-20, 20, (4, 3))]
     )
+    return radar, mean
+
+
+def test_v2_pair_features_against_finite_differences(paper):
+    """The closing rate is the time derivative of d₃ (central difference of the moved
+    positions, 1e-3 s), the margin ahead is d₃ after the horizon at constant velocity
+    over R2T minus 1 (numpy), the nearest flag marks each radar's closest present drone
+    (an absent one, weight 0, never), line of sight is clear without obstacles; v1's
+    six features are v2's first six."""
+    env = paper
+    rng = np.random.default_rng(0)
+    radar, mean = _radars_and_drones(rng)
     weight = np.array([1.0, 1.0, 0.0, 1.0])
     x = set_features(env, _obs(env, radar, mean, weight), "v2")
     x1 = set_features(env, _obs(env, radar, mean, weight), "v1")
@@ -131,18 +137,7 @@ def test_v2_features_and_network_are_permutation_equivariant(paper):
     leaves the actions unchanged (float32 round-off)."""
     env = paper
     rng = np.random.default_rng(1)
-    radar = np.column_stack(
-        [
-            rng.uniform(-300, 300, (3, 2)),
-            np.zeros(3),
-            rng.uniform(-3, 3, 3),
-            rng.uniform(-40, 40, 3),
-            np.zeros(3),
-        ]
-    )
-    mean = np.column_stack(
-        [rng.uniform(-200, 200, (4, 2)), rng.uniform(40, 80, 4), rng.uniform(-20, 20, (4, 3))]
-    )
+    radar, mean = _radars_and_drones(rng)
     pr, pt = np.array([2, 0, 1]), np.array([3, 1, 0, 2])
     x = set_features(env, _obs(env, radar, mean), "v2")
     xp = set_features(env, _obs(env, radar[pr], mean[pt]), "v2")

@@ -183,10 +183,6 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
     return task.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
 
 
-BUILT_IN = ("information", "radar_radar", "radar_target", "obstacle", "moving_obstacle")
-BUILT_IN += ("terrain_slope", "control_effort")
-
-
 def builtin_terms(world, mpc) -> tuple[CostTerm, ...]:
     """The built-in terms of an objective, in reporting order: the information and the
     keep-outs, then each world component's term where it is present and weighted
