@@ -62,7 +62,7 @@ def measure(scenario, variants, methods, trials: int, steps: int) -> list[list]:
             rate = steps / per_period / sim
             if name == "known":
                 known[method] = sim
-            extra = None
+            extra = "–"
             if method == "stationary" and method in known and name != "known":
                 extra = round(1e3 * (sim - known[method]) / (steps * trials), 4)
             rows.append(
@@ -111,7 +111,8 @@ def main(argv=None) -> int:
             jax.devices()[0].device_kind if jax.default_backend() == "gpu" else "2-core CPU",
             COLUMNS,
             rows,
-            notes="Warm figures of one simulate call each (compilation timed apart); the "
+            notes="Simulation: the lesser of two simulate calls of each row, compilation "
+            "timed apart; the "
             "tracker's time is the stationary row's simulation time above the known "
             "association's, per filter step and trial.",
         )
