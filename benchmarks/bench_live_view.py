@@ -51,12 +51,14 @@ def main() -> None:
     from mjx_radar.engine import compile_cache, runner
     from mjx_radar.scenario.reader import load_with_overrides
     from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.scene import scene_of
 
     compile_cache.enable()
     s, steps = load_with_overrides(args.scenario, args.rollouts, args.steps)
     trials = list(range(args.trials))
-    probe = LiveView(s, trials, steps, port=0)
-    periods, default = probe.runner_options()["periods"], runner.segment_periods(s, steps)
+    scene, default = scene_of(s), runner.segment_periods(s, steps)
+    probe = LiveView(scene, trials, steps, port=0)
+    periods = probe.runner_options(default)["periods"]
     probe.close()
     first = runner.run_trials(s, args.method, 0, trials, steps, periods=periods)
     runner.run_trials(s, args.method, 0, trials, steps, periods=default)
@@ -72,8 +74,8 @@ def main() -> None:
         for mode in ("plain", "view"):
             opts, view, stop, counts, client = {"periods": default}, None, None, [], None
             if mode == "view":
-                view = LiveView(s, trials, steps, port=0)
-                opts = view.runner_options()
+                view = LiveView(scene, trials, steps, port=0)
+                opts = view.runner_options(default)
                 stop = threading.Event()
                 ready = threading.Event()
                 client = threading.Thread(target=_client, args=(args.client, view.url, stop,
