@@ -56,9 +56,9 @@ def main() -> None:
     compile_cache.enable()
     s, steps = load_with_overrides(args.scenario, args.rollouts, args.steps)
     trials = list(range(args.trials))
-    scene, default = scene_of(s), runner.segment_periods(s, steps)
+    scene = scene_of(s)
     probe = LiveView(scene, trials, steps, port=0)
-    periods = probe.runner_options(default)["periods"]
+    periods, default = probe.runner_options()["periods"], runner.segment_periods(s, steps)
     probe.close()
     first = runner.run_trials(s, args.method, 0, trials, steps, periods=periods)
     runner.run_trials(s, args.method, 0, trials, steps, periods=default)
@@ -75,7 +75,7 @@ def main() -> None:
             opts, view, stop, counts, client = {"periods": default}, None, None, [], None
             if mode == "view":
                 view = LiveView(scene, trials, steps, port=0)
-                opts = view.runner_options(default)
+                opts = view.runner_options()
                 stop = threading.Event()
                 ready = threading.Event()
                 client = threading.Thread(target=_client, args=(args.client, view.url, stop,

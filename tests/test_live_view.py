@@ -58,7 +58,7 @@ def live_run(tiny):
             fig = get_json(view.url + "figure.json")
             reads[done] = (fig, get_json(view.url + "state.json?trial=1"))
 
-    opts = view.runner_options(runner.segment_periods(tiny, STEPS))
+    opts = view.runner_options()
     assert opts["periods"] == 1  # smoke's default: one period (0.1 s) per segment
     res = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, periods=opts["periods"],
                             on_segment=hook)  # fmt: skip

@@ -172,14 +172,6 @@ def precision_scope(req: RunRequest):
     return contextlib.nullcontext()
 
 
-def _view_options(req: RunRequest, live) -> dict:
-    """The live view's ``periods`` and ``on_segment`` for the runner (its segments
-    shortened from the runner's own, :func:`~mjx_radar.viz.live.live_periods`)."""
-    from mjx_radar.engine import runner
-
-    return live.runner_options(runner.segment_periods(req.scenario, req.steps))
-
-
 def start_programs(req: RunRequest, live=None):
     """The run's programs, compiled or loaded in a background thread from now on
     (:func:`mjx_radar.engine.runner.start_programs`) while the caller imports the
@@ -188,7 +180,7 @@ def start_programs(req: RunRequest, live=None):
     from mjx_radar.engine import runner
 
     with precision_scope(req):  # the background thread traces in the run's x64 mode
-        periods = None if live is None else _view_options(req, live)["periods"]
+        periods = None if live is None else live.runner_options()["periods"]
         args = (req.scenario, req.method, req.trials, req.steps)
         return runner.start_programs(*args, periods=periods, masks=req.masks)
 
@@ -214,7 +206,7 @@ def execute(
         if checks:
             resources.check(req.scenario, len(req.trials), req.steps, kind=req.method.kind)
         programs = programs or start_programs(req, live)
-        view = {} if live is None else _view_options(req, live)
+        view = {} if live is None else live.runner_options()
         res = runner.run_trials(
             req.scenario,
             req.method,

@@ -127,10 +127,12 @@ class LiveView:
             self._records.add(done, records)
             self._seq += 1
 
-    def runner_options(self, default: int) -> dict:
-        """``periods`` and ``on_segment`` for :func:`~mjx_radar.engine.runner.run_trials`;
-        ``default``: the runner's own periods per segment
-        (:func:`~mjx_radar.engine.runner.segment_periods`)."""
+    def runner_options(self) -> dict:
+        """``periods`` and ``on_segment`` for :func:`~mjx_radar.engine.runner.run_trials`
+        (shortened from the runner's own segments, read from the scene's clocks)."""
+        from mjx_radar.engine.runner import segment_periods
+
+        default = segment_periods(self.scene, self.steps)
         return {
             "periods": live_periods(self.scene.timing, self.steps, default),
             "on_segment": self.update,
