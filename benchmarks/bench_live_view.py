@@ -51,11 +51,13 @@ def main() -> None:
     from mjx_radar.engine import compile_cache, runner
     from mjx_radar.scenario.reader import load_with_overrides
     from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.scene import scene_of
 
     compile_cache.enable()
     s, steps = load_with_overrides(args.scenario, args.rollouts, args.steps)
     trials = list(range(args.trials))
-    probe = LiveView(s, trials, steps, port=0)
+    scene = scene_of(s)
+    probe = LiveView(scene, trials, steps, port=0)
     periods, default = probe.runner_options()["periods"], runner.segment_periods(s, steps)
     probe.close()
     first = runner.run_trials(s, args.method, 0, trials, steps, periods=periods)
@@ -72,7 +74,7 @@ def main() -> None:
         for mode in ("plain", "view"):
             opts, view, stop, counts, client = {"periods": default}, None, None, [], None
             if mode == "view":
-                view = LiveView(s, trials, steps, port=0)
+                view = LiveView(scene, trials, steps, port=0)
                 opts = view.runner_options()
                 stop = threading.Event()
                 ready = threading.Event()

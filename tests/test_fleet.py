@@ -89,8 +89,6 @@ def test_fixed_sites_never_move_and_bounds_hold():
 
 
 def test_overlay_draws_fixed_sites_waypoints_and_leaves_out_absent_drones():
-    import types
-
     import matplotlib
 
     matplotlib.use("Agg")
@@ -98,12 +96,12 @@ def test_overlay_draws_fixed_sites_waypoints_and_leaves_out_absent_drones():
 
     from mjx_radar.scenario.schema import TargetMotion
     from mjx_radar.viz import overlays
+    from mjx_radar.viz.scene import scene_of
 
     s = scenario_from_dict(BASE).replace(target_motion=(
         TargetMotion(target=0, model="waypoints", waypoints=((0.0, 0.0, 50.0), (100.0, 0, 60))),
         TargetMotion(target=1, appear=5.0)))  # fmt: skip
-    tr = types.SimpleNamespace(scenario=s, meta={"dt_filter": 0.025}, radar=np.zeros((4, 3, 6)))
-    fixed, routes, present = overlays.world_state(tr, 3, 2)  # t = 0.1 s: target 1 not there yet
+    fixed, routes, present = overlays.world_state(scene_of(s), 0.1, 2)  # target 1 not there yet
     assert fixed.tolist() == [True, False, False] and present.tolist() == [True, False]
     assert len(routes) == 1 and routes[0][1].shape == (2, 3)
     ov = overlays.StepOverlay(

@@ -23,6 +23,7 @@ import mjx_radar
 from mjx_radar.engine import runner
 from mjx_radar.errors import InputError
 from mjx_radar.viz import live as live_mod
+from mjx_radar.viz.scene import scene_of
 from mjx_radar.viz.viewer_traces import LAYERS
 
 STEPS = 40  # 10 control periods of 4 filter steps; one period per segment
@@ -48,7 +49,7 @@ def layer(state: dict, name: str) -> np.ndarray:
 @pytest.fixture(scope="module")
 def live_run(tiny):
     """A 2-trial run with the view; states read from the server after segments 3 and 7."""
-    view = live_mod.LiveView(tiny, TRIALS, STEPS, port=0)
+    view = live_mod.LiveView(scene_of(tiny), TRIALS, STEPS, port=0)
     reads: dict = {}
 
     def hook(done, records):
@@ -129,22 +130,22 @@ def test_page_is_served_offline(live_run):
 
 def test_segments_of_at_most_a_simulated_second(tiny):
     paper = mjx_radar.load_scenario("paper_3r4t")  # dt_control 0.1 s
-    assert live_mod.live_periods(paper, 600, 6) == 6  # 0.6 s: kept
-    assert live_mod.live_periods(paper, 6000, 30) == 10  # 3 s -> 1 s (divides 600)
-    assert live_mod.live_periods(paper, 392, 14) == 7  # 98 periods: 1.4 s -> 0.7 s
+    assert live_mod.live_periods(paper.timing, 600, 6) == 6  # 0.6 s: kept
+    assert live_mod.live_periods(paper.timing, 6000, 30) == 10  # 3 s -> 1 s (divides 600)
+    assert live_mod.live_periods(paper.timing, 392, 14) == 7  # 98 periods: 1.4 s -> 0.7 s
 
 
 def test_port_errors(tiny):
-    view = live_mod.LiveView(tiny, [0], STEPS, port=0)
+    view = live_mod.LiveView(scene_of(tiny), [0], STEPS, port=0)
     try:
         with pytest.raises(InputError, match=rf"--view-port = {view.port}: cannot serve"):
-            live_mod.LiveView(tiny, [0], STEPS, port=view.port)
+            live_mod.LiveView(scene_of(tiny), [0], STEPS, port=view.port)
     finally:
         view.close()
     with pytest.raises(urllib.error.URLError):
         get(view.url)  # closed: nothing answers
     with pytest.raises(InputError, match=r"view_port = 70000: must be an integer in \[0, 65535\]"):
-        live_mod.LiveView(tiny, [0], STEPS, port=70000, name="view_port")
+        live_mod.LiveView(scene_of(tiny), [0], STEPS, port=70000, name="view_port")
 
 
 def test_simulate_with_view(tiny, monkeypatch):
@@ -214,7 +215,7 @@ def test_cli_busy_port_is_one_line_before_compiling(tmp_path, capsys):
     import importlib
 
     cli_main = importlib.import_module("mjx_radar.cli.main")
-    busy = live_mod.LiveView(mjx_radar.load_scenario("smoke"), [0], 80, port=0)
+    busy = live_mod.LiveView(scene_of(mjx_radar.load_scenario("smoke")), [0], 80, port=0)
     try:
         code = cli_main.main(["run", "smoke", "--out", str(tmp_path / "r"), "--view-port",
                               str(busy.port)])  # fmt: skip
@@ -271,7 +272,7 @@ def test_interactive_linger_serves_until_ctrl_c(tiny, capsys):
     import os
     import signal
 
-    view = live_mod.LiveView(tiny, [0], STEPS, port=0)
+    view = live_mod.LiveView(scene_of(tiny), [0], STEPS, port=0)
     timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
 
     def check_then_interrupt():  # still serving, finished, while linger waits
@@ -323,7 +324,7 @@ def test_live_counts_panel_and_absent_drones():
         np.ones((t, 1, 2), np.float32),
         np.zeros((t, 1, 2), np.float32),
     )
-    view = live_mod.LiveView(s, [0], 80, port=0)
+    view = live_mod.LiveView(scene_of(s), [0], 80, port=0)
     try:
         fig = get_json(view.url + "figure.json")
         view.update(p, (steps, controls))

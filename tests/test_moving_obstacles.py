@@ -177,14 +177,16 @@ def test_render_places_vehicles(tiny):
 
     from mjx_radar.viz.render import scene_model, set_state
     from mjx_radar.viz.run_dir import Trial
+    from mjx_radar.viz.scene import scene_of
 
     s = _scenario(tiny, CAR, POLE)
     k_steps, dt = 12, 0.025
     radar = np.zeros((k_steps, 2, 6))
     radar[:, :, 0] = [300.0, -300.0]
     target = np.tile(np.asarray(s.target_init, float)[None], (k_steps, 1, 1))
-    tr = Trial({"r2t": 125.0}, s, target, target[..., :3], np.ones_like(target[..., :3]), radar,
-               np.zeros((3, 1, 3, 2, 2)), np.zeros((3, 1)), 4, dt)  # fmt: skip
+    tr = Trial({"r2t": 125.0}, scene_of(s), target, target[..., :3],
+               np.ones_like(target[..., :3]), radar, np.zeros((3, 1, 3, 2, 2)), np.zeros((3, 1)),
+               4, dt)  # fmt: skip
     model, index = scene_model(tr)
     data = mujoco.MjData(model)
     set_state(model, data, index, tr, 7)  # t = 0.2 s: car s = 52 (x = -48), pole y = 52
@@ -228,6 +230,7 @@ def test_snapshot_draws_vehicles(tiny):
     import matplotlib.pyplot as plt
 
     from mjx_radar.viz.run_dir import Trial
+    from mjx_radar.viz.scene import scene_of
     from mjx_radar.viz.snapshot import snapshot_figure
 
     s = _scenario(tiny, CAR, POLE)
@@ -235,7 +238,7 @@ def test_snapshot_draws_vehicles(tiny):
     radar[:, :, 0] = [300.0, -300.0]
     target = np.tile(np.asarray(s.target_init, float)[None], (12, 1, 1))
     meta = {"r2t": 125.0, "r2r": 10.0, "dt_filter": 0.025, "noise_constant": 1e6}
-    tr = Trial(meta, s, target, target[..., :3], np.ones_like(target[..., :3]), radar,
+    tr = Trial(meta, scene_of(s), target, target[..., :3], np.ones_like(target[..., :3]), radar,
                np.zeros((3, 1, 3, 2, 2)), np.zeros((3, 1)), 4, 0.025)  # fmt: skip
     fig = snapshot_figure(tr, 7, grid=20)  # t = 0.2 s: car centre (-48, -100), pole (0, 52)
     patches = [p for ax in fig.axes for p in ax.patches if p.get_gid() == "moving"]

@@ -209,8 +209,9 @@ def _records(seg: int, t: int = 2, p: int = 4, m: int = 2, n: int = 2, h: int = 
 
 def test_live_page_redraws_the_scene(browser):
     from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.scene import scene_of
 
-    view = LiveView(mjx_radar.load_scenario("smoke"), [0, 5], 80, port=0)
+    view = LiveView(scene_of(mjx_radar.load_scenario("smoke")), [0, 5], 80, port=0)
     page = browser.new_page(viewport={"width": 1200, "height": 800})
     page.set_default_timeout(15_000)
     requests, errors = [], []

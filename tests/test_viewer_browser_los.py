@@ -129,8 +129,9 @@ def test_live_page_opened_after_the_run_replays_it(browser):
     the run from step 1, segment by segment, to the last step, then "live"; the slider
     goes back to step 8; no console warning."""
     from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.scene import scene_of
 
-    view = LiveView(mjx_radar.load_scenario("smoke"), [0, 5], 80, port=0)
+    view = LiveView(scene_of(mjx_radar.load_scenario("smoke")), [0, 5], 80, port=0)
     for seg in range(5):
         view.update(4 * (seg + 1), _records(seg))
     view.finish()  # the run is over; linger() would wait here, the server answering

@@ -238,9 +238,9 @@ def test_snapshot_footprints_equal_world_sdf(obstacle_run):
 
     d, where = obstacle_run
     tr = load_trial(d)
-    kinds = [o.kind for o in tr.scenario.obstacles]
+    kinds = [o.kind for o in tr.scene.obstacles.shapes]
     assert kinds == ["box", "box", "cylinder", "mesh"]  # DIR/scenario.toml, not smoke.toml
-    assert Path(tr.scenario.obstacles[3].path) == (d / "meshes" / "hex_tower.obj").resolve()
+    assert Path(tr.scene.obstacles.shapes[3].path) == (d / "meshes" / "hex_tower.obj").resolve()
     fig = snapshot_figure(tr, STEPS - 1, grid=8)
     try:
         (img,) = [im for im in fig.axes[0].images if im.get_gid() == "obstacles"]
@@ -252,15 +252,15 @@ def test_snapshot_footprints_equal_world_sdf(obstacle_run):
     dx, dy = (x1 - x0) / nx, (y1 - y0) / ny
     gx, gy = np.meshgrid(x0 + dx * (np.arange(nx) + 0.5), y0 + dy * (np.arange(ny) + 0.5))
     pts = np.stack([gx, gy], -1)
-    sdf = np.min([footprint_sdf(o, pts) for o in tr.scenario.obstacles], axis=0)
+    sdf = np.min([footprint_sdf(o, pts) for o in tr.scene.obstacles.shapes], axis=0)
     np.testing.assert_array_equal(mask, sdf <= 0)  # cell centres: exactly the SDF footprint
     for name, obs in zip(
-        ("box", "rotated", "cylinder", "mesh"), tr.scenario.obstacles, strict=True
+        ("box", "rotated", "cylinder", "mesh"), tr.scene.obstacles.shapes, strict=True
     ):
         filled = mask & (footprint_sdf(obs, pts) <= 0)
         assert filled.sum() > 20, name  # each obstacle drawn, not just one
     # A box corner: inside the box, outside the circle of its half-size (the old drawing).
-    box = tr.scenario.obstacles[0]
+    box = tr.scene.obstacles.shapes[0]
     corner = np.asarray(box.pos[:2]) + 0.9 * np.asarray(box.size[:2])
     j, i = int((corner[0] - x0) // dx), int((corner[1] - y0) // dy)
     centre = np.array([gx[i, j], gy[i, j]])

@@ -126,9 +126,10 @@ def _simulate(req, progress: bool, view=(False, None, 0)) -> Run:
     from mjx_radar.rundir import results
     from mjx_radar.rundir.writer import TRAJECTORY_KEYS, run_meta
     from mjx_radar.viz import live as live_view
+    from mjx_radar.viz.scene import scene_of
 
     s, ids, steps, method = req.scenario, req.trials, req.steps, req.method.name
-    live = live_view.start(s, ids, steps, view[1], "view_port") if view[0] else None
+    live = live_view.start(scene_of(s), ids, steps, view[1], "view_port") if view[0] else None
     try:
         with tqdm(
             total=steps, unit="step", desc="closed loop", file=sys.stderr, disable=not progress

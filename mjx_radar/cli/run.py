@@ -160,8 +160,9 @@ def _live_view(args, s, trials, steps):
     if not (args.view or args.view_port is not None):
         return None
     from mjx_radar.viz.live import start
+    from mjx_radar.viz.scene import scene_of
 
-    return start(s, trials, steps, args.view_port)
+    return start(scene_of(s), trials, steps, args.view_port)
 
 
 def _import_writers() -> None:

@@ -77,13 +77,14 @@ class Scales(NamedTuple):
 
 
 def scales_of(env) -> Scales:
-    """The :class:`Scales` of a :class:`~mjx_radar.env.environment.RadarEnv`."""
-    sc = env.scenario
+    """The :class:`Scales` of a :class:`~mjx_radar.env.environment.RadarEnv` (its task's
+    fleet limits and clocks, its runtime numbers)."""
+    task = env.task
     return Scales(
         float(env.params.placement_half_width),
-        float(sc.limits.speed),
+        float(task.fleet.limits.speed),
         jnp.asarray(env.action_bounds[1][:, 0], jnp.float32),
-        float(sc.timing.dt_control),
+        float(task.timing.dt_control),
         float(env.params.r2t),
     )
 

@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.env.inputs import check_action
-from mjx_radar.task.costs import Horizon, cost_terms
+from mjx_radar.task.costs import Horizon
 
 
 def feature_size(n: int, m: int) -> int:
@@ -44,10 +44,9 @@ def feature_size(n: int, m: int) -> int:
 
 def features(env, obs) -> jax.Array:
     """``[feature_size]`` float32 features of ``obs`` (module docstring)."""
-    sc = env.scenario
-    m = sc.n_targets
+    m, limits = env.task.n_targets, env.task.fleet.limits
     big_l = jnp.asarray(env.params.placement_half_width, jnp.float32)
-    vbar, wbar = jnp.float32(sc.limits.speed), jnp.float32(sc.limits.omega)
+    vbar, wbar = jnp.float32(limits.speed), jnp.float32(limits.omega)
     rs = obs.radar_state.astype(jnp.float32)  # [N, 6] x y z θ v ω
     th = rs[:, 3]
     radar = jnp.concatenate(
@@ -117,14 +116,14 @@ def penalty(env, obs_before, obs_after, control) -> jax.Array:
         obs_after: the observation after the period (radar states, target estimates).
         control: ``[N, 2]`` the applied control.
     """
-    sc, task = env.scenario, env.task
-    terms = [t for t in cost_terms(sc) if t.name != "information"]
+    task = env.task
+    terms = [t for t in task.terms if t.name != "information"]  # the planner's own terms
     if not terms:
         return jnp.zeros((), jnp.float32)
     params = env.planning_params(obs_before)
-    m = sc.n_targets
+    m = task.n_targets
     h = Horizon(
-        controls=jnp.reshape(control, (1, sc.n_radars, 2)),
+        controls=jnp.reshape(control, (1, task.fleet.n_radars, 2)),
         radar=obs_after.radar_state[None],
         target_points=obs_after.mean.reshape(1, 1, m, 6),
         info0=jnp.zeros((m, 6, 6), obs_after.mean.dtype),

@@ -42,11 +42,11 @@ def shield(env, obs, control, margin: float = MARGIN) -> jax.Array:
         control: ``[N, 2]`` (acceleration, angular acceleration) within the limits.
         margin: metres beyond R2T at which the shield acts.
     """
-    sc = env.scenario
-    dt = jnp.float32(sc.timing.dt_control)
+    task = env.task  # the fleet's limits, the control period
+    dt = jnp.float32(task.timing.dt_control)
     # [N] each radar's ā (a fixed site has none: it never moves, the guard keeps 0/0 out)
     amax = jnp.maximum(jnp.asarray(env.action_bounds[1][:, 0], jnp.float32), 1e-6)
-    vmax = jnp.float32(sc.limits.speed)
+    vmax = jnp.float32(task.fleet.limits.speed)
     u = jnp.asarray(control, jnp.float32)
     rs = obs.radar_state.astype(jnp.float32)
     p, th, v = rs[:, :3], rs[:, 3], rs[:, 4]

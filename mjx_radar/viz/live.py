@@ -10,8 +10,9 @@ when a browser asks for it, once per segment and trial. :func:`live_periods` sho
 the segments where needed so the view updates at least once per simulated second.
 
 Routes (:mod:`mjx_radar.viz.live_http`): ``/`` the page (:mod:`mjx_radar.viz.live_page`),
-``/plotly.min.js``, ``/figure.json`` the initial figure (built from the scenario before the
-run), ``/state.json?trial=J&since=SEQ`` the layers at the latest step of trial position J
+``/plotly.min.js``, ``/figure.json`` the initial figure (built from the run's
+:class:`~mjx_radar.viz.scene.Scene` before the run), ``/state.json?trial=J&since=SEQ``
+the layers at the latest step of trial position J
 (only ``{"seq": SEQ, "ends": [...]}`` if nothing new), ``&step=K`` at filter step K (every
 segment is kept: :mod:`mjx_radar.viz.live_state`). After the run, :meth:`LiveView.linger`
 keeps serving until Ctrl-C or for a number of seconds.
@@ -37,11 +38,12 @@ DEFAULT_PORT = 8765
 SAMPLES = 16  # MPPI samples drawn per state (the highest weights)
 
 
-def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> int:
+def live_periods(timing, steps: int, default: int, every_s: float = 1.0) -> int:
     """Control periods per segment for a live view: ``<= default``, ``<= every_s`` simulated
-    seconds, and a divisor of the run's control periods (the runner's contract)."""
-    total = steps // scenario.timing.control_every
-    limit = max(1, math.floor(every_s / scenario.timing.dt_control + 1e-9))
+    seconds, and a divisor of the run's control periods (the runner's contract);
+    ``timing``: the run's clocks (:class:`~mjx_radar.scenario.schema.Timing`)."""
+    total = steps // timing.control_every
+    limit = max(1, math.floor(every_s / timing.dt_control + 1e-9))
     for p in range(max(1, min(default, limit)), 0, -1):
         if total % p == 0:
             return p
@@ -49,10 +51,11 @@ def live_periods(scenario, steps: int, default: int, every_s: float = 1.0) -> in
 
 
 def start(
-    scenario, trials, steps: int, port: int | None = None, name: str = "--view-port"
+    scene, trials, steps: int, port: int | None = None, name: str = "--view-port"
 ) -> LiveView:
-    """A :class:`LiveView` serving now; prints ``live view: URL`` on stderr."""
-    live = LiveView(scenario, trials, steps, port, name=name)
+    """A :class:`LiveView` of a :class:`~mjx_radar.viz.scene.Scene` serving now; prints
+    ``live view: URL`` on stderr."""
+    live = LiveView(scene, trials, steps, port, name=name)
     print(f"live view: {live.url}  (updates once per segment)", file=sys.stderr, flush=True)
     return live
 
@@ -61,7 +64,8 @@ class LiveView:
     """The live server of one run; call :meth:`update` after each segment, :meth:`close` at the end.
 
     Args:
-        scenario: the run's scenario.
+        scene: the run's :class:`~mjx_radar.viz.scene.Scene`
+            (:func:`~mjx_radar.viz.scene.scene_of` of its scenario).
         trials: ``[T]`` trial indices of the batch (the page's trial menu).
         steps: filter steps K of the run.
         port: TCP port on 127.0.0.1 (``None``: :data:`DEFAULT_PORT`; 0: any free port;
@@ -75,7 +79,7 @@ class LiveView:
 
     def __init__(
         self,
-        scenario,
+        scene,
         trials,
         steps: int,
         port: int | None = None,
@@ -89,13 +93,13 @@ class LiveView:
             or not (0 <= port <= 65535)
         ):
             raise InputError(f"{name} = {port!r}: must be an integer in [0, 65535]")
-        self.scenario, self.trials, self.steps = scenario, list(trials), steps
+        self.scene, self.trials, self.steps = scene, list(trials), steps
         self.samples = samples
         self._lock = threading.Lock()
         self._records = Records()  # every segment's records (references), from the start
         self._seq, self._finished, self._figure, self._box = 0, False, None, None
         self._cache: dict = {}
-        self.page_bytes = live_page.page(scenario.name, self.trials).encode()
+        self.page_bytes = live_page.page(scene.name, self.trials).encode()
         self._build_figure()  # before the run: the simulation never waits for it
         plotly_js()  # read once, now
         try:
@@ -124,12 +128,13 @@ class LiveView:
             self._seq += 1
 
     def runner_options(self) -> dict:
-        """``periods`` and ``on_segment`` for :func:`~mjx_radar.engine.runner.run_trials`."""
+        """``periods`` and ``on_segment`` for :func:`~mjx_radar.engine.runner.run_trials`
+        (shortened from the runner's own segments, read from the scene's clocks)."""
         from mjx_radar.engine.runner import segment_periods
 
-        default = segment_periods(self.scenario, self.steps)
+        default = segment_periods(self.scene, self.steps)
         return {
-            "periods": live_periods(self.scenario, self.steps, default),
+            "periods": live_periods(self.scene.timing, self.steps, default),
             "on_segment": self.update,
         }
 
@@ -168,14 +173,14 @@ class LiveView:
     def _build_figure(self) -> None:
         """The figure before any data: the ground extent holds the drones' paths and the
         radars' placement square (or fixed starts) with their R2T discs."""
-        s = self.scenario
+        s = self.scene
         lo, hi, ztop = paths_box(s, self.steps)
-        w = float(s.placement_half_width)
+        w = s.half_width
         radars = (
             np.asarray(s.radar_init, float)[:, :2] if s.radar_init else np.array([[-w, -w], [w, w]])
         )
-        lo = np.minimum(lo, (radars - s.mpc.r2t).min(0))
-        hi = np.maximum(hi, (radars + s.mpc.r2t).max(0))
+        lo = np.minimum(lo, (radars - s.r2t).min(0))
+        hi = np.maximum(hi, (radars + s.r2t).max(0))
         title = f"{s.name}: live ({len(self.trials)} trial(s), {self.steps} steps)"
         self._cols = count_columns(s, None, self.steps * s.timing.dt_filter)
         fig, self._anim, self._metrics = live_page.figure_json(s, lo, hi, ztop, title, self._cols)
@@ -197,9 +202,9 @@ class LiveView:
         key = (seq, j, upto)
         if key not in self._cache:
             a, c = got
-            tr = trial_at(self.scenario, a, c, j, upto)
-            self._box = grow_box(self._box or paths_box(self.scenario, self.steps), tr)
-            dt = self.scenario.timing.dt_filter
+            tr = trial_at(self.scene, a, c, j, upto)
+            self._box = grow_box(self._box or paths_box(self.scene, self.steps), tr)
+            dt = self.scene.timing.dt_filter
             curves = (
                 dt * np.arange(1, upto + 1),
                 a["rmse_pos"][j, :upto],

@@ -12,7 +12,7 @@ The layers are those of the offline viewer (:func:`~mjx_radar.viz.viewer_traces.
 at the latest filter step received: radars with trails and R2T rings, drones, estimates
 with 2-sigma axes, the acting MPPI samples and plan, lines of sight, fixed sites (and the
 static terrain and waypoint routes); right, RMSE and PCRLB of the selected trial so far,
-and below them the counts of :mod:`mjx_radar.viz.viewer_counts` where the scenario has
+and below them the counts of :mod:`mjx_radar.viz.viewer_counts` where the run has
 detection on or targets that appear / leave.
 """
 
@@ -25,13 +25,7 @@ import numpy as np
 from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.live_html import PAGE
 from mjx_radar.viz.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
-from mjx_radar.viz.viewer_los import has_occluders
-from mjx_radar.viz.viewer_traces import (
-    fixed_sites,
-    frame_traces,
-    layer_styles,
-    static_traces,
-)
+from mjx_radar.viz.viewer_traces import frame_traces, layer_styles, static_traces
 from mjx_radar.viz.viewer_world import aspect
 
 
@@ -47,15 +41,16 @@ def page(name: str, trials) -> str:
     return PAGE.format(name=name, options=options)
 
 
-def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str, list, list]:
+def figure_json(scene, lo, hi, ztop: float, title: str, cols=()) -> tuple[str, list, list]:
     """The live figure before any data; ``(json, layer indices, metrics indices)``.
 
-    Built from the scenario alone (before the simulation starts, so it costs the run
+    Built from the scene alone (before the simulation starts, so it costs the run
     nothing): the layers of :data:`~mjx_radar.viz.viewer_traces.LAYERS` are empty until
     the first ``/state.json``.
 
     Args:
-        scenario: the scenario (radar and drone counts, obstacles).
+        scene: the run's :class:`~mjx_radar.viz.scene.Scene` (radar and drone counts,
+            fixed sites, world components, routes).
         lo, hi: ``[2]`` xy corners of the ground extent.
         ztop: top of the z axis [m].
         title: figure title.
@@ -64,12 +59,11 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
     import plotly.graph_objects as go
 
     fig = counts.subplots(bool(cols))
-    for trace in static_traces(scenario, lo, hi):
+    for trace in static_traces(scene, lo, hi):
         fig.add_trace(trace)
     first = len(fig.data)
-    n = scenario.n_radars
-    moving = bool(getattr(scenario, "moving_obstacles", ()))
-    for style in layer_styles(n, len(scenario.target_init), fixed_sites(scenario, n), moving):
+    fixed = np.array(scene.fixed, bool)
+    for style in layer_styles(scene.n_radars, scene.n_targets, fixed, scene.moving.present):
         fig.add_trace(style | {"x": [], "y": [], "z": []})
     anim = list(range(first, len(fig.data)))
     fig.add_trace(sample_legend(lo))
@@ -87,7 +81,7 @@ def figure_json(scenario, lo, hi, ztop: float, title: str, cols=()) -> tuple[str
         for trace in [*counts.count_traces(cols), counts.cursor_trace()]:
             metrics.append(len(fig.data))
             fig.add_trace(trace, row=2, col=2)
-    hide_blocked_entry(fig, has_occluders(scenario))
+    hide_blocked_entry(fig, scene.occluded)
     fig.update_layout(
         title={"text": title, "font": {"size": 13}},
         template="plotly_white",

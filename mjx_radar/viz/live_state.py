@@ -55,12 +55,13 @@ class Records:
         return self._steps[0], self._controls[0]
 
 
-def trial_at(scenario, a: dict, c: dict, j: int, upto: int) -> Trial:
-    """Trial position ``j``'s :class:`~mjx_radar.viz.run_dir.Trial` of steps ``1..upto``."""
-    m, timing = a["target"].shape[2], scenario.timing
+def trial_at(scene, a: dict, c: dict, j: int, upto: int) -> Trial:
+    """Trial position ``j``'s :class:`~mjx_radar.viz.run_dir.Trial` of steps ``1..upto``
+    (``scene``: the run's :class:`~mjx_radar.viz.scene.Scene`)."""
+    m, timing = a["target"].shape[2], scene.timing
     return Trial(
-        meta={"r2t": float(scenario.mpc.r2t)},
-        scenario=scenario,
+        meta={"r2t": scene.r2t},
+        scene=scene,
         target=a["target"][j, :upto],
         mean=a["mean"][j, :upto].reshape(-1, m, 6)[..., :3],
         sigma=np.sqrt(np.maximum(a["cov_diag"][j, :upto].reshape(-1, m, 6)[..., :3], 0)),
@@ -72,18 +73,18 @@ def trial_at(scenario, a: dict, c: dict, j: int, upto: int) -> Trial:
     )
 
 
-def paths_box(scenario, steps: int) -> tuple:
+def paths_box(scene, steps: int) -> tuple:
     """``(lo, hi, ztop)`` of the drones' constant-velocity paths over the run and the
-    vehicles' roads."""
-    init = np.asarray(scenario.target_init, float)
-    t = np.linspace(0.0, steps * scenario.timing.dt_filter, 11)[:, None, None]
+    vehicles' roads (``scene``: the run's :class:`~mjx_radar.viz.scene.Scene`)."""
+    init = np.asarray(scene.target_init, float)
+    t = np.linspace(0.0, steps * scene.timing.dt_filter, 11)[:, None, None]
     path = (init[None, :, :3] + t * init[None, :, 3:]).reshape(-1, 3)
     top = 1.15 * float(path[:, 2].max())
-    if scenario.terrain is not None:  # the whole grid's top: the surface fits
+    if scene.ground.present:  # the whole grid's top: the surface fits
         from mjx_radar.world.terrain import node_heights
 
-        top = max(top, 1.1 * float(node_heights(scenario.terrain).max()))
-    roads = [np.asarray(car.path, float) for car in scenario.moving_obstacles]
+        top = max(top, 1.1 * float(node_heights(scene.ground.config).max()))
+    roads = [np.asarray(car.path, float) for car in scene.moving.vehicles]
     xy = np.concatenate([path[:, :2], *roads])
     return xy.min(0), xy.max(0), max(top, 1.0)
 

@@ -40,16 +40,13 @@ class StepOverlay:
     present: np.ndarray | None = None  # [M] bool: drones present at this step
 
 
-def world_state(tr, k: int, m: int):
-    """Fixed sites [N], waypoint routes and presence [M] of a trial's scenario at step k
-    (0-based; time ``(k + 1) dt``); shared with the viewer (:mod:`mjx_radar.viz.viewer_traces`)."""
-    sc, n = tr.scenario, tr.radar.shape[1]
-    fixed = np.zeros(n, bool)
-    for ov in getattr(sc, "radar_override", ()):
-        fixed[ov.radar] = not ov.mobile
-    t = (k + 1) * float(getattr(tr, "dt", None) or tr.meta["dt_filter"])
+def world_state(scene, t: float, m: int):
+    """Fixed sites [N], waypoint routes and presence [M] of a
+    :class:`~mjx_radar.viz.scene.Scene` at time ``t`` [s] (filter step k: ``(k + 1) dt``);
+    shared with the viewer (:mod:`mjx_radar.viz.viewer_traces`)."""
+    fixed = np.array(scene.fixed, bool)
     present, routes = np.ones(m, bool), []
-    for tm in getattr(sc, "target_motion", ()):
+    for tm in scene.target_motion:
         present[tm.target] = tm.appear <= t < tm.leave
         if tm.model == "waypoints":
             rgb = TARGET_RGB[tm.target % len(TARGET_RGB)]
@@ -63,7 +60,7 @@ def step_overlay(tr, k: int) -> StepOverlay:
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
     order = np.argsort(w, kind="stable")  # the best drawn last, on top
-    fixed, routes, present = world_state(tr, k, m)
+    fixed, routes, present = world_state(tr.scene, (k + 1) * tr.dt, m)
     return StepOverlay(
         radar=tr.radar[k],
         radar_rgb=RADAR_RGB[np.arange(n) % len(RADAR_RGB)],

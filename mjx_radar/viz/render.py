@@ -82,15 +82,15 @@ def scene_model(tr: Trial, camera: str = "top", aspect: float = 4 / 3):
     """
     from mjx_radar.physics.scene import build_scene
 
-    terrain = tr.scenario.terrain  # the hfield ground; radars get a z joint to stand on it
+    sc = tr.scene  # over terrain (the hfield ground) radars get a z joint to stand on it
     model, index = build_scene(
         tr.radar.shape[1],
         tr.target.shape[1],
         tr.dt,
-        tr.scenario.obstacles,
-        terrain=terrain,
-        radar_z_joint=terrain is not None,
-        moving=tr.scenario.moving_obstacles,
+        sc.obstacles.shapes,
+        terrain=sc.ground.config,
+        radar_z_joint=sc.ground.present,
+        moving=sc.moving.vehicles,
     )
     lo, hi = tr.bounds()
     model.stat.extent = max(float(np.max(hi - lo)), 100.0)  # sets near/far clipping
@@ -108,16 +108,16 @@ def set_state(model, data, index, tr: Trial, k: int) -> None:
 
     data.qpos[index.radar_qpos.reshape(-1)] = tr.radar[k][:, [0, 1, 3]].reshape(-1)
     data.qpos[index.drone_qpos.reshape(-1)] = tr.target[k, :, :3].reshape(-1)
-    terrain = tr.scenario.terrain
+    terrain = tr.scene.ground.config
     if terrain is not None:  # body origin on the ground: z minus the antenna height
         for i in range(tr.radar.shape[1]):
             adr = model.jnt_qposadr[model.joint(f"radar{i}/z").id]
             data.qpos[adr] = tr.radar[k, i, 2] - terrain.antenna_height
-    if tr.scenario.moving_obstacles:  # the vehicles at the step's time (k + 1) dt
+    if tr.scene.moving.present:  # the vehicles at the step's time (k + 1) dt
         from mjx_radar.physics.moving_bodies import mocap_ids, mocap_pose
         from mjx_radar.world.moving import moving_params, pose
 
-        mov = tr.scenario.moving_obstacles
+        mov = tr.scene.moving.vehicles
         xyz, quat = mocap_pose(mov, *pose(moving_params(mov, np.float32), (k + 1) * tr.dt))
         ids = mocap_ids(model, len(mov))
         data.mocap_pos[ids], data.mocap_quat[ids] = np.asarray(xyz), np.asarray(quat)

@@ -5,7 +5,8 @@ One entry point, :func:`load_run`, reads ``DIR/run.json``, ``DIR/trajectories.np
 ``DIR/scenario.toml``, its mesh paths resolved relative to ``DIR``; if that file is
 missing or does not load (e.g. a run made before meshes were copied into
 ``DIR/meshes``), the original scenario named in ``run.json`` is used
-(``source_scenario``, or ``scenario_file`` of older runs).
+(``source_scenario``, or ``scenario_file`` of older runs). The figures draw its
+:class:`~mjx_radar.viz.scene.Scene`, built here once (:func:`~mjx_radar.viz.scene.scene_of`).
 
 A damaged directory (missing, garbage or truncated files, a missing key, arrays
 of the wrong shape) raises :class:`~mjx_radar.errors.InputError` with one line
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from mjx_radar.errors import InputError
+from mjx_radar.viz.scene import Scene, scene_of
 
 TRAIL_CONTROL_STEPS = 25
 META_NUMBERS = ("dt_filter", "dt_control", "r2t", "r2r", "noise_constant")
@@ -40,12 +42,14 @@ ARRAYS = {
 
 @dataclasses.dataclass(frozen=True)
 class RunDir:
-    """A loaded run directory: metadata, trajectory arrays and the scenario."""
+    """A loaded run directory: metadata, trajectory arrays, the scenario (for
+    :meth:`mjx_radar.Run.load`) and the scene the figures draw."""
 
     path: Path
     meta: dict
     arrays: dict  # name -> numpy array (ARRAYS keys at least)
     scenario: object  # mjx_radar.scenario.schema.Scenario
+    scene: Scene
 
     @property
     def trials(self) -> int:
@@ -57,7 +61,7 @@ class Trial:
     """One trial of a run directory (numpy arrays; K filter steps, C control steps)."""
 
     meta: dict
-    scenario: object  # mjx_radar.scenario.schema.Scenario
+    scene: Scene  # what is drawn besides the arrays (world, fixed sites, routes)
     target: np.ndarray  # [K, M, 6] true drone states
     mean: np.ndarray  # [K, M, 3] CKF position estimates
     sigma: np.ndarray  # [K, M, 3] CKF position standard deviations
@@ -187,7 +191,8 @@ def load_run(run_dir: str | Path) -> RunDir:
             )
     meta = _read_meta(meta_path)
     arrays = _read_arrays(traj_path)
-    return RunDir(run_dir, meta, arrays, _read_scenario(run_dir, meta))
+    scenario = _read_scenario(run_dir, meta)
+    return RunDir(run_dir, meta, arrays, scenario, scene_of(scenario))
 
 
 def load_trial(run_dir: str | Path | RunDir, trial: int = 0) -> Trial:
@@ -203,7 +208,7 @@ def load_trial(run_dir: str | Path | RunDir, trial: int = 0) -> Trial:
     m = a["target"].shape[2]
     return Trial(
         meta=meta,
-        scenario=run.scenario,
+        scene=run.scene,
         target=a["target"][trial],
         mean=a["mean"][trial].reshape(-1, m, 6)[..., :3],
         sigma=np.sqrt(np.maximum(a["cov_diag"][trial].reshape(-1, m, 6)[..., :3], 0.0)),

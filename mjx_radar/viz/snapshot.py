@@ -76,10 +76,10 @@ def obstacle_mask(obstacles, xs, ys) -> np.ndarray:
 
 def _draw_footprints(ax, tr: Trial, lo, hi) -> None:
     """The footprints as a filled grey image of :func:`obstacle_mask` (``gid="obstacles"``)."""
-    if not tr.scenario.obstacles:
+    if not tr.scene.obstacles.present:
         return
     xs, ys = map_grid(lo, hi, FOOTPRINT_CELLS)
-    mask = obstacle_mask(tr.scenario.obstacles, xs, ys)
+    mask = obstacle_mask(tr.scene.obstacles.shapes, xs, ys)
     dx, dy = (xs[1] - xs[0]) / 2, (ys[1] - ys[0]) / 2  # cell centres at the grid points
     ax.imshow(
         np.ma.masked_where(~mask, np.ones(mask.shape)),
@@ -118,7 +118,7 @@ def _draw_vehicles(ax, tr: Trial, k: int) -> None:
     """The moving obstacles at step ``k``'s time ``(k + 1) dt`` (``gid="moving"``)."""
     from matplotlib.patches import Polygon
 
-    for poly in vehicle_outlines(tr.scenario.moving_obstacles, (k + 1) * tr.dt):
+    for poly in vehicle_outlines(tr.scene.moving.vehicles, (k + 1) * tr.dt):
         ax.add_patch(
             Polygon(poly, closed=True, fc=(0.75, 0.2, 0.15), ec="k", lw=0.5, zorder=3, gid="moving")
         )
@@ -127,7 +127,7 @@ def _draw_vehicles(ax, tr: Trial, k: int) -> None:
 def _draw_terrain(ax, tr: Trial, lo, hi) -> None:
     """Terrain heights as a shaded image (``gid="terrain"``), slopes beyond the vehicle
     limit hatched (``gid="steep"``)."""
-    t = tr.scenario.terrain
+    t = tr.scene.ground.config
     if t is None:
         return
     from mjx_radar.world import terrain
@@ -155,14 +155,12 @@ def _draw_terrain(ax, tr: Trial, lo, hi) -> None:
 def masked_fraction(tr: Trial, k: int, xs, ys, z: float) -> np.ndarray:
     """``[ny, nx]`` fraction of the radars whose line of sight to ``(x, y, z)`` is blocked
     (obstacles and terrain, :mod:`mjx_radar.world.occlusion`) at step ``k``."""
-    sc = tr.scenario
-    if sc.terrain is None and not sc.obstacles:
+    ground, obstacles = tr.scene.ground, tr.scene.obstacles
+    if not (ground.present or obstacles.present):
         return np.zeros((len(ys), len(xs)))
-    from mjx_radar.world import occlusion, terrain
+    from mjx_radar.world import occlusion
 
-    occ = occlusion.occluders(tuple(sc.obstacles)) if sc.obstacles else None
-    if sc.terrain is not None:
-        occ = occlusion.with_terrain(occ, terrain.terrain_grid(sc.terrain))
+    occ = ground.occluding(obstacles.occluders)
     gx, gy = np.meshgrid(xs, ys)
     pts = np.stack([gx, gy, np.full_like(gx, z)], -1).reshape(-1, 3).astype(np.float32)
     vis = np.asarray(occlusion.line_of_sight(occ, tr.radar[k, :, :3].astype(np.float32), pts))
@@ -182,7 +180,7 @@ def snapshot_figure(tr: Trial, k: int, grid: int = 120):
     c = tr.meta.get("noise_constants")  # a mixed fleet: each radar's C, [N, 1]
     c = tr.meta["noise_constant"] if c is None else np.asarray(c)[:, None]
     heat = fim_heatmap(tr.radar[k, :, :3], xs, ys, z, c)
-    heat = np.ma.masked_where(obstacle_mask(tr.scenario.obstacles, xs, ys), heat)
+    heat = np.ma.masked_where(obstacle_mask(tr.scene.obstacles.shapes, xs, ys), heat)
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
     _draw_terrain(left, tr, lo, hi)
     _draw_footprints(left, tr, lo, hi)
@@ -203,7 +201,7 @@ def snapshot_figure(tr: Trial, k: int, grid: int = 120):
             extent=(lo[0], hi[0], lo[1], hi[1]),
             gid="masked",
         )
-    if tr.scenario.moving_obstacles:  # vehicles at the step's time, on both panels
+    if tr.scene.moving.present:  # vehicles at the step's time, on both panels
         _draw_vehicles(left, tr, k)
         _draw_vehicles(right, tr, k)
     right.plot(*tr.radar[k, :, :2].T, "s", color="w", mec="k", ms=7)

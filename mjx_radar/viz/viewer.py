@@ -26,6 +26,8 @@ import math
 from html import escape
 from pathlib import Path
 
+import numpy as np
+
 from mjx_radar.errors import InputError
 from mjx_radar.io.atomic import atomic_write, check_writable
 from mjx_radar.viz import viewer_counts as counts
@@ -34,8 +36,8 @@ from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
 from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
 from mjx_radar.viz.viewer_controls import TRIAL_JS
 from mjx_radar.viz.viewer_legend import hide_blocked_entry
-from mjx_radar.viz.viewer_los import has_occluders, visibility
-from mjx_radar.viz.viewer_traces import fixed_sites, layer_styles, static_traces
+from mjx_radar.viz.viewer_los import visibility
+from mjx_radar.viz.viewer_traces import layer_styles, static_traces
 from mjx_radar.viz.viewer_world import terrain_nodes
 
 
@@ -71,16 +73,16 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
     count, samples = fit_budget(tr0, ks, first_plan, rd.trials, samples, shown)
     trials = trials or tuple(range(count))
     trs = [load_trial(rd, t) for t in trials]
-    sc = rd.scenario
-    box = stages.scene_box(trs, sc.moving_obstacles)
-    cols = counts.count_columns(rd.scenario, metrics)
+    sc = rd.scene
+    box = stages.scene_box(trs, sc.moving.vehicles)
+    cols = counts.count_columns(sc, metrics)
     fig = counts.subplots(bool(cols))
     n, m = trs[0].radar.shape[1], trs[0].target.shape[1]
-    styles = layer_styles(n, m, fixed_sites(sc, n), bool(sc.moving_obstacles))
+    styles = layer_styles(n, m, np.array(sc.fixed, bool), sc.moving.present)
     layers = (functools.partial(static_traces, sc), styles)
     first, anim, zrange = stages.add_scene(fig, layers, trs[0], ks[0], samples, box, cols)
     view = dict(metrics=metrics, cols=cols, ks=ks, samples=samples, anim=anim)
-    view["visibility"] = functools.partial(visibility, sc)
+    view["visibility"] = functools.partial(visibility, sc.ground, sc.obstacles, sc.moving)
     metric_idx, frames, sliders = [], [], []
     for j, (t, tr) in enumerate(zip(trials, trs, strict=True)):
         view["plan"] = None if plans is None else plans[t]
@@ -94,8 +96,8 @@ def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int
             fig.data[i].update(d)
     fig.data[first + 6].line.color = frames[0].data[6].line.color
     info = _info(rd, trials, trs, ks, samples, max_frames, box)
-    hide_blocked_entry(fig, has_occluders(sc))
-    title = f"{rd.meta.get('scenario', rd.scenario.name)} / {rd.meta.get('method', '')}"
+    hide_blocked_entry(fig, sc.occluded)
+    title = f"{rd.meta.get('scenario', sc.name)} / {rd.meta.get('method', '')}"
     controls = (trials, ids, metric_idx, sliders)
     stages.figure_layout(fig, f"{title} — shown: {info.dropped()}", box, zrange, controls, cols)
     return fig, info
@@ -105,9 +107,9 @@ def _info(rd, trials, trs, ks, samples, max_frames, box) -> ViewInfo:
     """What the figure shows of the run (and what it dropped)."""
     kept = int(trs[0].sample_xy.shape[1])
     stride = math.ceil(trs[0].steps / max_frames)
-    terrain = ""
-    if rd.scenario.terrain is not None:
-        xs, ys, _, every = terrain_nodes(rd.scenario.terrain, box[0], box[1])
+    terrain, ground = "", rd.scene.ground
+    if ground.present:
+        xs, ys, _, every = terrain_nodes(ground.config, box[0], box[1])
         terrain = f"terrain {len(xs)} x {len(ys)} nodes (every {every})"
     return ViewInfo(
         None,

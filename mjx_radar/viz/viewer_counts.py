@@ -24,34 +24,27 @@ COUNTS = (
 )
 
 
-def detection_on(scenario) -> bool:
-    """Whether the run draws detections or false alarms (``[detection]``)."""
-    d = getattr(scenario, "detection", None)
-    return d is not None and (d.detects or d.clutter)
+def presence_varies(target_motion, duration: float) -> bool:
+    """Whether some target appears after 0 or leaves before ``duration`` [s]
+    (``target_motion``: the ``[[target_motion]]`` tables)."""
+    return any(tm.appear > 0.0 or tm.leave < duration for tm in target_motion)
 
 
-def presence_varies(scenario, duration: float) -> bool:
-    """Whether some target appears after 0 or leaves before ``duration`` [s]."""
-    return any(
-        tm.appear > 0.0 or tm.leave < duration for tm in getattr(scenario, "target_motion", ())
-    )
-
-
-def count_columns(scenario, metrics=None, duration: float | None = None) -> tuple[str, ...]:
+def count_columns(scene, metrics=None, duration: float | None = None) -> tuple[str, ...]:
     """The columns of :data:`COUNTS` the panel shows.
 
     Args:
-        scenario: the run's scenario.
+        scene: the run's :class:`~mjx_radar.viz.scene.Scene` (detection on, presence).
         metrics: ``metrics.parquet`` as a DataFrame (offline: ``targets_present`` is shown
             iff it takes more than one value), or ``None`` (live: iff
             :func:`presence_varies` over ``duration``).
         duration: the run's simulated time [s] (live only).
     """
-    cols = [c for c, *_ in COUNTS[:3]] if detection_on(scenario) else []
+    cols = [c for c, *_ in COUNTS[:3]] if scene.detection_on else []
     if metrics is not None:
         if "targets_present" in metrics and metrics["targets_present"].nunique() > 1:
             cols.append("targets_present")
-    elif presence_varies(scenario, float("inf") if duration is None else duration):
+    elif presence_varies(scene.target_motion, float("inf") if duration is None else duration):
         cols.append("targets_present")
     return tuple(cols)
 

@@ -2,7 +2,8 @@
 
 The run directory keeps the radars' and drones' trajectories and the scenario, not the
 per-pair visibility; the viewer recomputes it on the host for the frames it draws with
-the simulator's own tests (:mod:`mjx_radar.world.occlusion`: the scenario's obstacles and
+the simulator's own tests on the scene's world components
+(:mod:`mjx_radar.world.components`; :mod:`mjx_radar.world.occlusion`: the obstacles and
 terrain, :mod:`mjx_radar.world.terrain_los`; :mod:`mjx_radar.world.moving`: the vehicles at
 the frame's time ``(k + 1) dt``, as the filter sees them at step k), eagerly in JAX (no
 compile; about a millisecond per frame).
@@ -21,20 +22,13 @@ import numpy as np
 from mjx_radar.viz.viewer_world import polylines, segments
 
 
-def has_occluders(scenario) -> bool:
-    """Whether anything can block a line of sight (obstacles, terrain, vehicles)."""
-    return bool(
-        scenario.obstacles
-        or getattr(scenario, "terrain", None) is not None
-        or getattr(scenario, "moving_obstacles", ())
-    )
-
-
-def visibility(scenario, radar, target, times) -> np.ndarray:
+def visibility(ground, obstacles, moving, radar, target, times) -> np.ndarray:
     """``[F, N, M]`` line of sight of each radar-drone pair at F frames.
 
     Args:
-        scenario: the run's scenario (obstacles, terrain, moving obstacles).
+        ground, obstacles, moving: the scene's :class:`~mjx_radar.world.components.Ground`,
+            :class:`~mjx_radar.world.components.StaticObstacles` and
+            :class:`~mjx_radar.world.components.MovingObstacles` (each empty when absent).
         radar: ``[F, N, 3]`` radar positions [m].
         target: ``[F, M, 3]`` drone positions [m] (NaN rows: absent, reported visible).
         times: ``[F]`` the frames' times [s] (the vehicles' poses).
@@ -42,27 +36,24 @@ def visibility(scenario, radar, target, times) -> np.ndarray:
     radar = np.asarray(radar, np.float32)
     target = np.nan_to_num(np.asarray(target, np.float32))
     shape = (radar.shape[0], radar.shape[1], target.shape[1])
-    if not has_occluders(scenario):
+    if not (ground.present or obstacles.present or moving.present):
         return np.ones(shape, bool)
-    clear = _program(scenario)
+    clear = _program(ground.config, obstacles.shapes, moving.vehicles)
     return np.asarray(clear(radar, target, np.asarray(times, np.float32)))
 
 
 @functools.cache
-def _program(scenario):
+def _program(terrain, shapes, moving):
     """The jitted ``(radar [F, N, 3], target [F, M, 3], times [F]) -> [F, N, M]`` of a
-    scenario, cached: compiled once per shape (the live view's states share one)."""
+    world (the ``[terrain]`` table or None, the obstacles, the vehicles), cached: compiled
+    once per shape (the live view's states share one)."""
     import jax
     import jax.numpy as jnp
 
     from mjx_radar.world import occlusion
+    from mjx_radar.world.components import Ground, StaticObstacles
 
-    occ = occlusion.occluders(tuple(scenario.obstacles)) if scenario.obstacles else None
-    if getattr(scenario, "terrain", None) is not None:
-        from mjx_radar.world.terrain import terrain_grid
-
-        occ = occlusion.with_terrain(occ, terrain_grid(scenario.terrain))
-    moving = tuple(getattr(scenario, "moving_obstacles", ()))
+    occ = Ground(terrain).occluding(StaticObstacles(shapes).occluders)
     mp = None
     if moving:
         from mjx_radar.world.moving import blocked, moving_params

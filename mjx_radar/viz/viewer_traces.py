@@ -98,9 +98,10 @@ def obstacle_outline(obstacles) -> np.ndarray:
     return np.concatenate(pieces) if pieces else np.zeros((0, 3), np.float32)
 
 
-def static_traces(scenario, lo, hi) -> list[dict]:
+def static_traces(scene, lo, hi) -> list[dict]:
     """The ground extent (rectangle at z = 0), the terrain surface, the obstacle wireframes
-    and the waypoint routes (the last three only where the scenario has them)."""
+    and the waypoint routes (the last three only where the
+    :class:`~mjx_radar.viz.scene.Scene` has them)."""
     corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
     ground = np.column_stack([np.concatenate([corners, corners[:1]]), np.zeros(5)])
     out = [
@@ -114,9 +115,9 @@ def static_traces(scenario, lo, hi) -> list[dict]:
             **_xyz(ground.astype(np.float32)),
         )
     ]
-    if getattr(scenario, "terrain", None) is not None:
-        out.append(terrain_surface(scenario.terrain, lo, hi))
-    if scenario.obstacles:
+    if scene.ground.present:
+        out.append(terrain_surface(scene.ground.config, lo, hi))
+    if scene.obstacles.present:
         out.append(
             dict(
                 type="scatter3d",
@@ -125,19 +126,11 @@ def static_traces(scenario, lo, hi) -> list[dict]:
                 legendgroup="world",
                 line={"color": "rgb(90,90,90)", "width": 3},
                 hoverinfo="skip",
-                **_xyz(obstacle_outline(scenario.obstacles)),
+                **_xyz(obstacle_outline(scene.obstacles.shapes)),
             )
         )
-    routes = route_trace(scenario)
+    routes = route_trace(scene.target_init, scene.target_motion)
     return out if routes is None else [*out, routes]
-
-
-def fixed_sites(scenario, n: int) -> np.ndarray:
-    """``[N]`` bool: the fixed radar sites (``[[radar_override]] mobile = false``)."""
-    fixed = np.zeros(n, bool)
-    for ov in getattr(scenario, "radar_override", ()):
-        fixed[ov.radar] = not ov.mobile
-    return fixed
 
 
 def layer_styles(n: int, m: int, fixed=None, vehicles: bool = False) -> list[dict]:
@@ -213,17 +206,17 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=N
     """
     radar = tr.radar[k, :, :3].astype(np.float32)
     n, m = radar.shape[0], tr.target.shape[1]
-    _, _, present = world_state(tr, k, m)
+    _, _, present = world_state(tr.scene, (k + 1) * tr.dt, m)
     gone = np.where(present, 0.0, np.nan).astype(np.float32)[:, None]  # NaN: absent
     target, mean = tr.target[k, :, :3] + gone, tr.mean[k] + gone
-    sc = tr.scenario
+    sc = tr.scene
     c = tr.control_index(k)
     w = tr.sample_weight[c] / max(float(tr.sample_weight[c].max()), 1e-12)
     keep = np.argsort(w, kind="stable")[max(len(w) - samples, 0) :]  # the best drawn last
     paths = np.moveaxis(tr.sample_xy[c][keep], 2, 1)  # [S, N, H, 2]
     z = np.broadcast_to(radar[None, :, None, 2:3], (*paths.shape[:-1], 1))
-    if getattr(sc, "terrain", None) is not None:
-        z = ground_z(sc, paths, 0.0)[..., None]
+    if sc.ground.present:
+        z = ground_z(sc.ground, paths, 0.0)[..., None]
     sample_pts = polylines(np.concatenate([paths, z], -1).reshape(-1, paths.shape[2], 3))
     sample_w = np.repeat(w[keep], n * (paths.shape[2] + 1)).astype(np.float32)
     two_sigma = 2.0 * tr.sigma[k][:, None, :] * np.eye(3)[None]  # [M, 3 axes, 3]
@@ -233,19 +226,20 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=N
     if plan_xy is not None:
         plan = np.moveaxis(plan_xy[min(c, len(plan_xy) - 1)], 1, 0)  # [N, H, 2]
         plan_z = radar[:, None, 2:3].repeat(plan.shape[1], 1)
-        if getattr(sc, "terrain", None) is not None:
-            plan_z = ground_z(sc, plan, 0.0)[..., None]
+        if sc.ground.present:
+            plan_z = ground_z(sc.ground, plan, 0.0)[..., None]
         plan_pts = polylines(np.concatenate([plan, plan_z], -1))
     else:
         plan_pts = np.zeros((0, 3), np.float32)
     t = (k + 1) * tr.dt
     if visible is None:
-        visible = viewer_los.visibility(sc, radar[None], target[None], [t])[0]
+        world = (sc.ground, sc.obstacles, sc.moving)
+        visible = viewer_los.visibility(*world, radar[None], target[None], [t])[0]
     los, blocked = viewer_los.los_segments(radar, target, visible)
     ring = rings(radar, tr.meta["r2t"])
-    if getattr(sc, "terrain", None) is not None:
-        ring[:, 2] = ground_z(sc, ring[:, :2], 0.5)
-    fixed = fixed_sites(sc, n)[:, None]
+    if sc.ground.present:
+        ring[:, 2] = ground_z(sc.ground, ring[:, :2], 0.5)
+    fixed = np.asarray(sc.fixed, bool)[:, None]
     points = [
         np.where(fixed, np.nan, radar),
         polylines(np.moveaxis(tr.trail(k), 1, 0)),
@@ -258,7 +252,7 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=N
         los,
         np.where(fixed, radar, np.nan),
         blocked,
-        viewer_los.vehicle_lines(getattr(sc, "moving_obstacles", ()), t),
+        viewer_los.vehicle_lines(sc.moving.vehicles, t),
     ]
     out = [dict(type="scatter3d", **_xyz(p)) for p in points]
     out[6]["line"] = {"color": sample_w}

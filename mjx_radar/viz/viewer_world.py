@@ -102,27 +102,29 @@ def terrain_surface(terrain, lo, hi, max_nodes: int = TERRAIN_NODES) -> dict:
     )
 
 
-def ground_z(scenario, xy: np.ndarray, default: float) -> np.ndarray:
-    """``[...]`` ground height + :data:`LIFT` under ``xy [..., 2]``; ``default`` without terrain."""
+def ground_z(ground, xy: np.ndarray, default: float) -> np.ndarray:
+    """``[...]`` height of the :class:`~mjx_radar.world.components.Ground` + :data:`LIFT`
+    under ``xy [..., 2]``; ``default`` on flat ground (no terrain)."""
     xy = np.asarray(xy, np.float64)
-    if getattr(scenario, "terrain", None) is None:
+    if not ground.present:
         return np.full(xy.shape[:-1], default, np.float32)
     from mjx_radar.world.terrain import height_np
 
     flat = np.where(np.isfinite(xy), xy, 0.0).reshape(-1, 2)
-    z = height_np(scenario.terrain, flat).reshape(xy.shape[:-1]) + LIFT
+    z = height_np(ground.config, flat).reshape(xy.shape[:-1]) + LIFT
     return np.where(np.isnan(xy[..., 0]), np.nan, z).astype(np.float32)
 
 
-def route_lines(scenario):
+def route_lines(target_init, target_motion):
     """``(points [P, 3], colours [P])`` of the waypoint routes (NaN row between routes), or
-    ``None`` when no target flies ``waypoints``."""
+    ``None`` when no target flies ``waypoints`` (``target_init [M][6]``: the drones'
+    starts; ``target_motion``: the ``[[target_motion]]`` tables)."""
     pieces, colours = [], []
-    for tm in getattr(scenario, "target_motion", ()):
+    for tm in target_motion:
         if tm.model != "waypoints":
             continue
         wps = np.asarray(tm.waypoints, np.float32)
-        start = np.asarray(scenario.target_init[tm.target][:3], np.float32)
+        start = np.asarray(target_init[tm.target][:3], np.float32)
         path = np.concatenate([start[None], wps, wps[:1] if tm.loop else wps[:0]])
         pieces.append(np.concatenate([path, np.full((1, 3), np.nan, np.float32)]))
         colours += [_rgb(TARGET_RGB[tm.target % len(TARGET_RGB)])] * (len(path) + 1)
@@ -131,9 +133,9 @@ def route_lines(scenario):
     return np.concatenate(pieces), colours
 
 
-def route_trace(scenario) -> dict | None:
+def route_trace(target_init, target_motion) -> dict | None:
     """The routes as one dotted ``scatter3d`` (legend entry "waypoint routes"), or ``None``."""
-    routes = route_lines(scenario)
+    routes = route_lines(target_init, target_motion)
     if routes is None:
         return None
     pts, colours = routes
