@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import os
 import runpy
 from pathlib import Path
@@ -58,6 +59,14 @@ class RunRequest:
     cache: bool = True
     cache_dir: str | None = None
     masks: bool = False
+
+    @functools.cached_property
+    def spec(self):
+        """The scenario as the engine takes it (:class:`~mjx_radar.engine.run_spec.RunSpec`),
+        read once."""
+        from mjx_radar.engine.run_spec import run_spec
+
+        return run_spec(self.scenario)
 
 
 def load_plugins(paths) -> None:
@@ -181,7 +190,7 @@ def start_programs(req: RunRequest, live=None):
 
     with precision_scope(req):  # the background thread traces in the run's x64 mode
         periods = None if live is None else live.runner_options()["periods"]
-        args = (req.scenario, req.method, req.trials, req.steps)
+        args = (req.spec, req.method, req.trials, req.steps)
         return runner.start_programs(*args, periods=periods, masks=req.masks)
 
 
@@ -204,11 +213,11 @@ def execute(
     deterministic = process_options(req)
     with precision_scope(req):
         if checks:
-            resources.check(req.scenario, len(req.trials), req.steps, kind=req.method.kind)
+            resources.check(req.spec, len(req.trials), req.steps, kind=req.method.kind)
         programs = programs or start_programs(req, live)
         view = {} if live is None else live.runner_options()
         res = runner.run_trials(
-            req.scenario,
+            req.spec,
             req.method,
             req.seed,
             req.trials,
