@@ -69,6 +69,33 @@ class RunRequest:
         return run_spec(self.scenario)
 
 
+def run_header(scenario):
+    """What a run directory records of ``scenario``
+    (:class:`~mjx_radar.rundir.writer.RunHeader`), read once for its writer."""
+    from mjx_radar.estimation.sensing import noise_constant
+    from mjx_radar.rundir.writer import RunHeader
+
+    s, each = scenario, None
+    if any(ov.radar_eq for ov in s.radar_override):  # a mixed fleet: C of each radar
+        from mjx_radar.scenario.fleet import radar_equation
+
+        each = tuple(noise_constant(radar_equation(s, i), s.n_targets) for i in range(s.n_radars))
+    return RunHeader(
+        name=s.name,
+        dt_filter=s.timing.dt_filter,
+        dt_control=s.timing.dt_control,
+        n_radars=s.n_radars,
+        n_targets=s.n_targets,
+        r2t=s.mpc.r2t,
+        r2r=s.mpc.r2r,
+        rollout=s.mpc.rollout,
+        noise_constant=noise_constant(s.radar_eq, s.n_targets),
+        noise_constants=each,
+        gospa_cutoff=s.metrics.gospa_cutoff,
+        gospa_order=s.metrics.gospa_order,
+    )
+
+
 def load_plugins(paths) -> None:
     """Runs each plug-in file (a script that registers planners, cost terms, ...).
 
