@@ -23,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_timing import median_seconds  # noqa: E402
 
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.estimation import ckf_sqrt, filter_bank, sensing  # noqa: E402
 from mjx_radar.physics import motion  # noqa: E402
 from mjx_radar.scenario.schema import RadarEquation  # noqa: E402
@@ -91,7 +92,7 @@ def loop(scenario: str, trials: int, steps: int, repeat: int) -> list[tuple]:
 
     def run(st, fm):
         s = dataclasses.replace(sc, filter=dataclasses.replace(sc.filter, structure=st, form=fm))
-        return runner.run_trials(s, "ddr-sfim", 0, np.arange(trials), steps, full=False)
+        return runner.run_trials(run_spec(s), "ddr-sfim", 0, np.arange(trials), steps, full=False)
 
     compile_s = {c: run(*c)["compile_s"] for c in configs}
     sims = {c: [] for c in configs}

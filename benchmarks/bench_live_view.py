@@ -25,6 +25,8 @@ import threading
 import time
 import urllib.request
 
+from mjx_radar.engine.run_spec import run_spec
+
 
 def poll(url: str, stop: threading.Event, counts: list, ready: threading.Event) -> None:
     urllib.request.urlopen(url + "figure.json", timeout=30).read()
@@ -60,8 +62,8 @@ def main() -> None:
     probe = LiveView(scene, trials, steps, port=0)
     periods, default = probe.runner_options()["periods"], runner.segment_periods(s, steps)
     probe.close()
-    first = runner.run_trials(s, args.method, 0, trials, steps, periods=periods)
-    runner.run_trials(s, args.method, 0, trials, steps, periods=default)
+    first = runner.run_trials(run_spec(s), args.method, 0, trials, steps, periods=periods)
+    runner.run_trials(run_spec(s), args.method, 0, trials, steps, periods=default)
     seconds = steps * s.timing.dt_filter
     print(f"{s.name} {args.method}: {args.trials} trial(s) x {steps} steps ({seconds:g} s "
           f"simulated), {steps // s.timing.control_every // periods} segments of "
@@ -83,7 +85,7 @@ def main() -> None:
                 client.start()
                 ready.wait(120)  # the page has loaded and drawn its (empty) figure
             cpu = time.process_time()
-            res = runner.run_trials(s, args.method, 0, trials, steps, **opts)
+            res = runner.run_trials(run_spec(s), args.method, 0, trials, steps, **opts)
             cpu = time.process_time() - cpu
             if view is not None:
                 stop.set()

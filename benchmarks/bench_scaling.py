@@ -56,6 +56,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))  # make
 from bench_timing import median_seconds  # noqa: E402
 from make_swarm import swarm_toml  # noqa: E402
 
+from mjx_radar.engine.run_spec import run_spec
+
 
 def swarm(n: int, rollouts: str, samples: int | None = None, structure: str = "joint"):
     """The N = M swarm scenario of make_swarm (seed 0) with the given rollouts / samples."""
@@ -68,7 +70,9 @@ def swarm(n: int, rollouts: str, samples: int | None = None, structure: str = "j
 
 def run_loop(scenario, method: str, trials: int, steps: int) -> dict:
     """The one call of the public runner (its signature may change: keep it here)."""
-    return runner.run_trials(scenario, method, scenario.seed, np.arange(trials), steps, full=False)
+    return runner.run_trials(
+        run_spec(scenario), method, scenario.seed, np.arange(trials), steps, full=False
+    )
 
 
 def loop_step_s(scenario, method: str, trials: int, steps: int) -> float:

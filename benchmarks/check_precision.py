@@ -60,6 +60,7 @@ import numpy as np  # noqa: E402
 
 from mjx_radar import precision  # noqa: E402
 from mjx_radar.engine import runner  # noqa: E402
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.scenario.reader import ScenarioError, load_scenario  # noqa: E402
 from mjx_radar.task.method import parse_method  # noqa: E402
 
@@ -77,8 +78,8 @@ def run(scenario, methods, trials, steps, seed, device) -> dict:
     mesh = runner.device_mesh([device])
     out, secs = {}, {}
     for method in methods:
-        res = runner.run_trials(scenario, method, seed, np.arange(trials), steps, full=False,
-                                mesh=mesh)  # fmt: skip
+        res = runner.run_trials(run_spec(scenario), method, seed, np.arange(trials), steps,
+                                full=False, mesh=mesh)  # fmt: skip
         out[method] = {k: np.asarray(res[k], np.float64) for k in CONTINUOUS + FLAGS}
         secs[method] = (res["compile_s"], res["sim_s"])
         print(f"  {device.platform}:{device.id} {method}: compile {res['compile_s']:.1f} s, "

@@ -26,6 +26,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from results import RESULTS, problems  # noqa: E402
 
+from mjx_radar.engine.run_spec import program_size  # noqa: E402
+
 MEASURE = "CUDA_VISIBLE_DEVICES=0 python scripts/measure_memory.py --peak --steps 8"
 COMMANDS = [
     f"{MEASURE} --kinds sfim --trials 64 --jobs 5 --json gpu_sfim64.json",
@@ -65,7 +67,11 @@ def predicted(scenario: str, kind: str, program: str, trials: int) -> tuple[int,
 
     s = load_scenario(scenario)
     seg = runner.segment_periods(s, 8) * s.timing.control_every  # --steps 8
-    x = sum(memory_model.device_terms(s, trials, "gpu", kind, program == "run", seg).values())
+    x = sum(
+        memory_model.device_terms(
+            program_size(s), trials, "gpu", kind, program == "run", seg
+        ).values()
+    )
     return x, memory_model.device_peak(x, "gpu")
 
 

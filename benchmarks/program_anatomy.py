@@ -24,6 +24,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from mjx_radar.engine.run_spec import run_spec
+
 
 def _table(lines: list[str], start: str, stop: str) -> list[str]:
     a = lines.index(start)
@@ -109,7 +111,7 @@ def main(argv=None) -> int:
     except ScenarioError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    compile_programs(scenario, args.batch, args.periods, False, None, args.kind)
+    compile_programs(run_spec(scenario), args.batch, args.periods, False, None, args.kind)
     log = COMPILE_LOG[-1]
     before = max(dump.glob("*.before_optimizations.txt"), key=lambda p: p.stat().st_size)
     module = before.name.split(".")[0]

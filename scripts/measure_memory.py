@@ -41,6 +41,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from mjx_radar.engine.run_spec import program_size, run_spec
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -71,7 +73,7 @@ def measure(
     steps = max(every, steps // every * every)
     periods = runner.segment_periods(s, steps)
     t0 = time.perf_counter()
-    progs, _ = programs.compile_programs(s, trials, periods, full, kind=kind)
+    progs, _ = programs.compile_programs(run_spec(s), trials, periods, full, kind=kind)
     compile_s = time.perf_counter() - t0
     ma = progs.step.memory_analysis()
     xla = {
@@ -82,7 +84,7 @@ def measure(
     }
     xla_peak = xla["temp"] + xla["arg"] + xla["out"] - xla["alias"]
     dev = jax.local_devices()[0]
-    est = resources.device_terms(s, trials, dev.platform, kind, full, periods * every)
+    est = resources.device_terms(program_size(s), trials, dev.platform, kind, full, periods * every)
     row = {
         "scenario": s.name,
         "kind": kind,
@@ -102,7 +104,9 @@ def measure(
         method = METHOD_OF_KIND.get(kind, "ddr-sfim")
         program = None if kind in METHOD_OF_KIND else (kind, "mppi")
         t0 = time.perf_counter()
-        runner.run_trials(s, method, 0, list(range(trials)), periods * every, full, program=program)
+        runner.run_trials(
+            run_spec(s), method, 0, list(range(trials)), periods * every, full, program=program
+        )
         stats = dev.memory_stats() or {}
         row["device_peak"] = stats.get("peak_bytes_in_use")
         # the model's device peak: XLA's figure and, on a GPU, the runtime's floor

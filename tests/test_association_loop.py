@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 
 STEPS = 40
 TRIALS = np.arange(3)
@@ -16,12 +17,12 @@ def test_joint_association_in_the_closed_loop(tiny):
     steps); GNN with the tiny scenario's two drones in clutter: finite, never diverged."""
     base = tiny.replace(filter={"structure": "per-target"}, detection=DET)
     one = base.replace(targets=base.target_init[:1])
-    pda = runner.run_trials(one, "stationary", 3, TRIALS, STEPS)
-    jpda = runner.run_trials(one.replace(tracker={"association": "jpda"}), "stationary", 3,
-                             TRIALS, STEPS)  # fmt: skip
+    pda = runner.run_trials(run_spec(one), "stationary", 3, TRIALS, STEPS)
+    jpda = runner.run_trials(run_spec(one.replace(tracker={"association": "jpda"})),
+                             "stationary", 3, TRIALS, STEPS)  # fmt: skip
     np.testing.assert_allclose(jpda["rmse_pos"], pda["rmse_pos"], rtol=1e-3, atol=1e-3)
     if base.n_targets > 1:
-        gnn = runner.run_trials(base.replace(tracker={"association": "gnn"}), "stationary", 3,
-                                TRIALS, STEPS)  # fmt: skip
+        gnn = runner.run_trials(run_spec(base.replace(tracker={"association": "gnn"})),
+                                "stationary", 3, TRIALS, STEPS)  # fmt: skip
         assert np.all(np.isfinite(gnn["rmse_pos"])) and not gnn["diverged"].any()
         assert gnn["false_alarms"].sum() > 0

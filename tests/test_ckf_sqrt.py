@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.env.track_health import min_pivot
 from mjx_radar.estimation import ckf, ckf_sqrt, filter_bank, ground_prior, measurement, sensing
 from mjx_radar.physics import motion
@@ -311,7 +312,7 @@ def _runs(sc, structure, methods=("stationary", "ddr-sfim")):
         s = dataclasses.replace(sc, filter=dataclasses.replace(sc.filter, structure=structure,
                                                                form=form))  # fmt: skip
         for method in methods:  # programs of kinds "none" and "sfim"
-            out[form, method] = runner.run_trials(s, method, 0, [0, 1], 80)
+            out[form, method] = runner.run_trials(run_spec(s), method, 0, [0, 1], 80)
     return out
 
 

@@ -25,6 +25,7 @@ import pytest
 from mjx_radar.cli import run_output
 from mjx_radar.cli.main import main
 from mjx_radar.engine import resources
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.rundir import results
 
 REPO = Path(__file__).resolve().parent.parent
@@ -95,7 +96,7 @@ def test_estimate_sampling_term_matches_xla():
 
     s = load_scenario(SMOKE)
     s = dataclasses.replace(s, mppi=dataclasses.replace(s.mppi, samples=10**6))
-    est = resources.estimate(s, trials=1, steps=8)
+    est = resources.estimate(run_spec(s), trials=1, steps=8)
     assert est.device["MPPI sampling"] == pytest.approx(24001128036752, rel=1e-3)
 
 
@@ -107,9 +108,11 @@ def test_check_refuses_when_memory_is_short(monkeypatch):
     monkeypatch.setattr(resources, "host_available", lambda: 2**30)  # 1 GiB
     # trajectories: 2 * 100 * (1e5 * 70 + 25000 * 1124) floats = 28.1 GB, planner ~8 MB
     with pytest.raises(InputError, match=r"the trajectories need ~26.2 GiB.*--steps or --trials"):
-        resources.check(s, trials=100, steps=100_000)
+        resources.check(run_spec(s), trials=100, steps=100_000)
     monkeypatch.setattr(resources, "host_available", lambda: 64 * 2**30)
-    assert resources.check(s, trials=100, steps=100_000).host_bytes == pytest.approx(28.1e9, 1e-2)
+    assert resources.check(run_spec(s), trials=100, steps=100_000).host_bytes == pytest.approx(
+        28.1e9, 1e-2
+    )
 
 
 def test_500_radars_warned_and_interruptible(tmp_path):
@@ -118,7 +121,7 @@ def test_500_radars_warned_and_interruptible(tmp_path):
         'name = "wide"\nn_radars = 500\ntargets = [[0, 0, 55, 20, 10, 0]]\n'
         "placement_half_width = 5000.0\n[timing]\nsteps = 8\n"
     )
-    est = resources.estimate(__import__("mjx_radar").load_scenario(path), 1, 8)
+    est = resources.estimate(run_spec(__import__("mjx_radar").load_scenario(path)), 1, 8)
     assert est.large and est.compile_s > 300
     out = tmp_path / "out"
     _interrupt_after_compile_line(["run", str(path), "--out", str(out), *FAST], "can take minutes")

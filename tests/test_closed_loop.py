@@ -7,6 +7,7 @@ import pytest
 
 from mjx_radar import METHODS
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.scenario.reader import load_scenario
 
 STEPS = 80  # 2 s: the first second is excluded from the keep-out checks
@@ -29,7 +30,7 @@ def results(smoke):
     analytic = dataclasses.replace(smoke, mpc=dataclasses.replace(smoke.mpc, rollout="analytic"))
     return {
         m: runner.run_trials(
-            smoke if m in MJX_PLANNER else analytic, m, 0, np.arange(TRIALS), STEPS
+            run_spec(smoke if m in MJX_PLANNER else analytic), m, 0, np.arange(TRIALS), STEPS
         )
         for m in METHODS
     }  # one program per rollout backend and program kind (ddr-pfim reuses ccr-pfim's)
@@ -90,7 +91,7 @@ def test_common_random_numbers_across_methods(smoke, results):
 
 
 def test_same_seed_reproduces_exactly(smoke, results):
-    again = runner.run_trials(smoke, "ddr-sfim", 0, np.arange(TRIALS), STEPS)
+    again = runner.run_trials(run_spec(smoke), "ddr-sfim", 0, np.arange(TRIALS), STEPS)
     for key in ("rmse_pos", "radar", "mean", "control", "sample_cost"):
         np.testing.assert_array_equal(again[key], results["ddr-sfim"][key])
 
@@ -98,7 +99,7 @@ def test_same_seed_reproduces_exactly(smoke, results):
 def test_trial_results_do_not_depend_on_batch(smoke, results):
     # A trial's result depends only on its index, not on its batch: chunked studies resume
     # exactly. (Same batch size, reversed order: no recompilation.)
-    rev = runner.run_trials(smoke, "ddr-sfim", 0, np.arange(TRIALS)[::-1], STEPS)
+    rev = runner.run_trials(run_spec(smoke), "ddr-sfim", 0, np.arange(TRIALS)[::-1], STEPS)
     np.testing.assert_array_equal(rev["rmse_pos"][::-1], results["ddr-sfim"]["rmse_pos"])
 
 
@@ -119,10 +120,10 @@ def test_one_program_per_scenario_shape(smoke, results):
         radar_eq=dataclasses.replace(smoke.radar_eq, snr_db=-10.0),
     )
     periods = runner.segment_periods(smoke, STEPS)
-    first, _ = runner.compile_programs(smoke, TRIALS, periods, True, kind="sfim")
-    again, seconds = runner.compile_programs(numbers, TRIALS, periods, True, kind="sfim")
+    first, _ = runner.compile_programs(run_spec(smoke), TRIALS, periods, True, kind="sfim")
+    again, seconds = runner.compile_programs(run_spec(numbers), TRIALS, periods, True, kind="sfim")
     assert seconds == 0.0 and again is first
-    res = runner.run_trials(numbers, "ccr-sfim", 11, np.arange(TRIALS), STEPS)
+    res = runner.run_trials(run_spec(numbers), "ccr-sfim", 11, np.arange(TRIALS), STEPS)
     assert res["compile_s"] == 0.0 and np.all(np.isfinite(res["rmse_pos"]))
     # ... and the numbers do reach the program: another seed, another truth.
     assert not np.array_equal(res["target"], results["ddr-sfim"]["target"])

@@ -8,6 +8,7 @@ import pytest
 from scipy.stats import norm
 
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.estimation import clutter, pda
 from mjx_radar.task.params import detection_of
 
@@ -52,9 +53,9 @@ def test_pda_closed_loop_tracks_in_clutter(tiny):
     error of the same detections."""
     base = tiny.replace(filter={"structure": "per-target"})
     det = {"model": "fixed", "fixed_pd": 0.9, "clutter_range_max": 500.0}
-    clean = runner.run_trials(base.replace(detection=det), "stationary", 3, TRIALS, STEPS)
+    clean = runner.run_trials(run_spec(base.replace(detection=det)), "stationary", 3, TRIALS, STEPS)
     s = base.replace(detection={**det, "clutter_density": 0.002})
-    res = runner.run_trials(s, "stationary", 3, TRIALS, STEPS)
+    res = runner.run_trials(run_spec(s), "stationary", 3, TRIALS, STEPS)
     fa = res["false_alarms"]
     n = fa.size * s.n_radars
     assert abs(fa.sum() / n - 1.0) < 4 * math.sqrt(1.0 / n), fa.mean()

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.estimation import detection
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.rundir import results
@@ -57,7 +58,7 @@ def test_run_detection_rate_within_binomial_error_of_the_modelled_pd(tiny):
     stationary run records: sum of detections within 4 standard deviations
     sqrt(sum Pd (1 - Pd)) of sum Pd (independent Bernoulli draws)."""
     s = _with(tiny, model="swerling1", gain_db=27.0, pfa=1e-6)
-    res = runner.run_trials(s, "stationary", 3, TRIALS, STEPS, full=True)
+    res = runner.run_trials(run_spec(s), "stationary", 3, TRIALS, STEPS, full=True)
     d = np.linalg.norm(res["target"][:, :, None, :, :3] - res["radar"][:, :, :, None, :3], axis=-1)
     eq = s.radar_eq
     snr = 10 ** ((eq.snr_db + 27.0) / 10) / s.n_targets * (eq.r_ref / d) ** 4
@@ -73,7 +74,7 @@ def test_run_detection_rate_within_binomial_error_of_the_modelled_pd(tiny):
 @pytest.mark.slow  # one more program; the Swerling run above tests the rate already
 def test_fixed_pd_run_rate(tiny):
     s = _with(tiny, model="fixed", fixed_pd=0.6)
-    res = runner.run_trials(s, "stationary", 3, TRIALS, STEPS, full=False)
+    res = runner.run_trials(run_spec(s), "stationary", 3, TRIALS, STEPS, full=False)
     n = res["visible_pairs"].sum()
     rate = res["detections"].sum() / n
     assert abs(rate - 0.6) <= 4 * math.sqrt(0.6 * 0.4 / n), rate
@@ -83,8 +84,8 @@ def test_fixed_pd_one_equals_perfect_detection_exactly(tiny):
     """fixed_pd = 1 detects every pair: it runs the paper's program, numbers bit for bit."""
     one = _with(tiny, model="fixed", fixed_pd=1.0)
     assert not one.detection.detects
-    base = runner.run_trials(tiny, "ddr-sfim", 5, TRIALS[:2], 8, full=False)
-    got = runner.run_trials(one, "ddr-sfim", 5, TRIALS[:2], 8, full=False)
+    base = runner.run_trials(run_spec(tiny), "ddr-sfim", 5, TRIALS[:2], 8, full=False)
+    got = runner.run_trials(run_spec(one), "ddr-sfim", 5, TRIALS[:2], 8, full=False)
     for k in results.METRIC_COLUMNS:
         np.testing.assert_array_equal(got[k], base[k], err_msg=k)
     np.testing.assert_array_equal(base["detections"], base["visible_pairs"])
@@ -96,9 +97,9 @@ def test_pd_just_below_one_agrees_to_round_off(tiny):
     planner information): with every pair detected (P(a miss in 64 draws) ~ 1e-5) it
     must agree with the paper's numbers to float32 round-off of a differently fused
     program over 8 steps (measured ~2e-4 relative)."""
-    base = runner.run_trials(tiny, "ddr-sfim", 5, TRIALS[:2], 8, full=False)
-    near = runner.run_trials(_with(tiny, model="fixed", fixed_pd=1.0 - 2e-7), "ddr-sfim", 5,
-                             TRIALS[:2], 8, full=False)  # fmt: skip
+    base = runner.run_trials(run_spec(tiny), "ddr-sfim", 5, TRIALS[:2], 8, full=False)
+    near = runner.run_trials(run_spec(_with(tiny, model="fixed", fixed_pd=1.0 - 2e-7)),
+                             "ddr-sfim", 5, TRIALS[:2], 8, full=False)  # fmt: skip
     np.testing.assert_array_equal(near["detections"], near["visible_pairs"])
     for k in ("rmse_pos", "rmse_state", "crlb_pos"):
         np.testing.assert_allclose(near[k], base[k], rtol=2e-3, err_msg=k)

@@ -12,6 +12,7 @@ import pytest
 
 import mjx_radar
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.env import Observation, RadarEnv, make
 from mjx_radar.env.streams import streams_of
 from mjx_radar.loop import closed_loop
@@ -128,7 +129,7 @@ class FullThrottle(Planner):
 def test_registered_planner_runs_in_the_runner_with_clipped_actions(tiny):
     register_planner("full-throttle", FullThrottle)
     try:
-        res = runner.run_trials(tiny, "ddr-sfim+full-throttle", 0, np.arange(2), 8)
+        res = runner.run_trials(run_spec(tiny), "ddr-sfim+full-throttle", 0, np.arange(2), 8)
     finally:
         unregister_planner("full-throttle")
     lim = tiny.limits

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.estimation.gospa import set_metrics
 from mjx_radar.rundir import results
 from mjx_radar.scenario.schema import TargetMotion
@@ -32,8 +33,8 @@ def runs(tiny):
         target_motion=(TargetMotion(target=1, appear=0.2),),
         metrics={"gospa_cutoff": 1e5, "gospa_order": 2.0},
     )
-    full = runner.run_trials(s, "stationary", 0, TRIALS, STEPS, full=True)
-    lean = runner.run_trials(s, "stationary", 0, TRIALS, STEPS, full=False)
+    full = runner.run_trials(run_spec(s), "stationary", 0, TRIALS, STEPS, full=True)
+    lean = runner.run_trials(run_spec(s), "stationary", 0, TRIALS, STEPS, full=False)
     return s, full, lean
 
 

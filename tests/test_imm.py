@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.estimation import filter_bank, imm
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.physics import motion
@@ -230,7 +231,7 @@ def test_closed_loop_waypoints_imm_tracks(method):
         mppi={"samples": 32, "iterations": 1},
         target_motion=(*s.target_motion[:3], late),
     )
-    out = runner.run_trials(s, method, 0, [0], 80)
+    out = runner.run_trials(run_spec(s), method, 0, [0], 80)
     assert np.all(np.isfinite(out["mean"])) and np.all(out["cov_diag"] > 0)
     assert not out["diverged"].any() and not out["lost"].any()
     present = out["targets_present"][0]

@@ -21,6 +21,7 @@ import pytest
 
 import mjx_radar
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.errors import InputError
 from mjx_radar.viz import live as live_mod
 from mjx_radar.viz.scene import scene_of
@@ -60,7 +61,7 @@ def live_run(tiny):
 
     opts = view.runner_options()
     assert opts["periods"] == 1  # smoke's default: one period (0.1 s) per segment
-    res = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, periods=opts["periods"],
+    res = runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, periods=opts["periods"],
                             on_segment=hook)  # fmt: skip
     yield view, reads, res
     view.close()
@@ -252,7 +253,7 @@ def test_view_leaves_the_numbers_alone(live_run, tiny):
     """The view's callback changes nothing: a plain run of the same program (same
     segments: no compilation) gives identical arrays."""
     _, _, res = live_run
-    plain = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS)
+    plain = runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS)
     assert plain["compile_s"] == 0.0
     for k in ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "sample_xy"):
         np.testing.assert_array_equal(plain[k], res[k], err_msg=k)
@@ -263,7 +264,7 @@ def test_shorter_segments_give_the_same_numbers(live_run, tiny):
     """Where ``--view`` shortens the segments (runs longer than 20 simulated seconds), the
     run is the same: 1 period per segment (the view's) vs 5 (another program)."""
     _, _, res = live_run
-    other = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, periods=5)
+    other = runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, periods=5)
     for k in ("target", "mean", "cov_diag", "radar", "rmse_pos", "crlb_pos", "sample_xy"):
         np.testing.assert_array_equal(other[k], res[k], err_msg=k)
 

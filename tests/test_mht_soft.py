@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.estimation import jpda, mht
 from mjx_radar.io.checks import ScenarioError
 
@@ -213,7 +214,7 @@ def test_branch_scans_in_the_closed_loop(tiny):
 
     def run(**kw):
         s = base.replace(tracker={"association": "mht", "hypotheses": 4, **kw})
-        return runner.run_trials(s, "stationary", 2, trials, 32)
+        return runner.run_trials(run_spec(s), "stationary", 2, trials, 32)
 
     tree, late, soft = run(), run(branch_scans=100000), run(branch_scans=1)
     np.testing.assert_allclose(late["rmse_pos"], tree["rmse_pos"], rtol=1e-4, atol=1e-4)

@@ -62,8 +62,9 @@ def test_radar_stops_at_wall_tree_and_building():
 
 def test_planner_plant_is_contact_free():
     s = Scenario("t", 2, ((0, 0, 50, 0, 0, 0),), obstacles=(WALL,), radar_init=((0, 0, 0),) * 2)
-    assert physics.planner_plant(s).fast
-    assert not physics.truth_plant(s).fast
+    assert physics.planner_plant(s.timing.dt_control, s.limits).fast
+    world = (s.obstacles, s.terrain, s.moving_obstacles)
+    assert not physics.truth_plant(2, 1, s.timing.dt_filter, s.limits, *world).fast
 
 
 def _box_distance_sampled(obs, xy, n=4000):

@@ -126,7 +126,7 @@ def test_contacts_off_without_obstacles():
         (lambda: physics.make_plant(0, 1, 0.1), "n_radars"),
         (lambda: physics.make_plant(1, 1, 0.0), "dt"),
         (
-            lambda: physics.truth_plant(Scenario(name="x", n_radars=1, target_init=())),
+            lambda: physics.truth_plant(1, 0, 0.025, RadarLimits()),
             "n_targets",
         ),
         (

@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.env import placement
 from mjx_radar.env.streams import trial_streams
 from mjx_radar.errors import InputError
@@ -218,11 +219,11 @@ def test_cached_check_loads_its_program_and_says_the_same(tmp_path, monkeypatch)
     def check_both():
         placement_cache._program.cache_clear()  # as a new process: nothing in memory
         with pytest.raises(InputError) as cached:  # the user's error: one line, exit 2
-            placement_cache.check_placeable(bad, bad.seed, 4)
+            placement_cache.check_placeable(run_spec(bad), bad.seed, 4)
         with pytest.raises(ValueError) as traced:
             placement.check_placeable(bad, bad.seed, 4)
         assert str(cached.value) == str(traced.value)
-        placement_cache.check_placeable(_scenario(), 7, 16)  # feasible: silent
+        placement_cache.check_placeable(run_spec(_scenario()), 7, 16)  # feasible: silent
 
     check_both()  # XLA compiles the flat programs (no other test does): both written
     assert len(list((tmp_path / "programs").glob("place-*.bin"))) == 2  # 4 -> 8, and 16
@@ -249,4 +250,4 @@ def test_cached_check_runs_on_this_process_device(tmp_path, monkeypatch):
         placement_cache._program.cache_clear()
         with monkeypatch.context() as m:
             m.setattr(jax, "devices", foreign)
-            placement_cache.check_placeable(_scenario(), 7, 16)
+            placement_cache.check_placeable(run_spec(_scenario()), 7, 16)

@@ -16,6 +16,7 @@ import pytest
 
 from mjx_radar.control import gradient, sampling
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 
 H, D = 4, 2
 LOWER, UPPER = jnp.array([-2.0, -1.0]), jnp.array([2.0, 1.0])
@@ -120,7 +121,7 @@ def test_objective_gradient_matches_finite_differences(rollout):
     ],  # suite time: CI runs three
 )
 def test_every_planner_runs_inside_the_limits(tiny, planner):
-    res = runner.run_trials(tiny, f"ddr-sfim+{planner}", 0, np.arange(2), 8)
+    res = runner.run_trials(run_spec(tiny), f"ddr-sfim+{planner}", 0, np.arange(2), 8)
     lim = np.array([tiny.limits.accel, tiny.limits.alpha])
     assert np.all(np.abs(res["control"]) <= lim + 1e-5)
     assert np.all(np.isfinite(res["rmse_pos"])) and np.any(res["control"] != 0)

@@ -6,6 +6,7 @@ import jax
 import pytest
 
 from mjx_radar.engine import runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.loop import closed_loop
 from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task.method import METHODS, SWITCH, parse_method, runs, shared_programs
@@ -59,21 +60,23 @@ def test_single_kind_programs_leave_out_the_other_branches(hlo):
 def test_precompile_compiles_one_program_per_shape(tiny, monkeypatch):
     seen = []
 
-    def fake(scenario, batch, periods, full, devices, kind="all", planner="mppi"):
-        seen.append((shape_key(scenario), kind))
+    def fake(spec, batch, periods, full, devices, kind="all", planner="mppi"):
+        seen.append((spec.shape, kind))
         return []
 
     monkeypatch.setattr(runner, "device_programs", fake)
     other = dataclasses.replace(tiny, name="other", seed=5)  # same shape
     bigger = dataclasses.replace(tiny, mpc=dataclasses.replace(tiny.mpc, horizon=4))
-    jobs = [(tiny, "ddr-sfim"), (tiny, "ccr-sfim"), (other, "ddr-pfim"), (bigger, "stationary")]
+    specs = [run_spec(s) for s in (tiny, other, bigger)]
+    names = [(0, "ddr-sfim"), (0, "ccr-sfim"), (1, "ddr-pfim"), (2, "stationary")]
+    jobs = [(specs[i], m) for i, m in names]
     runner.precompile(jobs, 2, 8)
     # one program per shape: a renamed copy is the same shape; stationary alone keeps its own
     assert sorted(k for _, k in seen) == ["none", SWITCH]
     assert {k for s, k in seen if s == shape_key(tiny)} == {SWITCH}
     assert {k for s, k in seen if s == shape_key(bigger)} == {"none"}
     seen.clear()
-    runner.precompile([tiny], 2, 8)  # a scenario alone: every method, one program
+    runner.precompile([specs[0]], 2, 8)  # a scenario alone: every method, one program
     assert [k for _, k in seen] == [SWITCH]
 
 
@@ -100,4 +103,4 @@ def test_stationary_rides_along_in_a_planning_program():
 
 def test_run_trials_refuses_a_program_that_does_not_run_the_method(tiny):
     with pytest.raises(ValueError, match="does not run the method ddr-pfim"):
-        runner.run_trials(tiny, "ddr-pfim", 0, [0], 4, program=("sfim+none", "mppi"))
+        runner.run_trials(run_spec(tiny), "ddr-pfim", 0, [0], 4, program=("sfim+none", "mppi"))

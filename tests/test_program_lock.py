@@ -18,6 +18,7 @@ from pathlib import Path
 import jax
 
 from mjx_radar.engine import compile_cache, programs
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.task.params import shape_key
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -33,7 +34,8 @@ s = load_scenario("smoke")
 tiny = dataclasses.replace(s, name="tiny",
     mpc=dataclasses.replace(s.mpc, horizon=3, rollout="analytic"),
     mppi=dataclasses.replace(s.mppi, samples=32, iterations=1))
-progs, _ = compile_programs(tiny, 3, 1, False, None, "none", "hold")
+from mjx_radar.engine.run_spec import run_spec
+progs, _ = compile_programs(run_spec(tiny), 3, 1, False, None, "none", "hold")
 from tests.test_program_lock import outputs_digest
 print(json.dumps(COMPILE_LOG[-1] | {"digest": outputs_digest(tiny, progs)}))
 """
@@ -87,7 +89,7 @@ def test_second_process_waits_then_loads_the_first_ones_program(tiny):
             assert time.monotonic() < deadline, "the other process never took the lock"
             time.sleep(0.05)
         n = len(programs.COMPILE_LOG)
-        progs, _ = programs.compile_programs(tiny, 3, 1, False, None, "none", "hold")
+        progs, _ = programs.compile_programs(run_spec(tiny), 3, 1, False, None, "none", "hold")
         first = json.loads(other.communicate(timeout=300)[0].strip().splitlines()[-1])
     finally:
         other.kill()

@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine import memory_model, resources
+from mjx_radar.engine.run_spec import program_size, run_spec
 from mjx_radar.errors import InputError
 from mjx_radar.scenario.reader import load_scenario
 
@@ -194,7 +195,7 @@ def _with(s, structure):
 def test_estimate_within_factor_of_cpu_measurements(tmp_path, case):
     *shape, trials, azimuth, box, xla = case
     s = _shape(tmp_path, *shape, azimuth, box)
-    est = sum(resources.device_terms(s, trials, "cpu").values())
+    est = sum(resources.device_terms(program_size(s), trials, "cpu").values())
     assert LO <= est / xla <= HI, (case, est / xla)
 
 
@@ -208,7 +209,7 @@ def test_estimate_within_factor_of_bundled_scenarios(platform, case):
     s = _with(load_scenario(name), structure)
     s = dataclasses.replace(s, mpc=dataclasses.replace(s.mpc, rollout=rollout))
     full = platform == "cpu"  # the GPU figures are a study's (metrics-only) programs
-    est = sum(resources.device_terms(s, trials, platform, "all", full).values())
+    est = sum(resources.device_terms(program_size(s), trials, platform, "all", full).values())
     # a program of a few MB (smoke: 1.3x) is fused more tightly on the GPU; never below
     assert LO <= est / xla and (est / xla <= HI or xla < 10e6), (case, est / xla)
 
@@ -219,7 +220,7 @@ def test_estimate_within_25_percent_for_every_bundled_scenario_and_method(case):
     s = load_scenario(name)
     assert s.filter.structure == structure  # the bundled file as measured
     seg = s.timing.control_every  # 8 steps: segments of one control period
-    est = sum(resources.device_terms(s, 2, "cpu", kind, True, seg).values())
+    est = sum(resources.device_terms(program_size(s), 2, "cpu", kind, True, seg).values())
     lo, hi = memory_model.BUNDLED_FACTOR
     assert lo <= est / xla <= hi, (case, est / xla)
 
@@ -227,7 +228,7 @@ def test_estimate_within_25_percent_for_every_bundled_scenario_and_method(case):
 def test_estimate_of_the_joint_swarm_within_25_percent():
     name, structure, kind, trials, xla = CPU_JOINT_SWARM
     s = _with(load_scenario(name), structure)
-    est = sum(resources.device_terms(s, trials, "cpu", kind, True, 4).values())
+    est = sum(resources.device_terms(program_size(s), trials, "cpu", kind, True, 4).values())
     lo, hi = memory_model.BUNDLED_FACTOR
     assert lo <= est / xla <= hi, est / xla
 
@@ -236,7 +237,9 @@ def test_estimate_covers_the_h200s_out_of_memory_request():
     name, structure, trials, asked = GPU_OOM
     s = _with(load_scenario(name), structure)
     kinds = ("sfim", "pfim", "all", "sfim+pfim+none")
-    est = max(sum(resources.device_terms(s, trials, "gpu", k).values()) for k in kinds)
+    est = max(
+        sum(resources.device_terms(program_size(s), trials, "gpu", k).values()) for k in kinds
+    )
     lo, hi = memory_model.BUNDLED_FACTOR
     assert lo <= est / asked <= hi, est / asked
 
@@ -264,7 +267,11 @@ def test_gpu_estimate_of_the_joint_swarms_within_25_percent(row, swarm_files):
     name, structure, kind, _, trials, xla, peak = row
     path = swarm_files / f"{name}.toml"
     s = _with(load_scenario(path if path.exists() else name), structure)
-    est = sum(resources.device_terms(s, trials, "gpu", kind, True, runner_segment(s)).values())
+    est = sum(
+        resources.device_terms(
+            program_size(s), trials, "gpu", kind, True, runner_segment(s)
+        ).values()
+    )
     lo, hi = memory_model.BUNDLED_FACTOR
     assert lo <= est / xla <= hi, (name, trials, est / xla)
     if peak:
@@ -278,7 +285,9 @@ def test_gpu_estimate_within_25_percent_of_the_h200(row):
     s = load_scenario(name)
     assert s.filter.structure == structure  # the bundled file as measured
     seg = runner_segment(s)
-    est = sum(resources.device_terms(s, trials, "gpu", kind, program == "run", seg).values())
+    est = sum(
+        resources.device_terms(program_size(s), trials, "gpu", kind, program == "run", seg).values()
+    )
     case = (name, kind, program, trials)
     lo, hi = GPU_XLA_MISSES.get(case, memory_model.BUNDLED_FACTOR)
     assert lo <= est / xla <= hi, (case, est / xla)
@@ -301,17 +310,19 @@ def test_gpu_estimate_and_refusal_use_the_gpu_terms_and_floor(monkeypatch):
     s = load_scenario("paper_3r4t")
     seg = runner_segment(s)
     for kind, trials in (("none", 4), ("sfim", 64), ("pfim", 64)):
-        est = resources.estimate(s, trials, 8, kind=kind)
-        xla = sum(memory_model.device_terms(s, trials, "gpu", kind, True, seg).values())
+        est = resources.estimate(run_spec(s), trials, 8, kind=kind)
+        xla = sum(
+            memory_model.device_terms(program_size(s), trials, "gpu", kind, True, seg).values()
+        )
         assert est.device_bytes == memory_model.device_peak(xla, "gpu"), kind
         assert ("GPU runtime" in est.device) == (kind != "pfim"), est.device
     with pytest.raises(InputError) as err:
-        resources.check(s, 256, 8, kind="pfim")  # ~1.9 GB of PFIM arrays, 1 GiB free
+        resources.check(run_spec(s), 256, 8, kind="pfim")  # ~1.9 GB of PFIM arrays, 1 GiB free
     fit = int(str(err.value).split("; --trials ")[1].split()[0])
-    resources.check(s, fit, 8, kind="pfim")
+    resources.check(run_spec(s), fit, 8, kind="pfim")
     with pytest.raises(InputError):
-        resources.check(s, fit + 1, 8, kind="pfim")
-    resources.check(s, 256, 8, kind="sfim")  # the joint SFIM is fused on a GPU
+        resources.check(run_spec(s), fit + 1, 8, kind="pfim")
+    resources.check(run_spec(s), 256, 8, kind="sfim")  # the joint SFIM is fused on a GPU
 
 
 @pytest.mark.slow  # a 4-radar program compiled cold (45-65 s on 2 cores); the model stays in CI
@@ -322,11 +333,11 @@ def test_estimate_matches_a_fresh_compilation(tmp_path, structure):
     from mjx_radar.engine import programs, runner
 
     s = _shape(tmp_path, 4, 2, 64, 8, structure, "analytic", False, False)
-    progs, _ = programs.compile_programs(s, 2, runner.segment_periods(s, 8), full=True)
+    progs, _ = programs.compile_programs(run_spec(s), 2, runner.segment_periods(s, 8), full=True)
     ma = progs.step.memory_analysis()
     xla = (ma.temp_size_in_bytes + ma.argument_size_in_bytes + ma.output_size_in_bytes
            - ma.alias_size_in_bytes)  # fmt: skip
-    est = sum(resources.device_terms(s, 2, "cpu").values())
+    est = sum(resources.device_terms(program_size(s), 2, "cpu").values())
     assert LO <= est / xla <= HI, (structure, est, xla)
 
 
@@ -335,7 +346,7 @@ def test_300_targets_joint_refused_before_compiling(tmp_path):
     path = tmp_path / "many.toml"
     path.write_text(_scenario_text(300, 4, 0, 15, "joint", "mjx", name="many"))  # S = 200
     s = load_scenario(path)
-    need = sum(resources.estimate(s, 1, 80).device.values())
+    need = sum(resources.estimate(run_spec(s), 1, 80).device.values())
     if (resources.host_available() or 0) > need:
         pytest.skip(f"this machine has more than {resources.fmt_bytes(need)} free")
     out = tmp_path / "out"
@@ -369,7 +380,7 @@ def test_usual_study_sizes_fit_an_80gb_gpu(monkeypatch):
         s = load_scenario(path)
         structure, chunk = usual.get(s.name, (s.filter.structure, 500))
         s = _with(s, structure)
-        resources.check(s, chunk, s.timing.steps, full=False, batch_option="--chunk")
+        resources.check(run_spec(s), chunk, s.timing.steps, full=False, batch_option="--chunk")
 
 
 def test_every_bundled_scenario_runs_on_a_24gb_cpu(monkeypatch):
@@ -377,23 +388,25 @@ def test_every_bundled_scenario_runs_on_a_24gb_cpu(monkeypatch):
     monkeypatch.setattr(resources, "host_available", lambda: 20 * 2**30)
     for path in sorted((REPO / "scenarios").glob("*.toml")):
         s = load_scenario(path)
-        resources.check(s, 1, s.timing.steps)
+        resources.check(run_spec(s), 1, s.timing.steps)
 
 
 def test_joint_swarm_chunk_refused_naming_per_target_and_chunk(monkeypatch):
     _gpu(monkeypatch, 60)
     s = _with(load_scenario("swarm_32r32t"), "joint")
     with pytest.raises(InputError) as err:
-        resources.check(s, 100, 600, 2, full=False, batch_option="--chunk")
+        resources.check(run_spec(s), 100, 600, 2, full=False, batch_option="--chunk")
     line = str(err.value)
     assert "\n" not in line and "--chunk 50" in line and "on the device" in line, line
     assert 'set [filter] structure = "per-target"' in line and "or --chunk" in line, line
     # the largest chunk that fits, by the same estimate
     fit = int(line.split("; --chunk ")[1].split()[0])
-    resources.check(s, 2 * fit, 600, 2, full=False, batch_option="--chunk")
+    resources.check(run_spec(s), 2 * fit, 600, 2, full=False, batch_option="--chunk")
     with pytest.raises(InputError):
-        resources.check(s, 2 * fit + 2, 600, 2, full=False, batch_option="--chunk")
-    resources.check(_with(s, "per-target"), 100, 600, 2, full=False, batch_option="--chunk")
+        resources.check(run_spec(s), 2 * fit + 2, 600, 2, full=False, batch_option="--chunk")
+    resources.check(
+        run_spec(_with(s, "per-target")), 100, 600, 2, full=False, batch_option="--chunk"
+    )
 
 
 def test_bundled_swarm_32r32t_uses_the_per_target_filter():
@@ -403,11 +416,15 @@ def test_bundled_swarm_32r32t_uses_the_per_target_filter():
     s = load_scenario("swarm_32r32t")
     assert s.filter.structure == "per-target"
     for kind in ("sfim", "pfim"):
-        per_trial = sum(resources.device_terms(s, 1, "gpu", kind).values())
+        per_trial = sum(resources.device_terms(program_size(s), 1, "gpu", kind).values())
         assert 64 * per_trial < 40e9, (kind, per_trial)
-    cpu = sum(resources.device_terms(s, 1, "cpu", "sfim").values())
-    joint_cpu = sum(resources.device_terms(_with(s, "joint"), 1, "cpu", "sfim").values())
-    joint_gpu = sum(resources.device_terms(_with(s, "joint"), 1, "gpu", "pfim").values())
+    cpu = sum(resources.device_terms(program_size(s), 1, "cpu", "sfim").values())
+    joint_cpu = sum(
+        resources.device_terms(program_size(_with(s, "joint")), 1, "cpu", "sfim").values()
+    )
+    joint_gpu = sum(
+        resources.device_terms(program_size(_with(s, "joint")), 1, "gpu", "pfim").values()
+    )
     assert joint_cpu > 20 * cpu and joint_gpu > 20 * per_trial, (cpu, joint_cpu, joint_gpu)
 
 
@@ -442,9 +459,9 @@ def test_over_large_run_refused_in_one_line_before_compiling(tmp_path, monkeypat
     fit = int(err.split("; --trials ")[1].split()[0])
     s = load_scenario("smoke")
     steps = s.timing.steps
-    resources.check(s, fit, steps, kind="sfim")  # it fits, one more does not
+    resources.check(run_spec(s), fit, steps, kind="sfim")  # it fits, one more does not
     with pytest.raises(InputError):
-        resources.check(s, fit + 1, steps, kind="sfim")
+        resources.check(run_spec(s), fit + 1, steps, kind="sfim")
     assert len(programs.COMPILE_LOG) == compiled and not out.exists()
     assert time.perf_counter() - t0 < 30
 
@@ -490,10 +507,10 @@ def test_float64_doubles_the_estimate(monkeypatch):
     import jax
 
     s = load_scenario("smoke")
-    f32 = resources.device_terms(s, 4, "cpu")
+    f32 = resources.device_terms(program_size(s), 4, "cpu")
     with jax.enable_x64(True):
         assert resources.float_bytes() == 8
-        f64 = resources.device_terms(s, 4, "cpu")
+        f64 = resources.device_terms(program_size(s), 4, "cpu")
     assert all(f64[k] == pytest.approx(2 * f32[k], rel=1e-6) for k in f32)
 
 

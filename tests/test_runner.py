@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine import compile_cache, programs, runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.rundir import results
 from mjx_radar.scenario.reader import load_scenario
 
@@ -33,7 +34,7 @@ def export_dir(tmp_path_factory):
 def first_run(tiny, export_dir):
     phases, progress = [], []
     log_before = len(programs.COMPILE_LOG)
-    res = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False,
+    res = runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, full=False,
                             progress=progress.append, phase=phases.append)  # fmt: skip
     # this run's entries (a program another test started in the background may land meanwhile)
     log = [e for e in programs.COMPILE_LOG[log_before:] if e["scenario"] == tiny.name]
@@ -61,11 +62,15 @@ def test_programs_needed_counts_one_per_shape_kind_planner_and_device():
     on 4 GPUs)."""
     paper = [load_scenario(n) for n in ("paper_3r4t", "paper_4r4t", "paper_6r3t")]
     methods = ["stationary", "ccr-sfim", "ccr-pfim", "ddr-sfim", "ddr-pfim"]
-    jobs = [(s, m) for s in paper for m in methods]
+    jobs = [(run_spec(s), m) for s in paper for m in methods]
     assert runner.programs_needed(jobs, 4) == 12 and runner.programs_needed(jobs, 1) == 3
     smoke = load_scenario("smoke")  # a renamed copy is the same shape; a planner is not
     twin = dataclasses.replace(smoke, name="twin")
-    jobs = [(smoke, "ddr-sfim"), (twin, "ccr-sfim"), (smoke, "ddr-sfim+ps")]
+    jobs = [
+        (run_spec(smoke), "ddr-sfim"),
+        (run_spec(twin), "ccr-sfim"),
+        (run_spec(smoke), "ddr-sfim+ps"),
+    ]
     assert runner.programs_needed(jobs, 2) == 4
 
 
@@ -98,23 +103,25 @@ def test_phases_progress_and_compile_log(first_run):
 def test_second_call_reuses_the_program_and_reproduces(tiny, first_run):
     res, log_len = first_run[0], len(programs.COMPILE_LOG)
     phases = []
-    again = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, phase=phases.append)
+    again = runner.run_trials(
+        run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, full=False, phase=phases.append
+    )
     assert again["compile_s"] == 0.0 and phases == ["compiling", "simulating"]
     assert len(programs.COMPILE_LOG) == log_len  # nothing compiled
     for k in results.METRIC_COLUMNS:
         np.testing.assert_array_equal(again[k], res[k], err_msg=k)
     # a trial's numbers do not depend on its position in the batch
-    rev = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS[::-1], STEPS, full=False)
+    rev = runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS[::-1], STEPS, full=False)
     assert rev["compile_s"] == 0.0
     for k in results.METRIC_COLUMNS:
         np.testing.assert_array_equal(rev[k], res[k][::-1], err_msg=k)
     # the other noise model of the same information kind is a runtime argument of the
     # same program, with other numbers
-    other = runner.run_trials(tiny, "ccr-sfim", 0, TRIALS, STEPS, full=False)
+    other = runner.run_trials(run_spec(tiny), "ccr-sfim", 0, TRIALS, STEPS, full=False)
     assert other["compile_s"] == 0.0
     assert not np.array_equal(other["rmse_pos"], res["rmse_pos"])
     # stationary radars compile their own program, without a planner
-    still = runner.run_trials(tiny, "stationary", 0, TRIALS, STEPS, full=False)
+    still = runner.run_trials(run_spec(tiny), "stationary", 0, TRIALS, STEPS, full=False)
     assert still["compile_s"] > 0 and programs.COMPILE_LOG[-1]["kind"] == "none"
     assert not np.array_equal(still["rmse_pos"], res["rmse_pos"])
 
@@ -130,7 +137,7 @@ def test_export_cache_round_trip(tiny, first_run, export_dir, monkeypatch):
         exe.unlink()
     monkeypatch.setattr(programs, "_CACHE", {})
     n0 = len(programs.COMPILE_LOG)
-    b = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False)
+    b = runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, full=False)
     assert b["compile_s"] > 0 and programs.COMPILE_LOG[n0]["source"] == "export cache"
     for k in results.METRIC_COLUMNS:
         np.testing.assert_array_equal(b[k], first_run[0][k], err_msg=k)
@@ -144,18 +151,22 @@ def test_programs_started_in_the_background_are_the_ones_run(tiny, first_run, mo
 
     monkeypatch.setattr(programs, "_CACHE", {})
     n0 = len(programs.COMPILE_LOG)
-    pending = runner.start_programs(tiny, "ddr-sfim", TRIALS, STEPS, full=False)
-    again = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=pending)
+    pending = runner.start_programs(run_spec(tiny), "ddr-sfim", TRIALS, STEPS, full=False)
+    again = runner.run_trials(
+        run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=pending
+    )
     assert len(programs.COMPILE_LOG) == n0 + 1 and again["compile_s"] > 0
     assert programs.COMPILE_LOG[n0]["source"] in ("export cache", "executable cache")
     foreign = PendingPrograms(request=("another shape",), started=None)  # never started
-    cached = runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=foreign)
+    cached = runner.run_trials(
+        run_spec(tiny), "ddr-sfim", 0, TRIALS, STEPS, full=False, programs=foreign
+    )
     assert len(programs.COMPILE_LOG) == n0 + 1  # this process's program, not the foreign one
     for res in (again, cached):
         for k in results.METRIC_COLUMNS:
             np.testing.assert_array_equal(res[k], first_run[0][k], err_msg=k)
     with pytest.raises(ValueError, match="steps: 6 must be a multiple of 4"):
-        runner.start_programs(tiny, "ddr-sfim", TRIALS, 6)  # checked as run_trials checks
+        runner.start_programs(run_spec(tiny), "ddr-sfim", TRIALS, 6)  # checked as run_trials checks
 
 
 def _callsite_depth(mlir: str) -> int:
@@ -196,14 +207,14 @@ def test_exported_programs_carry_one_source_line_per_operation(export_dir):
 
 def test_steps_not_a_multiple_of_the_control_period(tiny):
     with pytest.raises(ValueError, match="steps: 6 must be a multiple of 4"):
-        runner.run_trials(tiny, "ddr-sfim", 0, TRIALS, 6)
+        runner.run_trials(run_spec(tiny), "ddr-sfim", 0, TRIALS, 6)
 
 
 @pytest.mark.slow  # a program of its own (30-40 s on 2 cores) for one edge of the records
 def test_fewer_mppi_samples_than_kept_samples_runs(tiny):
     # The plan and idle branches of the closed loop record min(32, samples) samples.
     s = dataclasses.replace(tiny, mppi=dataclasses.replace(tiny.mppi, samples=16))
-    res = runner.run_trials(s, "ddr-sfim", 0, TRIALS, STEPS, full=True)
+    res = runner.run_trials(run_spec(s), "ddr-sfim", 0, TRIALS, STEPS, full=True)
     assert res["sample_cost"].shape == (2, STEPS // 4, 16)
 
 
@@ -219,7 +230,7 @@ def test_a_single_trial_run_is_the_plain_loop(tiny):
     from mjx_radar.task.task import make_task
 
     steps = 40
-    res = runner.run_trials(tiny, "stationary", 0, np.array([1]), steps, full=True)
+    res = runner.run_trials(run_spec(tiny), "stationary", 0, np.array([1]), steps, full=True)
     assert programs.COMPILE_LOG[-1]["batch"] == 1
     task = make_task(shape_key(tiny), "none")
     params = task_params(tiny, parse_method("stationary"))

@@ -19,6 +19,7 @@ import pytest
 
 import mjx_radar.cli.main as cli
 from mjx_radar.engine import determinism
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.study import metrics as study_metrics
 
 REPO = Path(__file__).resolve().parent.parent
@@ -79,7 +80,7 @@ def test_trial_independent_of_batch_mates(study_dir):
     # run alone, each method in its own program: the study's shared program (stationary
     # rides along in the SFIM one) gives the same numbers bit for bit
     for method in ("ddr-sfim", "stationary"):
-        res = runner.run_trials(s, method, 3, [3, 1], 8, full=False)
+        res = runner.run_trials(run_spec(s), method, 3, [3, 1], 8, full=False)
         rows = frame[frame["method"] == method]
         for row, trial in enumerate((3, 1)):
             for col in ("rmse_pos", "nees", "crlb_pos", "gospa"):

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine import device_lane, runner
+from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.env.records import SET_KEYS
 from mjx_radar.rundir.results import LOOP_COLUMNS
 from mjx_radar.scenario.reader import load_scenario
@@ -46,8 +47,7 @@ class _Pending:
         return f"program {i}"
 
 
-def _arrays(scenario, b, k):
-    m = scenario.n_targets
+def _arrays(m, b, k):
     loop = {c: np.zeros((b, k), np.float32) for c in LOOP_COLUMNS}
     sets = {
         "truth_pos": np.zeros((b, k, m, 3), np.float32),
@@ -64,26 +64,26 @@ def study(monkeypatch, tmp_path):
     """Two scenario shapes x two methods, two chunks each, on 2 (fake) devices; the first
     program is ready 0.2 s after the start, the second when the test says so; a chunk
     takes 50 ms on its device."""
-    shapes = [(load_scenario("smoke"), None, 8, 0), (load_scenario("paper_3r4t"), None, 8, 0)]
+    shapes = [(run_spec(load_scenario(n)), None, 8, 0) for n in ("smoke", "paper_3r4t")]
     todo = all_chunks(shapes, ["ddr-sfim", "stationary"], 4, 2, Path(tmp_path))
     t0 = time.perf_counter()
     started, ran = [], []
 
-    def start_programs(scenario, method, trials, steps, full, mesh, program):
+    def start_programs(spec, method, trials, steps, full, mesh, program):
         assert len(trials) == 4 and not full and program == ("sfim+none", "mppi")
         started.append(_Pending(t0, 2))
         if len(started) == 1:
             threading.Timer(0.2, started[0].set).start()
         return started[-1]
 
-    def run_on_device(prog, scenario, method, seed, ids, steps, progress):
+    def run_on_device(prog, spec, method, seed, ids, steps, progress):
         second_ready = started[1].ready.is_set()
-        ran.append((scenario.name, method, prog, second_ready))
+        ran.append((spec.name, method, prog, second_ready))
         time.sleep(0.05)
         if len(ran) == 4:  # the first shape is done: its program comes 0.3 s later
             threading.Timer(0.3, started[1].set).start()
         progress(steps)
-        return _arrays(scenario, len(ids), steps)
+        return _arrays(spec.size.n_targets, len(ids), steps)
 
     monkeypatch.setattr(runner, "start_programs", start_programs)
     monkeypatch.setattr(device_lane, "run_on_device", run_on_device)
@@ -98,7 +98,7 @@ def test_lanes_run_each_chunk_once_as_soon_as_its_program_is_ready(study):
     assert len(programs) == 2 and len(started) == 2  # one per shape, in study order
     args = SimpleNamespace(chunk=2, progress=False)
     host = lanes.run_lanes(args, todo, mesh, times, programs)
-    assert sorted(r[:2] for r in ran) == sorted((c.scenario.name, c.method) for c in todo)
+    assert sorted(r[:2] for r in ran) == sorted((c.spec.name, c.method) for c in todo)
     # the first shape ran (on both devices) while the second program was still compiling,
     # the planning method's chunks before the stationary ones (the costliest first)
     assert [r[3] for r in ran] == [False] * 4 + [True] * 4
@@ -149,7 +149,7 @@ def _job(tmp_path, i, scenario):
 
 def test_host_pool_finishes_every_chunk_and_raises_a_failed_write(tmp_path):
     s = load_scenario("smoke")
-    arrays = _arrays(s, 2, 8)
+    arrays = _arrays(s.n_targets, 2, 8)
     loop = {k: arrays[k] for k in LOOP_COLUMNS}
     sets = {k: arrays[k] for k in SET_KEYS}
     with HostPool(3, limit=2) as pool:

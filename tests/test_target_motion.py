@@ -33,8 +33,12 @@ def _scenario(targets, motions, steps):
 
 def _fly(scenario, keys=None, steps=None):
     """Truth target states [K+1, M, 6] (or [T, K+1, M, 6] over ``keys``) of the MJX plant."""
-    mp = target_motion.motion_params(scenario, jnp.float32)
-    x0 = jnp.asarray(target_motion.initial_states(scenario), jnp.float32)
+    tables, timing = scenario.target_motion, scenario.timing
+    mp = target_motion.motion_params(
+        scenario.target_init, tables, timing, scenario.sigma_w2, jnp.float32
+    )
+    x0 = target_motion.initial_states(scenario.target_init, tables, timing.dt_filter)
+    x0 = jnp.asarray(x0, jnp.float32)
     plant = physics.make_plant(2, scenario.n_targets, DT)
     radars = jnp.array([[300.0, 0, 0, 0, 0, 0], [-300.0, 0, 0, 0, 0, 0]])
     k_total = steps or scenario.timing.steps
@@ -116,7 +120,8 @@ def test_track_reproduces_its_csv(tmp_path):
     slope = (np.array(rows[3][1:]) - rows[2][1:]) / 1.5
     np.testing.assert_allclose(traj[200, :3], np.array(rows[3][1:]) + 1.0 * slope, atol=2e-3)
     # the track's start overrides the targets row
-    np.testing.assert_allclose(target_motion.initial_states(s)[0, :3], [0, 0, 50])
+    x0 = target_motion.initial_states(s.target_init, s.target_motion, s.timing.dt_filter)
+    np.testing.assert_allclose(x0[0, :3], [0, 0, 50])
 
 
 def test_noise_on_top_is_a_cv_perturbation_of_the_nominal_path():
@@ -126,7 +131,7 @@ def test_noise_on_top_is_a_cv_perturbation_of_the_nominal_path():
                   [TargetMotion(target=0, model="turn", rate=0.3, sigma_w2=4.0)], 80)  # fmt: skip
     trials = 400
     traj = _fly(s, jax.random.split(jax.random.PRNGKey(3), trials))[:, :, 0]
-    _, vel, _ = target_motion.nominal_paths(s)
+    _, vel, _ = target_motion.nominal_paths(s.target_init, s.target_motion, s.timing)
     dv = traj[:, -1, 3:] - vel[-1, 0]
     var = dv.var(axis=0)
     expect = 4.0 * 80 * DT**2  # 0.2 (m/s)²
@@ -139,7 +144,9 @@ def test_cv_table_is_the_papers_cv_step():
     # a cv table (e.g. only for appear times) flies exactly the CV model of SPEC §2
     s = _scenario([[0, 0, 60, 15, 0, 0], [0, 50, 55, 20, 10, 0]],
                   [TargetMotion(target=1, appear=1.0)], 40)  # fmt: skip
-    mp = target_motion.motion_params(s, jnp.float32)
+    mp = target_motion.motion_params(
+        s.target_init, s.target_motion, s.timing, s.sigma_w2, jnp.float32
+    )
     assert not bool(mp.nominal.any())
     np.testing.assert_allclose(np.asarray(mp.noise_std), math.sqrt(s.sigma_w2))
     plant = physics.make_plant(2, 2, DT)

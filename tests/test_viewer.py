@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import mjx_radar
+from mjx_radar.api.run_case import run_header
 from mjx_radar.errors import InputError
 from mjx_radar.rundir.results import METRIC_COLUMNS
 from mjx_radar.rundir.writer import write_run
@@ -72,7 +73,8 @@ def synthetic_run(out, scenario, trials=1, steps=None, seed=0, var=4.0, radar_z=
         sim_s=1.0,
         control_hz=10.0,
     )
-    return write_run(out, s, "ddr-sfim", s.seed, np.arange(trials), steps, res)
+    head, toml = run_header(s), s.to_toml()
+    return write_run(out, head, "ddr-sfim", s.seed, np.arange(trials), steps, res, toml=toml)
 
 
 def _present(s, t) -> np.ndarray:

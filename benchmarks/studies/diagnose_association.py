@@ -39,7 +39,8 @@ def labels(scenario, samples: int = 200_000, seed: int = 0) -> dict:
     """Monte Carlo of the prior's labelling: P(best permutation is not the identity)."""
     from mjx_radar.physics.target_motion import initial_states
 
-    x = np.asarray(initial_states(scenario), float).reshape(scenario.n_targets, 6)
+    x0 = initial_states(scenario.target_init, scenario.target_motion, scenario.timing.dt_filter)
+    x = np.asarray(x0, float).reshape(scenario.n_targets, 6)
     m = x.shape[0]
     e = np.random.default_rng(seed).standard_normal((samples, m, x.shape[1]))
     xh = x[None] + np.sqrt(scenario.p0) * e

@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mjx_radar.engine.run_spec import run_spec
+
 
 def gospa(truth, present, est, exist, c: float, p: float = 2.0):
     """``(gospa, loc, n_missed, n_false)`` of one step (α = 2; see the module docstring)."""
@@ -65,7 +67,7 @@ def scenario_for(management: str, max_tracks: int, steps: int, options=()):
 def run_chunk(sc, method, seed, trials, steps, cutoff):
     from mjx_radar.engine.runner import run_trials
 
-    res = run_trials(sc, method, seed, np.asarray(trials), steps, full=True)
+    res = run_trials(run_spec(sc), method, seed, np.asarray(trials), steps, full=True)
     truth = res["target"][..., :3]  # [T, K, M, 3]
     present, pos, exist = res["present"], res["track_pos"], res["track_exist"]
     t, k = truth.shape[:2]

@@ -113,6 +113,7 @@ class Run:
             InputError: ``path`` holds a complete run (without ``force``), is a file,
                 cannot be written, or another process is writing there.
         """
+        from mjx_radar.api.run_case import run_header
         from mjx_radar.io.atomic import create_dir
         from mjx_radar.io.lock import lock_dir
         from mjx_radar.rundir.writer import write_run
@@ -126,12 +127,13 @@ class Run:
                 raise InputError(f"path = {str(path)!r}: holds a complete run; pass force=True")
             write_run(
                 path,
-                self.scenario,
+                run_header(self.scenario),
                 self.method,
                 self.seed,
                 self.trials,
                 self.steps,
                 self._res,
+                toml=self.scenario.to_toml(),
                 precision=self.meta.get("precision", "float32"),
             )
         self.path = path

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import os
 import runpy
 from pathlib import Path
@@ -58,6 +59,41 @@ class RunRequest:
     cache: bool = True
     cache_dir: str | None = None
     masks: bool = False
+
+    @functools.cached_property
+    def spec(self):
+        """The scenario as the engine takes it (:class:`~mjx_radar.engine.run_spec.RunSpec`),
+        read once."""
+        from mjx_radar.engine.run_spec import run_spec
+
+        return run_spec(self.scenario)
+
+
+def run_header(scenario):
+    """What a run directory records of ``scenario``
+    (:class:`~mjx_radar.rundir.writer.RunHeader`), read once for its writer."""
+    from mjx_radar.estimation.sensing import noise_constant
+    from mjx_radar.rundir.writer import RunHeader
+
+    s, each = scenario, None
+    if any(ov.radar_eq for ov in s.radar_override):  # a mixed fleet: C of each radar
+        from mjx_radar.scenario.fleet import radar_equation
+
+        each = tuple(noise_constant(radar_equation(s, i), s.n_targets) for i in range(s.n_radars))
+    return RunHeader(
+        name=s.name,
+        dt_filter=s.timing.dt_filter,
+        dt_control=s.timing.dt_control,
+        n_radars=s.n_radars,
+        n_targets=s.n_targets,
+        r2t=s.mpc.r2t,
+        r2r=s.mpc.r2r,
+        rollout=s.mpc.rollout,
+        noise_constant=noise_constant(s.radar_eq, s.n_targets),
+        noise_constants=each,
+        gospa_cutoff=s.metrics.gospa_cutoff,
+        gospa_order=s.metrics.gospa_order,
+    )
 
 
 def load_plugins(paths) -> None:
@@ -181,7 +217,7 @@ def start_programs(req: RunRequest, live=None):
 
     with precision_scope(req):  # the background thread traces in the run's x64 mode
         periods = None if live is None else live.runner_options()["periods"]
-        args = (req.scenario, req.method, req.trials, req.steps)
+        args = (req.spec, req.method, req.trials, req.steps)
         return runner.start_programs(*args, periods=periods, masks=req.masks)
 
 
@@ -204,11 +240,11 @@ def execute(
     deterministic = process_options(req)
     with precision_scope(req):
         if checks:
-            resources.check(req.scenario, len(req.trials), req.steps, kind=req.method.kind)
+            resources.check(req.spec, len(req.trials), req.steps, kind=req.method.kind)
         programs = programs or start_programs(req, live)
         view = {} if live is None else live.runner_options()
         res = runner.run_trials(
-            req.scenario,
+            req.spec,
             req.method,
             req.seed,
             req.trials,

@@ -146,7 +146,7 @@ def _simulate(req, progress: bool, view=(False, None, 0)) -> Run:
     arrays = {k: np.asarray(res[k]) for k in TRAJECTORY_KEYS if k in res}
     arrays["time_s"] = time_s
     meta = run_meta(
-        s,
+        run_case.run_header(s),
         method,
         req.seed,
         ids,

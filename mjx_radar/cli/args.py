@@ -61,8 +61,9 @@ def seed(text: str) -> int:
 
 def check_placement(scenario, seed: int, trials: int) -> None:
     from mjx_radar.engine.placement_cache import check_placeable  # JAX: only when checking
+    from mjx_radar.engine.run_spec import run_spec
 
-    check_placeable(scenario, seed, trials)
+    check_placeable(run_spec(scenario), seed, trials)
 
 
 def linger(text: str) -> float:

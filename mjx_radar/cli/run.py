@@ -114,7 +114,7 @@ def main(args) -> int:
         remove_dirs(created)
 
     try:
-        est = resources.check(s, args.trials, steps, kind=req.method.kind)
+        est = resources.check(req.spec, args.trials, steps, kind=req.method.kind)
     except BaseException:
         drop()
         raise

@@ -69,12 +69,13 @@ def finish(out: Path, args, s, seed_, trials, steps, res) -> int:
 
 def write_results(out: Path, args, s, seed_, trials, steps, res) -> None:
     """Writes the run directory (:func:`mjx_radar.rundir.writer.write_run`)."""
+    from mjx_radar.api.run_case import run_header
     from mjx_radar.rundir.writer import write_run
     from mjx_radar.scenario.reader import resolve_path
 
     write_run(
         out,
-        s,
+        run_header(s),
         args.method,
         seed_,
         trials,

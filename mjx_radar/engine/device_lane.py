@@ -95,23 +95,28 @@ def run_batches(
         on_segment(k, parts)
 
 
-def segment_periods(scenario, steps: int, target_segments: int = 20) -> int:
-    """Largest divisor of the number of control periods giving >= ``target_segments`` segments."""
-    total = steps // scenario.timing.control_every
+def segment_periods(timed, steps: int, target_segments: int = 20) -> int:
+    """Largest divisor of the number of control periods giving >= ``target_segments`` segments.
+
+    ``timed``: what has the clocks (a ``timing`` table: a
+    :class:`~mjx_radar.engine.run_spec.RunSpec`, a :class:`~mjx_radar.task.task.RadarTask`).
+    """
+    total = steps // timed.timing.control_every
     for p in range(max(1, total // target_segments), 0, -1):
         if total % p == 0:
             return p
     return 1
 
 
-def run_on_device(prog, scenario, method, seed: int, ids, steps: int, progress=None) -> dict:
+def run_on_device(prog, spec, method, seed: int, ids, steps: int, progress=None) -> dict:
     """One batch of trials run to the end on one device, metrics only.
 
     Args:
         prog: the device's :class:`~mjx_radar.engine.programs.Programs` (``full`` off;
             compiled for ``len(ids)`` trials and :func:`~mjx_radar.engine.runner.
             segment_periods` periods per segment, and serving ``method``).
-        scenario: the scenario (its numbers are the program's runtime arguments).
+        spec: the :class:`~mjx_radar.engine.run_spec.RunSpec` (its numbers are the
+            program's runtime arguments).
         method: a :class:`~mjx_radar.task.method.Method` or its name; seed: base seed.
         ids: ``[B]`` trial indices.
         steps: filter steps K.
@@ -126,19 +131,17 @@ def run_on_device(prog, scenario, method, seed: int, ids, steps: int, progress=N
             run_trials`).
     """
     from mjx_radar.engine.programs import record_template
-    from mjx_radar.env.placement import placement_error
     from mjx_radar.errors import InputError
     from mjx_radar.task.method import parse_method
-    from mjx_radar.task.params import task_params
 
-    params = task_params(scenario, parse_method(method), seed)
+    params = spec.params(parse_method(method), seed)
     ids = np.asarray(ids, np.int32)
     batch = DeviceBatch(prog, jax.tree.leaves(params), ids)
     placed = batch.placed()
     if not placed.all():
-        raise InputError(placement_error(scenario, int(ids[np.argmin(placed)])))
-    every = scenario.timing.control_every
-    periods = segment_periods(scenario, steps)
+        raise InputError(spec.refusal(int(ids[np.argmin(placed)])))
+    every = spec.control_every
+    periods = segment_periods(spec, steps)
     template, _ = record_template(False)
     structure = jax.tree.structure(template)
     parts = []

@@ -19,11 +19,10 @@ import time
 from mjx_radar.engine import compile_cache, trace_queue
 from mjx_radar.engine.programs import compile_programs, device_mesh
 from mjx_radar.engine.threads import Started, parallel
-from mjx_radar.task.params import shape_key
 
 
 def device_programs(
-    scenario,
+    spec,
     batch: int,
     periods: int,
     full: bool,
@@ -34,8 +33,9 @@ def device_programs(
     ready=None,
 ) -> list:
     """``[(programs, seconds)]``: the single-device program of each device, each for
-    ``batch`` trials. Every device runs the same per-device program, so a trial's
-    numbers never depend on the number of devices.
+    ``batch`` trials of the run ``spec`` (:class:`~mjx_radar.engine.run_spec.RunSpec`).
+    Every device runs the same per-device program, so a trial's numbers never depend on
+    the number of devices.
 
     On GPUs with the persistent compilation cache on, the first device compiles alone
     and the others then load XLA's result from the cache in parallel threads (JAX's
@@ -50,7 +50,7 @@ def device_programs(
 
     def one(i, d):
         mesh = device_mesh([d])
-        out = compile_programs(scenario, batch, periods, full, mesh, kind, planner, masks)
+        out = compile_programs(spec, batch, periods, full, mesh, kind, planner, masks)
         if ready is not None:
             ready(i, out)
         return out
@@ -63,9 +63,9 @@ def device_programs(
     return first + parallel([lambda i=i, d=d: one(i, d) for i, d in rest])
 
 
-def request(scenario, batch, periods, full, devices, kind, planner, masks) -> tuple:
+def request(spec, batch, periods, full, devices, kind, planner, masks) -> tuple:
     """What identifies the programs :func:`device_programs` gives for these arguments."""
-    return (shape_key(scenario), batch, periods, full, tuple(devices), kind, planner, masks)
+    return (spec.shape, batch, periods, full, tuple(devices), kind, planner, masks)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -97,9 +97,9 @@ class PendingPrograms:
         return self.devices[i][0]
 
 
-def start(scenario, batch, periods, full, devices, kind, planner, masks) -> PendingPrograms:
+def start(spec, batch, periods, full, devices, kind, planner, masks) -> PendingPrograms:
     """:func:`device_programs` of these arguments, started in a background thread."""
-    args = (scenario, batch, periods, full, devices, kind, planner, masks)
+    args = (spec, batch, periods, full, devices, kind, planner, masks)
     ready: dict = {}
 
     def timed():

@@ -66,9 +66,12 @@ of clutter_3r4t's (0.62-0.63: its peak lies ~230 MB above the step program's fig
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 from mjx_radar.engine.memory_model_gpu import device_peak, gpu_terms  # noqa: F401
-from mjx_radar.scenario.schema import Scenario
+
+if TYPE_CHECKING:
+    from mjx_radar.engine.run_spec import ProgramSize
 
 KEEP = 32  # MPPI samples kept per control step (planners.records.N_KEEP_SAMPLES)
 #: numbers per line-of-sight test kept at once, {(platform, kind "all"): numbers}: a
@@ -124,7 +127,7 @@ def objective_arrays(kind: str, n: int, platform: str, clutter: bool = False) ->
 
 
 def device_terms(
-    scenario: Scenario,
+    size: ProgramSize,
     trials: int,
     platform: str = "cpu",
     kind: str = "all",
@@ -134,8 +137,8 @@ def device_terms(
     """Bytes of the large arrays of one program of ``trials`` trials on one device.
 
     Args:
-        scenario: the scenario (N, M, S, H, filter structure, measurement model,
-            obstacles, rollout kind, detection).
+        size: the program's sizes (N, M, S, H, filter structure, measurement model,
+            obstacles, rollout kind, clutter; :class:`~mjx_radar.engine.run_spec.ProgramSize`).
         trials: T, trials per device.
         platform: ``"cpu"`` or ``"gpu"`` (``jax.Device.platform``): XLA keeps a
             different number of the objective's arrays on each (module docstring).
@@ -149,10 +152,8 @@ def device_terms(
         ``{"planner expectations", "MPPI sampling", "filter", "loop state"[, "MJX
         rollouts", "line of sight"]: bytes}`` (no planner terms for kind ``"none"``).
     """
-    n, m = scenario.n_radars, scenario.n_targets
-    s, h = scenario.mppi.samples, scenario.mpc.horizon
-    dim = 2 if scenario.measurement.model == "range-azimuth" else 1
-    joint = scenario.filter.structure == "joint"
+    n, m = size.n_radars, size.n_targets
+    s, h, dim, joint = size.samples, size.horizon, size.dim, size.joint
     d, z = 6 * m, n * m * dim
     p = 12 * m if joint else 12  # cubature points per target in the expectations
     plans = kind != "none"  # the planner's context: the cubature points over the horizon
@@ -168,12 +169,13 @@ def device_terms(
     else:
         filt = 4 * d * d + m * (n * dim) ** 2 + 24 * z
         state = 16 * 36 * m + 4 * d * d
-    if scenario.obstacles:  # the truth's line of sight in the loop, radar x target x face
-        filt += 6 * n * m * occluder_tests(scenario.obstacles)
-        meshes = sum(o.kind == "mesh" for o in scenario.obstacles)  # their geometry: carry
-        state += 270 * meshes + 20 * (len(scenario.obstacles) - meshes)
-    clutter = bool(scenario.detection.clutter and scenario.detection.planner)
-    every = scenario.timing.control_every
+    obstacles = size.obstacles
+    if obstacles:  # the truth's line of sight in the loop, radar x target x face
+        filt += 6 * n * m * occluder_tests(obstacles)
+        meshes = sum(o.kind == "mesh" for o in obstacles)  # their geometry: carry
+        state += 270 * meshes + 20 * (len(obstacles) - meshes)
+    clutter = size.clutter_planner
+    every = size.control_every
     k = segment_steps or every
     if full:
         state += k * (3 * d + 6 * n + 22) + (k // every) * 2 * (n + h * n + KEEP * h * n + KEEP)
@@ -182,10 +184,10 @@ def device_terms(
     state += 2 * KEEP * h * n + 2500  # the kept MPPI samples; keys, clocks, small arrays
     f = float_bytes()
     # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
-    motion = (9 * scenario.timing.steps + 7) * m * f if scenario.target_motion else 0
+    motion = (9 * size.steps + 7) * m * f if size.target_motion else 0
     if platform == "gpu" and kind != "all":
-        tests = occluder_tests(scenario.obstacles) if scenario.obstacles else 0
-        return gpu_terms(scenario, trials, kind, state * trials * f + motion, tests, f)
+        tests = occluder_tests(obstacles) if obstacles else 0
+        return gpu_terms(size, trials, kind, state * trials * f + motion, tests, f)
     terms = {"filter": trials * filt * f, "loop state": trials * state * f + motion}
     arrays = objective_arrays(kind, n, platform, clutter)
     if arrays:
@@ -193,13 +195,13 @@ def device_terms(
         terms["MPPI sampling"] = 6 * trials * s * s * f
         gpu = platform == "gpu"
         los = LOS_NUMBERS[("gpu" if gpu else "cpu", kind == "all")]
-        if scenario.obstacles and los:
-            tests = s * h * n * m * occluder_tests(scenario.obstacles)
+        if obstacles and los:
+            tests = s * h * n * m * occluder_tests(obstacles)
             terms["line of sight"] = trials * tests * los * f
         # the rollouts' mjx.Data: on the CPU no longer alive beside the joint filter's
         # (larger) expectations, nor are the obstacles' beside one information kind's
-        if scenario.mpc.rollout == "mjx" and (gpu or not joint or kind == "all"):
-            n_obs = len(scenario.obstacles) if gpu or kind == "all" else 0
+        if size.rollout == "mjx" and (gpu or not joint or kind == "all"):
+            n_obs = len(obstacles) if gpu or kind == "all" else 0
             terms["MJX rollouts"] = trials * s * (400 * (n + 1) + 50 * n_obs) * f
     return {k: int(v) for k, v in terms.items()}
 

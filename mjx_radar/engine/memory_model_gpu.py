@@ -33,7 +33,10 @@ the held-out 16-trial and study programs (``tests/test_resources.py``).
 
 from __future__ import annotations
 
-from mjx_radar.scenario.schema import Scenario
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mjx_radar.engine.run_spec import ProgramSize
 
 #: arrays ``[S, H, P·M]`` a trial keeps, ``a + b·N``, per filter structure and
 #: information: the joint filter's SFIM expectations are fused (none kept)
@@ -64,17 +67,15 @@ GPU_FLOOR, GPU_FLOOR_SHARE = 150e6, 0.5
 
 
 def gpu_terms(
-    scenario: Scenario, trials: int, kind: str, loop_state: float, tests: int, f: int
+    size: ProgramSize, trials: int, kind: str, loop_state: float, tests: int, f: int
 ) -> dict:
     """``memory_model.device_terms`` of a program of one kind or a study's on a GPU.
 
     ``loop_state``: bytes of the loop state (as on the CPU); ``tests``: the obstacles'
     half-space and cylinder tests (``K·F + C``); ``f``: bytes per number.
     """
-    n, m = scenario.n_radars, scenario.n_targets
-    s, h = scenario.mppi.samples, scenario.mpc.horizon
-    dim = 2 if scenario.measurement.model == "range-azimuth" else 1
-    joint = scenario.filter.structure == "joint"
+    n, m = size.n_radars, size.n_targets
+    s, h, dim, joint = size.samples, size.horizon, size.dim, size.joint
     d, z = 6 * m, n * m * dim
     p = 12 * m if joint else 12
     infos = [k for k in kind.split("+") if k in ("sfim", "pfim")]
@@ -94,10 +95,10 @@ def gpu_terms(
         if gemm and GPU_WORKSPACE > terms["filter"]:
             terms["cuBLAS workspace"] = GPU_WORKSPACE - terms["filter"]
         return {k: int(v) for k, v in terms.items()}
-    clutter = bool(scenario.detection.clutter and scenario.detection.planner)
+    clutter = size.clutter_planner
     best = None
     for info in infos:  # a study's program holds the larger of its branches
-        a, b = GPU_OBJECTIVE_ARRAYS[(scenario.filter.structure, info)]
+        a, b = GPU_OBJECTIVE_ARRAYS[(size.structure, info)]
         if joint and info == "sfim" and m > GPU_JOINT_FUSED_TARGETS:  # not fused
             a, b = 0.0, GPU_JOINT_UNFUSED["one trial" if trials == 1 else "batched"]
         arrays = a + b * n + (GPU_CLUTTER_ARRAYS[info] * n if clutter else 0.0)
@@ -109,7 +110,7 @@ def gpu_terms(
     kept, pairs, shared = best
     terms["planner expectations"] = kept + pairs
     terms["MPPI sampling"] = trials * s * s * f
-    if scenario.mpc.rollout == "mjx":
+    if size.rollout == "mjx":
         terms["MJX rollouts"] = trials * s * GPU_ROLLOUT_NUMBERS * (n + 1) * f
     if shared:
         terms["cuBLAS workspace"] = shared

@@ -11,9 +11,12 @@ reduce, which the command line prints on one line (exit 2) and the API raises.
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 from mjx_radar.errors import InputError
-from mjx_radar.scenario.schema import Scenario
+
+if TYPE_CHECKING:
+    from mjx_radar.engine.run_spec import RunSpec
 
 
 def out_of_memory(err: BaseException) -> bool:
@@ -28,29 +31,30 @@ def out_of_memory(err: BaseException) -> bool:
 
 
 def oom_as_input_error(run):
-    """Decorates ``run(scenario, method, seed, trials, ..., mesh=None)`` (the engine's
+    """Decorates ``run(spec, method, seed, trials, ..., mesh=None)`` (the engine's
     :func:`~mjx_radar.engine.runner.run_trials`): XLA's out-of-memory error becomes one
     :class:`InputError` line naming the batch and what to reduce, never a traceback."""
 
     @functools.wraps(run)
-    def guarded(scenario, method, seed, trials, *args, **kwargs):
+    def guarded(spec, method, seed, trials, *args, **kwargs):
         try:
-            return run(scenario, method, seed, trials, *args, **kwargs)
+            return run(spec, method, seed, trials, *args, **kwargs)
         except Exception as err:
             if not out_of_memory(err):
                 raise
             mesh = kwargs.get("mesh")
             per_device = -(-len(trials) // (1 if mesh is None else mesh.size))
-            raise InputError(oom_line(scenario, per_device, err)) from None
+            raise InputError(oom_line(spec, per_device, err)) from None
 
     return guarded
 
 
-def oom_line(scenario: Scenario, per_device: int, err: BaseException) -> str:
-    """The one line for XLA's out-of-memory ``err`` running ``per_device`` trials a device."""
+def oom_line(spec: RunSpec, per_device: int, err: BaseException) -> str:
+    """The one line for XLA's out-of-memory ``err`` running ``per_device`` trials a device
+    of the run ``spec`` (:class:`~mjx_radar.engine.run_spec.RunSpec`)."""
     lines = [x.strip() for x in str(err).splitlines() if x.strip()]
     said = next((x for x in lines if "allocat" in x.lower()), lines[0] if lines else "")
-    joint = scenario.filter.structure == "joint" and scenario.n_targets > 1
+    joint = spec.size.joint and spec.size.n_targets > 1
     fix = "reduce mppi.samples or mpc.horizon"
     if per_device > 1:
         fix = (
@@ -60,6 +64,6 @@ def oom_line(scenario: Scenario, per_device: int, err: BaseException) -> str:
     if joint:
         fix += '; or set [filter] structure = "per-target"'
     return (
-        f"{scenario.name}: out of memory running {per_device} trial(s) per device "
+        f"{spec.name}: out of memory running {per_device} trial(s) per device "
         f"(XLA: {said[:160]}); {fix}"
     )

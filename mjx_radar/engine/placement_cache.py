@@ -20,28 +20,42 @@ import hashlib
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from mjx_radar.engine import compile_cache, executable_cache, trace_queue
 from mjx_radar.env import placement
 from mjx_radar.errors import InputError
 
 
-def check_placeable(scenario, seed: int, trials) -> None:
-    """:func:`mjx_radar.env.placement.check_placeable` with the program cached on disk,
-    its refusal as the user's error (``study``, ``run_study`` and ``validate``).
+def check_placeable(spec, seed: int, trials) -> None:
+    """The check of :func:`mjx_radar.env.placement.check_placeable` for the run ``spec``
+    (:class:`~mjx_radar.engine.run_spec.RunSpec`) with the program cached on disk, its
+    refusal as the user's error (``study``, ``run_study`` and ``validate``).
 
-    It first waits until no loop program is being traced in this process (a study's
-    programs start before the check, :mod:`mjx_radar.engine.trace_queue`): tracing holds
-    the GIL, so the check's own small program is traced while XLA compiles theirs.
+    ``trials``: a count (trials ``0..trials-1``) or the trial indices themselves (only
+    those are drawn). It first waits until no loop program is being traced in this
+    process (a study's programs start before the check, :mod:`mjx_radar.engine.trace_queue`):
+    tracing holds the GIL, so the check's own small program is traced while XLA compiles
+    theirs.
 
     Raises:
         InputError: a trial cannot place its radars (one line naming the fields).
     """
+    from mjx_radar.task.method import METHODS
+
     trace_queue.QUEUE.wait_idle()
     try:
-        placement.check_placeable(scenario, seed, trials, placeable=_program)
+        params = spec.params(METHODS["stationary"], seed)
     except ValueError as err:
         raise InputError(str(err)) from None
+    ids = np.arange(trials) if np.ndim(trials) == 0 else np.unique(np.asarray(trials))
+    if not len(ids):  # no trial: nothing to place
+        return
+    size = max(8, 1 << int(len(ids) - 1).bit_length())  # padded: few distinct programs
+    padded = np.concatenate([ids, np.full(size - len(ids), ids[0])])
+    oks = np.asarray(_program(spec.shape)(params, jnp.asarray(padded)))[: len(ids)]
+    if not oks.all():
+        raise InputError(spec.refusal(int(ids[np.argmin(oks)])))
 
 
 @functools.lru_cache(maxsize=32)

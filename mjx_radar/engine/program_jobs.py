@@ -1,14 +1,14 @@
 """Which compiled programs a set of study jobs needs (:func:`mjx_radar.engine.runner.precompile`).
 
-A job is a ``(scenario, method)`` pair or a scenario alone (every method). Programs are
-per scenario shape, program kind and planner; per shape the built-in methods share one
-program (:func:`mjx_radar.task.method.shared_programs`).
+A job is a ``(spec, method)`` pair or a spec alone (every method; a
+:class:`~mjx_radar.engine.run_spec.RunSpec`). Programs are per scenario shape, program
+kind and planner; per shape the built-in methods share one program
+(:func:`mjx_radar.task.method.shared_programs`).
 """
 
 from __future__ import annotations
 
 from mjx_radar.task.method import METHODS, parse_method, shared_programs
-from mjx_radar.task.params import shape_key
 
 __all__ = ["program_jobs", "program_map", "programs_needed"]
 
@@ -21,7 +21,7 @@ def program_map(jobs) -> dict[tuple, tuple[str, str]]:
     for job in jobs:
         s, methods = (job[0], job[1:2]) if isinstance(job, tuple) else (job, ())
         names = [parse_method(m).name for m in methods] or list(METHODS)
-        by_shape.setdefault(shape_key(s), {}).update(dict.fromkeys(names))
+        by_shape.setdefault(s.shape, {}).update(dict.fromkeys(names))
     return {
         (shape, name): program
         for shape, names in by_shape.items()
@@ -30,13 +30,13 @@ def program_map(jobs) -> dict[tuple, tuple[str, str]]:
 
 
 def program_jobs(jobs) -> list[tuple]:
-    """``(scenario, kind, planner)`` of each distinct program of ``jobs``: one per shape,
+    """``(spec, kind, planner)`` of each distinct program of ``jobs``: one per shape,
     program kind and planner (:func:`program_map`)."""
     programs = program_map(jobs)
     out = {}
     for job in jobs:
         s = job[0] if isinstance(job, tuple) else job
-        own = shape_key(s)
+        own = s.shape
         for (shape, _), (kind, planner) in programs.items():
             if shape == own:
                 out.setdefault((shape, kind, planner), (s, kind, planner))

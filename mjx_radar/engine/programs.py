@@ -44,7 +44,6 @@ from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
 from mjx_radar.task import cost_plugins
 from mjx_radar.task.method import parse_method
-from mjx_radar.task.params import shape_key, task_params
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -145,7 +144,7 @@ def _lower(path, trace_args, lower_args, ticket: int):
 
 
 def compile_programs(
-    scenario,
+    spec,
     batch: int,
     periods: int,
     full: bool = False,
@@ -157,7 +156,8 @@ def compile_programs(
     """Ahead-of-time compiled :class:`Programs` of a scenario's shape; ``(programs, seconds)``.
 
     Args:
-        scenario: the scenario (only its shape matters).
+        spec: the run's :class:`~mjx_radar.engine.run_spec.RunSpec` (only its shape
+            matters).
         batch: trials per call, a multiple of the mesh's device count.
         periods: control periods per segment.
         full: return trajectories (else metrics only).
@@ -174,16 +174,16 @@ def compile_programs(
     """
     ticket = trace_queue.QUEUE.draw()
     try:
-        return _compile(scenario, batch, periods, full, mesh, kind, planner, masks, ticket)
+        return _compile(spec, batch, periods, full, mesh, kind, planner, masks, ticket)
     finally:
         trace_queue.QUEUE.finish(ticket)
 
 
-def _compile(scenario, batch, periods, full, mesh, kind, planner, masks, ticket):
+def _compile(spec, batch, periods, full, mesh, kind, planner, masks, ticket):
     mesh = mesh if mesh is not None else device_mesh(jax.local_devices()[:1])
     if batch % mesh.size:
         raise ValueError(f"batch {batch} is not a multiple of {mesh.size} devices")
-    shape = shape_key(scenario)
+    shape = spec.shape
     PLANNERS.get(planner)  # an unknown name: one line before anything is traced
     masks = bool(full and masks)
     mem_key = (shape, periods, full, batch, mesh, kind, *_variant(planner), masks)
@@ -191,12 +191,12 @@ def _compile(scenario, batch, periods, full, mesh, kind, planner, masks, ticket)
         if mem_key in _CACHE:
             return _CACHE[mem_key], 0.0
     t0 = time.perf_counter()
-    params = task_params(scenario, parse_method("stationary"))
+    params = spec.params(parse_method("stationary"))
     p_leaves = jax.tree.leaves(params)
     trial_sh, rep = NamedSharding(mesh, SPLIT), NamedSharding(mesh, WHOLE)
-    spec = lambda x, sh: jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=sh)  # noqa: E731
+    struct = lambda x, sh: jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=sh)  # noqa: E731
     trials = jax.ShapeDtypeStruct((batch,), jnp.int32, sharding=trial_sh)
-    p_specs = [spec(x, rep) for x in p_leaves]
+    p_specs = [struct(x, rep) for x in p_leaves]
     store = compile_cache.program_dir()
     key = _key(shape, periods, full, batch, mesh, kind, planner, masks)
     path = store / f"loop-{key}.jaxexport" if store else None
@@ -230,9 +230,9 @@ def _compile(scenario, batch, periods, full, mesh, kind, planner, masks, ticket)
         _CACHE[mem_key] = progs
         COMPILE_LOG.append(
             {
-                "scenario": scenario.name,
-                "n_radars": scenario.n_radars,
-                "n_targets": scenario.n_targets,
+                "scenario": spec.name,
+                "n_radars": spec.size.n_radars,
+                "n_targets": spec.size.n_targets,
                 "batch": batch,
                 "devices": mesh.size,
                 "kind": kind,

@@ -45,8 +45,8 @@ from mjx_radar.engine.memory_available import (  # noqa: F401 (LIMIT_ENV, the GP
 from mjx_radar.engine.memory_available import device_available as _device_available
 from mjx_radar.engine.memory_available import platform as _platform
 from mjx_radar.engine.memory_model import FLOAT, MEASURED_FACTOR, float_bytes  # noqa: F401
+from mjx_radar.engine.run_spec import ProgramSize, RunSpec
 from mjx_radar.errors import InputError
-from mjx_radar.scenario.schema import Scenario
 
 KEEP = 32  # MPPI samples kept per control step (planners.records.N_KEEP_SAMPLES)
 LARGE_N, LARGE_M, LARGE_NM, LARGE_OBSTACLES = 64, 64, 1024, 256
@@ -98,7 +98,7 @@ class Estimate:
 
 
 def device_terms(
-    scenario: Scenario,
+    size: ProgramSize,
     trials: int,
     platform: str | None = None,
     kind: str = "all",
@@ -107,11 +107,11 @@ def device_terms(
 ) -> dict:
     """:func:`memory_model.device_terms` on ``platform`` (default: this process's device)."""
     plat = platform or _platform()
-    return memory_model.device_terms(scenario, trials, plat, kind, full, segment_steps)
+    return memory_model.device_terms(size, trials, plat, kind, full, segment_steps)
 
 
 def estimate(
-    scenario: Scenario,
+    spec: RunSpec,
     trials: int,
     steps: int,
     devices: int = 1,
@@ -121,7 +121,8 @@ def estimate(
     """Memory and compile size of ``trials`` closed-loop trials of ``steps`` filter steps.
 
     Args:
-        scenario: the scenario (sizes N, M, S, H, obstacles, rollout kind, filter).
+        spec: the run's :class:`~mjx_radar.engine.run_spec.RunSpec` (its sizes N, M,
+            S, H, obstacles, rollout kind, filter; its clocks).
         trials: T, the batch size (split evenly over ``devices`` for the device terms).
         steps: K filter steps.
         devices: number of devices the batch is sharded over.
@@ -132,16 +133,17 @@ def estimate(
     Returns:
         The :class:`Estimate` (available memory queried from this machine).
     """
-    n, m = scenario.n_radars, scenario.n_targets
-    h, d = scenario.mpc.horizon, 6 * scenario.n_targets
-    c = steps // scenario.timing.control_every
-    n_obs = len(scenario.obstacles)
+    sz = spec.size
+    n, m = sz.n_radars, sz.n_targets
+    h, d = sz.horizon, 6 * sz.n_targets
+    c = steps // sz.control_every
+    n_obs = len(sz.obstacles)
     from mjx_radar.engine.runner import segment_periods  # the runner's segments
 
-    seg = segment_periods(scenario, steps) * scenario.timing.control_every
+    seg = segment_periods(spec, steps) * sz.control_every
     per_device = -(-trials // max(1, devices))
     plat = _platform()
-    device = device_terms(scenario, per_device, plat, kind, full, seg)
+    device = device_terms(sz, per_device, plat, kind, full, seg)
     # a GPU's runtime floor: the device's peak above XLA's figure of a small program
     peak = memory_model.device_peak(sum(device.values()), plat)
     if peak > sum(device.values()):
@@ -163,12 +165,12 @@ def estimate(
     size = n + m + 0.05 * n * m + 0.25 * n_obs
     compile_s = 8.0 + 2.0 * size
     large = n > LARGE_N or m > LARGE_M or n * m > LARGE_NM or n_obs > LARGE_OBSTACLES
-    summary = f"{n} radars x {m} targets, {scenario.mpc.rollout} rollouts"
+    summary = f"{n} radars x {m} targets, {sz.rollout} rollouts"
     return Estimate(device, host, dev_avail, host_avail, shared, compile_s, large, summary)
 
 
 def check(
-    scenario: Scenario,
+    spec: RunSpec,
     trials: int,
     steps: int,
     devices: int = 1,
@@ -180,7 +182,7 @@ def check(
     """:func:`estimate`, refusing a run whose arrays cannot fit in the available memory.
 
     Args:
-        scenario, trials, steps, devices, full, kind: as :func:`estimate`.
+        spec, trials, steps, devices, full, kind: as :func:`estimate`.
         batch_option: the option that sets the batch, named in the refusal
             (``"--trials"``, or ``"--chunk"``: trials per device).
 
@@ -188,7 +190,7 @@ def check(
         InputError: one line naming the dominant term, its size, the memory available,
             the largest ``batch_option`` that fits and the change that shrinks the term.
     """
-    est = estimate(scenario, trials, steps, devices, full, kind)
+    est = estimate(spec, trials, steps, devices, full, kind)
     need = est.device | est.host if est.shared else est.device
     avail = est.host_available if est.shared else est.device_available
     where = "in host RAM" if est.shared else "on the device"
@@ -196,16 +198,16 @@ def check(
 
     def fits(batch: int) -> bool:  # the batch in batch_option's unit
         t = batch * devices if batch_option == "--chunk" else batch
-        e = estimate(scenario, t, steps, devices, full, kind)
+        e = estimate(spec, t, steps, devices, full, kind)
         ok = _fits(e.device | e.host if e.shared else e.device, avail)
         return ok and (e.shared or _fits(e.host, e.host_available))
 
     batch = f"{batch_option} {per_call}"
     if not _fits(need, avail):
-        _refuse(scenario, batch, need, avail, where, _largest(fits, per_call), kind)
+        _refuse(spec, batch, need, avail, where, _largest(fits, per_call), kind)
     if not est.shared and not _fits(est.host, est.host_available):
         fit = _largest(fits, per_call)
-        _refuse(scenario, batch, est.host, est.host_available, "in host RAM", fit, kind)
+        _refuse(spec, batch, est.host, est.host_available, "in host RAM", fit, kind)
     return est
 
 
@@ -223,9 +225,9 @@ def _largest(fits, below: int) -> int:
     return lo
 
 
-def _refuse(scenario, batch: str, need: dict, avail: int, where: str, fit: int, kind: str):
+def _refuse(spec: RunSpec, batch: str, need: dict, avail: int, where: str, fit: int, kind: str):
     term = max(need, key=need.get)
-    what, fix = _advice(scenario, term, batch, need[term], kind)
+    what, fix = _advice(spec.size, term, batch, need[term], kind)
     option = batch.split()[0]
     if fit:
         fix = f"{option} {fit} fits; or {fix}"
@@ -233,40 +235,35 @@ def _refuse(scenario, batch: str, need: dict, avail: int, where: str, fit: int, 
         fix = f"not even {option} 1 fits: {fix.replace(f' or {option}', '')}"
     verb = "need" if term.endswith("s") else "needs"
     raise InputError(
-        f"{scenario.name}: {what}: the {term} {verb} ~{fmt_bytes(need[term])} (all arrays "
+        f"{spec.name}: {what}: the {term} {verb} ~{fmt_bytes(need[term])} (all arrays "
         f"~{fmt_bytes(sum(need.values()))}), this machine has {fmt_bytes(avail)} free {where}; "
         f"{fix}"
     )
 
 
-def _advice(scenario: Scenario, term: str, batch: str, size: int, kind: str) -> tuple[str, str]:
+def _advice(sz: ProgramSize, term: str, batch: str, size: int, kind: str) -> tuple[str, str]:
     """``(the settings behind term, the change that shrinks it)`` for a refusal line."""
-    s, h, m = scenario.mppi.samples, scenario.mpc.horizon, scenario.n_targets
-    joint = scenario.filter.structure == "joint"
+    s, h, m, joint = sz.samples, sz.horizon, sz.n_targets, sz.joint
     per_target = 'set [filter] structure = "per-target"'
     if term == "planner expectations":
         p = 12 * m if joint else 12
         what = (
             f"mppi.samples = {s}, mpc.horizon = {h}, {m} targets x {p} cubature points "
-            f"({scenario.filter.structure} filter), {batch}"
+            f"({sz.structure} filter), {batch}"
         )
         fix = f"reduce mppi.samples, mpc.horizon or {batch.split()[0]}"
         if joint:
-            alt = dataclasses.replace(
-                scenario, filter=dataclasses.replace(scenario.filter, structure="per-target")
-            )
-            ratio = (
-                device_terms(alt, 1, kind=kind)[term] / device_terms(scenario, 1, kind=kind)[term]
-            )
+            alt = dataclasses.replace(sz, structure="per-target")
+            ratio = device_terms(alt, 1, kind=kind)[term] / device_terms(sz, 1, kind=kind)[term]
             if ratio <= 1.0:  # not on a GPU's fused joint SFIM, which the bank would exceed
                 fix = f"{per_target} (12 points per target: ~{fmt_bytes(size * ratio)}) or {fix}"
         return what, fix
     if term == "filter":
-        what = f"{m} targets ({scenario.filter.structure} filter), {batch}"
+        what = f"{m} targets ({sz.structure} filter), {batch}"
         fix = f"reduce the number of targets or {batch.split()[0]}"
         return what, f"{per_target} or {fix}" if joint else fix
     if term == "line of sight":
-        return f"{len(scenario.obstacles)} obstacles, mppi.samples = {s}, {batch}", (
+        return f"{len(sz.obstacles)} obstacles, mppi.samples = {s}, {batch}", (
             f"reduce mppi.samples, mpc.horizon, the obstacles or {batch.split()[0]}"
         )
     if term == "trajectories":

@@ -37,13 +37,12 @@ from mjx_radar.engine.programs import (
     device_mesh,
     record_template,
 )
+from mjx_radar.engine.run_spec import RunSpec
 from mjx_radar.engine.threads import parallel
-from mjx_radar.env.placement import placement_error
 from mjx_radar.env.records import control_arrays
 from mjx_radar.errors import InputError
-from mjx_radar.scenario.schema import Scenario
+from mjx_radar.scenario.schema_metrics import MetricsConfig
 from mjx_radar.task.method import parse_method, runs
-from mjx_radar.task.params import task_params
 
 __all__ = [
     "COMPILE_LOG",
@@ -61,12 +60,13 @@ __all__ = [
 
 
 def precompile(jobs, batch: int, steps: int, full: bool = False, mesh=None) -> float:
-    """Compiles the programs of several scenarios concurrently; returns the wall time [s].
+    """Compiles the programs of several runs concurrently; returns the wall time [s].
 
     XLA compilation releases the GIL, so a thread pool compiles the programs of a
     study's scenario shapes and program kinds in parallel on the host's cores.
-    ``jobs`` holds ``(scenario, method)`` pairs (a method or its name), or scenarios
-    alone (every method's kind); jobs of the same shape and kind share one program.
+    ``jobs`` holds ``(spec, method)`` pairs (a :class:`~mjx_radar.engine.run_spec.RunSpec`,
+    a method or its name), or specs alone (every method's kind); jobs of the same shape
+    and kind share one program.
     """
     todo = program_jobs(jobs)
     devices = list(mesh.devices.flat) if mesh is not None else jax.local_devices()[:1]
@@ -94,7 +94,7 @@ def program_log(since: int = 0) -> list[dict]:
 
 @oom_as_input_error
 def run_trials(
-    scenario: Scenario,
+    spec: RunSpec,
     method,
     seed: int,
     trials,
@@ -113,7 +113,8 @@ def run_trials(
     """Runs the closed loop for a batch of trials.
 
     Args:
-        scenario: scenario (its numbers are runtime arguments of the program).
+        spec: the run's :class:`~mjx_radar.engine.run_spec.RunSpec` (its numbers are
+            runtime arguments of the program; :func:`~mjx_radar.engine.run_spec.run_spec`).
         method: a :class:`~mjx_radar.task.method.Method` or its name.
         seed: base seed.
         trials: [T] trial indices (common random numbers across methods).
@@ -156,21 +157,19 @@ def run_trials(
             XLA ran out of memory compiling or running the programs (one line naming
             the batch and what to reduce, :func:`~mjx_radar.engine.oom.oom_line`).
     """
-    method, args = _program_args(
-        scenario, method, trials, steps, full, periods, mesh, masks, program
-    )
-    params = task_params(scenario, method, seed)
+    method, args = _program_args(spec, method, trials, steps, full, periods, mesh, masks, program)
+    params = spec.params(method, seed)
     progs, compile_s = _programs(args, programs, phase)
     t0 = time.perf_counter()
-    batches, placed = _batches(scenario, progs, params, np.asarray(trials, np.int32))
+    batches, placed = _batches(spec, progs, params, np.asarray(trials, np.int32))
     template = record_template(full, masks)
-    every, periods = scenario.timing.control_every, args[2]
+    every, periods = spec.control_every, args[2]
     report = (progress, on_segment, periods * every)
     chunks = _run_segments(batches, len(range(0, steps // every, periods)), template, report)
     res = _gather(template, chunks, full) | {"placement_ok": placed}
     sim_s = time.perf_counter() - t0
     if sets:
-        res |= set_metrics(scenario, res, full)
+        res |= set_metrics(spec.metrics, res, full)
     return res | _timing(compile_s, sim_s, steps // every)
 
 
@@ -196,7 +195,7 @@ def _programs(args: tuple, programs: PendingPrograms | None, phase) -> tuple[lis
     return progs, compile_s
 
 
-def _batches(scenario, progs, params, trials) -> tuple[list[DeviceBatch], np.ndarray]:
+def _batches(spec, progs, params, trials) -> tuple[list[DeviceBatch], np.ndarray]:
     """Each device's batch of the trials (its slice, its own thread, its segments read one
     segment late: engine.device_lane) and ``placement_ok`` [T]; ``InputError`` before any
     step if a trial cannot place its radars."""
@@ -205,7 +204,7 @@ def _batches(scenario, progs, params, trials) -> tuple[list[DeviceBatch], np.nda
     batches = [DeviceBatch(prog, leaves, ids) for (prog, _), ids in zip(progs, slices, strict=True)]
     placed = np.concatenate([b.placed() for b in batches])
     if not placed.all():  # refused before any step: nothing written
-        raise InputError(placement_error(scenario, int(trials[np.argmin(placed)])))
+        raise InputError(spec.refusal(int(trials[np.argmin(placed)])))
     return batches, placed
 
 
@@ -242,9 +241,9 @@ def _gather(template, chunks: list, full: bool) -> dict:
     return res
 
 
-def _program_args(scenario, method, trials, steps, full, periods, mesh, masks, program):
+def _program_args(spec, method, trials, steps, full, periods, mesh, masks, program):
     """``(method, device_programs arguments)`` of a run, checked (ValueError)."""
-    every = scenario.timing.control_every
+    every = spec.control_every
     if steps % every:
         raise ValueError(f"steps: {steps} must be a multiple of {every}")
     method = parse_method(method)
@@ -256,12 +255,12 @@ def _program_args(scenario, method, trials, steps, full, periods, mesh, masks, p
     if n % len(devices):
         raise ValueError(f"{n} trials are not a multiple of {len(devices)} devices")
     batch = n // len(devices)
-    periods = periods or segment_periods(scenario, steps)
-    return method, (scenario, batch, periods, full, devices, *program, masks)
+    periods = periods or segment_periods(spec, steps)
+    return method, (spec, batch, periods, full, devices, *program, masks)
 
 
 def start_programs(
-    scenario: Scenario,
+    spec: RunSpec,
     method,
     trials,
     steps: int,
@@ -274,13 +273,14 @@ def start_programs(
     """Starts compiling or loading the programs :func:`run_trials` will need for these
     arguments (the same meaning) in a background thread; pass the result to it as
     ``programs``. Raises ValueError as it would."""
-    _, args = _program_args(scenario, method, trials, steps, full, periods, mesh, masks, program)
+    _, args = _program_args(spec, method, trials, steps, full, periods, mesh, masks, program)
     return pending_programs.start(*args)
 
 
-def set_metrics(scenario: Scenario, res: dict, full: bool = False) -> dict:
+def set_metrics(metrics: MetricsConfig, res: dict, full: bool = False) -> dict:
     """GOSPA, OSPA and continuity per trial and step of a :func:`run_trials` result
-    (host, after the run; the sets of a metrics-only run are dropped from ``res``)."""
+    (host, after the run; the sets of a metrics-only run are dropped from ``res``), with
+    the cutoff and order of the scenario's ``[metrics]`` table ``metrics``."""
     from mjx_radar.env.records import SET_KEYS, estimate_sets
     from mjx_radar.rundir.results import set_columns
 
@@ -288,8 +288,7 @@ def set_metrics(scenario: Scenario, res: dict, full: bool = False) -> dict:
         sets = estimate_sets(res["target"], res["track_pos"], res["track_exist"], res["present"])
     else:
         sets = {k: res.pop(k) for k in SET_KEYS}
-    cfg = scenario.metrics
-    return set_columns(sets, cfg.gospa_cutoff, cfg.gospa_order)
+    return set_columns(sets, metrics.gospa_cutoff, metrics.gospa_order)
 
 
 def _get(rec, k):

@@ -36,7 +36,7 @@ from mjx_radar.physics.contacts import obstacle_contacts  # noqa: F401 (plant AP
 from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
 from mjx_radar.physics.terrain_follow import slope_stop
-from mjx_radar.scenario.schema import RadarLimits, Scenario
+from mjx_radar.scenario.schema import RadarLimits
 from mjx_radar.world import terrain as ground
 from mjx_radar.world.obstacles import contact_envelope
 
@@ -141,8 +141,9 @@ MESH_CONTACTS: bool = True
 
 
 @functools.cache
-def planner_plant(scenario: Scenario) -> Plant:
-    """One-radar plant at the control step (MPPI rollouts), cached per scenario.
+def planner_plant(dt_control: float, limits: RadarLimits) -> Plant:
+    """One-radar plant at the control step ``dt_control`` (MPPI rollouts) with the
+    radars' ``limits``, cached per pair.
 
     Built WITHOUT the obstacles: rollouts stay contact-free (about 100x cheaper);
     the objective keeps radars away from obstacles with its own cost term. Without
@@ -150,24 +151,25 @@ def planner_plant(scenario: Scenario) -> Plant:
     model over the N radars: 1.6x (N = 3) to 2.3x (N = 8) faster on 2 CPU cores than
     one model holding all N (``mjx`` stages loop over bodies; a vmap batches them).
     """
-    return make_plant(1, 0, scenario.timing.dt_control, scenario.limits)
+    return make_plant(1, 0, dt_control, limits)
 
 
 @functools.cache
-def truth_plant(scenario: Scenario) -> Plant:
-    """Radars and drones at the filter step (the closed-loop truth), cached per scenario."""
-    if scenario.n_targets < 1:
-        raise ValueError(f"n_targets: {scenario.n_targets} is not allowed; need at least 1")
-    sc = scenario
-    return make_plant(
-        sc.n_radars,
-        sc.n_targets,
-        sc.timing.dt_filter,
-        sc.limits,
-        sc.obstacles,
-        sc.terrain,
-        sc.moving_obstacles,
-    )
+def truth_plant(
+    n_radars: int,
+    n_targets: int,
+    dt_filter: float,
+    limits: RadarLimits,
+    obstacles: tuple = (),
+    terrain=None,
+    moving: tuple = (),
+) -> Plant:
+    """Radars and drones at the filter step ``dt_filter`` (the closed-loop truth), with the
+    static obstacles, the terrain and the moving obstacles (the arguments of
+    :func:`make_plant`), cached per argument list."""
+    if n_targets < 1:
+        raise ValueError(f"n_targets: {n_targets} is not allowed; need at least 1")
+    return make_plant(n_radars, n_targets, dt_filter, limits, obstacles, terrain, moving)
 
 
 def check_finite(name: str, x) -> None:

@@ -97,7 +97,7 @@ def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Arr
     ``[a, alpha]`` -> ``[H, N, 6]`` states after each control step (the scenario's N,
     limits and control step; obstacles are ignored, terrain sets z).
     """
-    plant = planner_plant(scenario)
+    plant = planner_plant(scenario.timing.dt_control, scenario.limits)
     check_shape("controls", controls, (jnp.shape(controls)[0], scenario.n_radars, 2))
     check_shape("radar_state", radar_state, (scenario.n_radars, 6))
     check_finite("controls", controls)

@@ -46,7 +46,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.scenario.schema import Scenario, TargetMotion
+from mjx_radar.scenario.schema import TargetMotion, Timing
 
 
 class MotionParams(NamedTuple):
@@ -150,17 +150,21 @@ def track_path(rows, dt: float, k: int) -> tuple[np.ndarray, np.ndarray]:
     return pos[: k + 1], vel
 
 
-def nominal_paths(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def nominal_paths(
+    target_init, motion: tuple[TargetMotion, ...], timing: Timing
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Host float64 nominal paths of every target: ``(P [K+1, M, 3], V [K+1, M, 3], nominal [M])``.
 
-    CV targets get their straight line (unused by the plant: ``nominal`` is False).
+    ``target_init``: the ``[M, 6]`` ``targets`` rows; ``motion``: the ``[[target_motion]]``
+    tables; ``timing``: the clocks (``dt_filter``, K = ``steps``). CV targets get their
+    straight line (unused by the plant: ``nominal`` is False).
     """
-    dt, k = scenario.timing.dt_filter, scenario.timing.steps
-    x0 = np.asarray(scenario.target_init, np.float64)
+    dt, k = timing.dt_filter, timing.steps
+    x0 = np.asarray(target_init, np.float64)
     m = len(x0)
     pos, vel = np.empty((k + 1, m, 3)), np.empty((k + 1, m, 3))
     nominal = np.zeros(m, bool)
-    by_target = {tm.target: tm for tm in scenario.target_motion}
+    by_target = {tm.target: tm for tm in motion}
     for j in range(m):
         tm = by_target.get(j)
         model = "cv" if tm is None else tm.model
@@ -174,27 +178,30 @@ def nominal_paths(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return pos, vel, nominal
 
 
-def initial_states(scenario: Scenario) -> np.ndarray:
-    """``[M, 6]`` true initial states: the ``targets`` rows, a track's start for ``track``."""
-    x0 = np.array(scenario.target_init, np.float64)
-    for tm in scenario.target_motion:
+def initial_states(target_init, motion: tuple[TargetMotion, ...], dt: float) -> np.ndarray:
+    """``[M, 6]`` true initial states: the ``targets`` rows ``target_init``, a track's start
+    for a ``track`` table of ``motion`` (sampled at the filter step ``dt``)."""
+    x0 = np.array(target_init, np.float64)
+    for tm in motion:
         if tm.model == "track":
-            pos, vel = track_path(tm.track, scenario.timing.dt_filter, 1)
+            pos, vel = track_path(tm.track, dt, 1)
             x0[tm.target] = np.concatenate([pos[0], vel[0]])
     return x0
 
 
-def motion_params(scenario: Scenario, dtype) -> MotionParams:
-    """The runtime :class:`MotionParams` of a scenario with ``target_motion`` tables."""
-    dt = scenario.timing.dt_filter
-    pos, vel, nominal = nominal_paths(scenario)
+def motion_params(
+    target_init, motion: tuple[TargetMotion, ...], timing: Timing, sigma_w2: float, dtype
+) -> MotionParams:
+    """The runtime :class:`MotionParams` of targets with ``[[target_motion]]`` tables
+    ``motion`` (``target_init``, ``timing``: as :func:`nominal_paths`; ``sigma_w2``: the
+    scenario's white-acceleration variance, a CV target's default)."""
+    dt = timing.dt_filter
+    pos, vel, nominal = nominal_paths(target_init, motion, timing)
     m = pos.shape[1]
-    var = np.full(m, float(scenario.sigma_w2))
+    var = np.full(m, float(sigma_w2))
     appear, leave = np.zeros(m), np.full(m, np.inf)
-    for tm in scenario.target_motion:
-        var[tm.target] = (
-            (scenario.sigma_w2 if tm.model == "cv" else 0.0) if tm.sigma_w2 < 0 else tm.sigma_w2
-        )
+    for tm in motion:
+        var[tm.target] = (sigma_w2 if tm.model == "cv" else 0.0) if tm.sigma_w2 < 0 else tm.sigma_w2
         appear[tm.target], leave[tm.target] = tm.appear, tm.leave
     arr = lambda x: jnp.asarray(x, dtype)  # noqa: E731
     return MotionParams(

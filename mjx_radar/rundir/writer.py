@@ -9,6 +9,7 @@ are removed, so a directory either holds a complete run or none.
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 from pathlib import Path
 
@@ -33,14 +34,44 @@ TRAJECTORY_KEYS = (
 )
 
 
-def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **extra) -> dict:
-    """The contents of ``run.json`` (see :mod:`mjx_radar.rundir.results`)."""
-    from mjx_radar.estimation.sensing import noise_constant
+@dataclasses.dataclass(frozen=True)
+class RunHeader:
+    """What a run directory records of its scenario (``run.json``'s scenario fields),
+    built once by the caller that holds the scenario
+    (:func:`mjx_radar.api.run_case.run_header`).
 
-    s = scenario
+    Attributes:
+        name: the scenario's name.
+        dt_filter, dt_control: its clocks [s].
+        n_radars, n_targets: N, M.
+        r2t, r2r: the keep-out distances [m].
+        rollout: the planner's rollout backend.
+        noise_constant: the range-noise constant ``C`` of the scenario's radar equation.
+        noise_constants: a mixed fleet's ``C`` of each radar (None: one radar equation).
+        gospa_cutoff, gospa_order: the set metrics' settings.
+    """
+
+    name: str
+    dt_filter: float
+    dt_control: float
+    n_radars: int
+    n_targets: int
+    r2t: float
+    r2r: float
+    rollout: str
+    noise_constant: float
+    noise_constants: tuple | None
+    gospa_cutoff: float
+    gospa_order: float
+
+
+def run_meta(
+    head: RunHeader, method: str, seed: int, trials, steps: int, res: dict, **extra
+) -> dict:
+    """The contents of ``run.json`` (see :mod:`mjx_radar.rundir.results`)."""
     trials = np.asarray(trials)
     meta = {
-        "scenario": s.name,
+        "scenario": head.name,
         "scenario_file": "scenario.toml",  # relative to the run directory
         "source_scenario": extra.pop("source_scenario", None),
         "method": method,
@@ -49,14 +80,14 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
         "trials": int(len(trials)),
         "trial_ids": [int(t) for t in trials],
         "steps": int(steps),
-        "dt_filter": s.timing.dt_filter,
-        "dt_control": s.timing.dt_control,
-        "n_radars": s.n_radars,
-        "n_targets": s.n_targets,
-        "r2t": s.mpc.r2t,
-        "r2r": s.mpc.r2r,
-        "rollout": s.mpc.rollout,
-        "noise_constant": noise_constant(s.radar_eq, s.n_targets),
+        "dt_filter": head.dt_filter,
+        "dt_control": head.dt_control,
+        "n_radars": head.n_radars,
+        "n_targets": head.n_targets,
+        "r2t": head.r2t,
+        "r2r": head.r2r,
+        "rollout": head.rollout,
+        "noise_constant": head.noise_constant,
         "wall_s": float(res["wall_s"]),
         "compile_s": float(res["compile_s"]),
         "sim_s": float(res["sim_s"]),
@@ -65,15 +96,11 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
         "deterministic": bool(extra.pop("deterministic", False)),
         "lost_trials": int(np.asarray(res["lost"]).any(axis=-1).sum()),
         "lost_steps": int(np.asarray(res["lost"]).sum()),
-        "gospa_cutoff": s.metrics.gospa_cutoff,
-        "gospa_order": s.metrics.gospa_order,
+        "gospa_cutoff": head.gospa_cutoff,
+        "gospa_order": head.gospa_order,
     }
-    if any(ov.radar_eq for ov in s.radar_override):  # a mixed fleet: C of each radar
-        from mjx_radar.scenario.fleet import radar_equation
-
-        meta["noise_constants"] = [
-            noise_constant(radar_equation(s, i), s.n_targets) for i in range(s.n_radars)
-        ]
+    if head.noise_constants is not None:  # a mixed fleet: C of each radar
+        meta["noise_constants"] = list(head.noise_constants)
     div = res.get("diverged")
     if div is not None:
         meta["diverged_trials"] = [int(t) for t in trials[np.asarray(div).any(axis=-1)]]
@@ -82,32 +109,34 @@ def run_meta(scenario, method: str, seed: int, trials, steps: int, res: dict, **
 
 def write_run(
     out: Path,
-    scenario,
+    head: RunHeader,
     method: str,
     seed: int,
     trials,
     steps: int,
     res: dict,
     source: Path | None = None,
+    toml: str | None = None,
     **extra,
 ) -> Path:
     """Writes a complete run directory; removes what it wrote on any error.
 
     Args:
         out: the run directory (created if needed).
-        scenario: the validated scenario.
+        head: the scenario's :class:`RunHeader`.
         method: method name.
         seed: base seed.
         trials: [T] trial indices.
         steps: filter steps K.
         res: the result of :func:`mjx_radar.engine.runner.run_trials` (``full=True``).
-        source: the scenario file, copied verbatim (comments kept); ``None``: the
-            scenario is written by :meth:`~mjx_radar.scenario.schema.Scenario.to_toml`.
+        source: the scenario file, copied verbatim (comments kept); ``None``: ``toml``,
+            the scenario's text (:meth:`~mjx_radar.scenario.schema.Scenario.to_toml`).
         **extra: more ``run.json`` entries (``precision``, ``deterministic``).
 
     Returns:
         ``out``.
     """
+    from mjx_radar.io.atomic import atomic_write
     from mjx_radar.rundir import results
     from mjx_radar.scenario.bundle import bundle_scenario
 
@@ -116,8 +145,8 @@ def write_run(
     trials = np.asarray(trials)
     written: list[Path] = []
     try:
-        time_s = scenario.timing.dt_filter * np.arange(1, steps + 1)
-        frame = results.metrics_frame(scenario.name, method, trials, time_s, res)
+        time_s = head.dt_filter * np.arange(1, steps + 1)
+        frame = results.metrics_frame(head.name, method, trials, time_s, res)
         results.write_parquet(out / "metrics.parquet", frame)
         written.append(out / "metrics.parquet")
         traj = {k: res[k] for k in TRAJECTORY_KEYS if k in res}
@@ -129,9 +158,9 @@ def write_run(
         else:
             with tempfile.TemporaryDirectory() as tmp:
                 src = Path(tmp) / "scenario.toml"
-                scenario.to_toml(src)
+                atomic_write(src, lambda part: Path(part).write_text(toml))
                 written += bundle_scenario(src, out)
-        meta = run_meta(scenario, method, seed, trials, steps, res, **extra)
+        meta = run_meta(head, method, seed, trials, steps, res, **extra)
         results.write_json(out / "run.json", meta)
     except BaseException:
         for path in reversed(written):

@@ -16,7 +16,7 @@ __all__ = ["Chunk", "all_chunks", "file_label"]
 
 @dataclass
 class Chunk:
-    scenario: object  # Scenario
+    spec: object  # mjx_radar.engine.run_spec.RunSpec of its scenario
     method: str
     steps: int
     seed: int
@@ -36,12 +36,13 @@ def file_label(method: str) -> str:
 
 
 def all_chunks(scenarios, methods, trials: int, chunk: int, out: Path) -> list[Chunk]:
-    """Every chunk in study order."""
+    """Every chunk in study order (``scenarios``: :func:`~mjx_radar.study.driver.load_scenarios`'
+    ``(spec, file, steps, seed)``)."""
     chunks = []
-    for s, _, steps, seed in scenarios:
+    for spec, _, steps, seed in scenarios:
         for method in methods:
             for first in range(0, trials, chunk):
                 last = min(first + chunk, trials) - 1
-                path = out / "chunks" / f"{s.name}__{file_label(method)}__{first}-{last}.parquet"
-                chunks.append(Chunk(s, method, steps, seed, first, last, path))
+                path = out / "chunks" / f"{spec.name}__{file_label(method)}__{first}-{last}.parquet"
+                chunks.append(Chunk(spec, method, steps, seed, first, last, path))
     return chunks

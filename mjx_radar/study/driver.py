@@ -66,7 +66,10 @@ class StudyTimes:
 
 
 def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precision="float32"):
-    """Scenarios with the command-line overrides and the study configuration."""
+    """The scenarios with the command-line overrides, each read once into
+    ``(spec, file, steps, seed)`` (its :class:`~mjx_radar.engine.run_spec.RunSpec`: what
+    the study's other modules and the engine take), and the study configuration."""
+    from mjx_radar.engine.run_spec import run_spec
     from mjx_radar.scenario.motion import check_present
     from mjx_radar.scenario.reader import load_with_overrides, resolve_path
 
@@ -91,7 +94,7 @@ def load_scenarios(names, methods, trials, steps, seed, chunk, rollouts, precisi
         src = resolve_path(name)
         digest = hashlib.sha256(src.read_bytes()).hexdigest()
         entries.append({"name": s.name, "file": str(src), "sha256": digest})
-        scenarios.append((s, src, n_steps, s.seed if seed is None else seed))
+        scenarios.append((run_spec(s), src, n_steps, s.seed if seed is None else seed))
     config = {"scenarios": entries, "methods": list(methods), "trials": trials}
     config |= {"steps": steps, "seed": seed, "chunk": chunk, "rollouts": rollouts}
     config["precision"] = precision
@@ -136,9 +139,10 @@ def check_out(out: Path, config: dict, resume: bool, joining: bool = False) -> d
     return manifest
 
 
-def _gospa_settings(scenario) -> dict:
-    """The GOSPA / OSPA cutoff and order a scenario's columns were computed with."""
-    return {"cutoff": scenario.metrics.gospa_cutoff, "order": scenario.metrics.gospa_order}
+def _gospa_settings(metrics) -> dict:
+    """The GOSPA / OSPA cutoff and order (a ``[metrics]`` table) a scenario's columns were
+    computed with."""
+    return {"cutoff": metrics.gospa_cutoff, "order": metrics.gospa_order}
 
 
 def start_manifest(out: Path, scenarios, config: dict, manifest: dict | None) -> dict:
@@ -207,8 +211,8 @@ def finish(
         "chunk": config["chunk"],
         "precision": config["precision"],
         "deterministic": deterministic,
-        "rollouts": {s.name: s.mpc.rollout for s, *_ in scenarios},
-        "gospa": {s.name: _gospa_settings(s) for s, *_ in scenarios},
+        "rollouts": {s.name: s.size.rollout for s, *_ in scenarios},
+        "gospa": {s.name: _gospa_settings(s.metrics) for s, *_ in scenarios},
         "wall_s": time.perf_counter() - times.start,
         "compile_s": times.compile_s,
         "compile_wall_s": times.compile_wall_s,

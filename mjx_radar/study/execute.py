@@ -158,7 +158,7 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
     # pairs instead kept 15 of the paper study's 36 programs alive on 4 GPUs, and the
     # evicted ones were loaded again round after round (61 loads instead of 27).
     with live_programs.keep_alive(
-        runner.programs_needed([(c.scenario, c.method) for c in todo], n_dev)
+        runner.programs_needed([(c.spec, c.method) for c in todo], n_dev)
     ):
         # compiling from here on (study.schedule), beside the placement check
         started = schedule.start(todo, args.chunk * n_dev, mesh)
@@ -202,11 +202,10 @@ def _study(args: StudyOptions, scenarios, config, worker, times) -> int:
 def _check_resources(args: StudyOptions, scenarios, n_dev: int) -> None:
     """Refuses what cannot fit, for each program of each shape (engine.resources)."""
     from mjx_radar.engine import resources, runner
-    from mjx_radar.task.params import shape_key
 
     programs = runner.program_map([(s, m) for s, *_ in scenarios for m in args.methods])
     for s, _, n_steps, _ in scenarios:
-        shape = shape_key(s)
+        shape = s.shape
         for kind in sorted({k for (sh, _), (k, _) in programs.items() if sh == shape}):
             opts = {"full": False, "batch_option": "--chunk", "kind": kind}
             resources.check(s, args.chunk * n_dev, n_steps, n_dev, **opts)

@@ -148,10 +148,10 @@ def run_lanes(args, todo, mesh, times, started, stream=None) -> dict:
             def progress(k, n=n):
                 with bar_lock:
                     bar.update(k * n)
-                    bar.set_postfix_str(f"{c.scenario.name} {c.method}", refresh=False)
+                    bar.set_postfix_str(f"{c.spec.name} {c.method}", refresh=False)
 
             ids = np.concatenate([np.arange(c.first, c.last + 1), np.full(args.chunk - n, c.last)])
-            run = (prog, c.scenario, c.method, c.seed, ids, c.steps, progress)
+            run = (prog, c.spec, c.method, c.seed, ids, c.steps, progress)
             res = _guard_oom(c, args.chunk, run_on_device, *run)
             t_end = time.perf_counter()
             pool.submit(*_chunk_job(c, res))
@@ -230,7 +230,7 @@ def _chunk_job(c, res: dict) -> tuple:
     from mjx_radar.rundir.results import LOOP_COLUMNS
     from mjx_radar.study.host_work import ChunkJob
 
-    s = c.scenario
+    s = c.spec
     cfg = (s.timing.dt_filter, s.metrics.gospa_cutoff, s.metrics.gospa_order)
     job = ChunkJob(c.path, s.name, c.method, c.first, c.last, *cfg)
     loop = {k: v for k, v in res.items() if k in LOOP_COLUMNS}
@@ -271,4 +271,4 @@ def _guard_oom(chunk, per_device: int, fn, *args):
     except Exception as err:
         if not out_of_memory(err):
             raise
-        raise InputError(oom_line(chunk.scenario, per_device, err)) from None
+        raise InputError(oom_line(chunk.spec, per_device, err)) from None

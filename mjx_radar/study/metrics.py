@@ -195,14 +195,15 @@ def baselines(method: str) -> dict[str, str]:
     return out
 
 
-def paired_kept(frame: pd.DataFrame, scenario, a: str, b: str) -> tuple[float, float, int]:
-    """Means of ``rmse_pos`` over steps and the trials kept by both methods ``a`` and ``b``.
+def paired_kept(frame: pd.DataFrame, name: str, a: str, b: str) -> tuple[float, float, int]:
+    """Means of ``rmse_pos`` over steps and the trials kept by both methods ``a`` and ``b``
+    in the rows of the scenario called ``name``.
 
     Returns:
         ``(mean_a, mean_b, n_common)``; NaNs and 0 without a ``lost`` column or when
         no trial is kept by both.
     """
-    sub = frame[frame["scenario"] == scenario]
+    sub = frame[frame["scenario"] == name]
     ga, gb = sub[sub["method"] == a], sub[sub["method"] == b]
     la, lb = _lost_wide(ga), _lost_wide(gb)
     if la is None or lb is None or ga.empty or gb.empty:
@@ -254,17 +255,18 @@ def summary(steps: pd.DataFrame, frame: pd.DataFrame | None = None) -> pd.DataFr
         for stat in STATS:
             agg[f"red_{stat}_vs_{tag}"] = np.nan
         agg[f"n_kept_vs_{tag}"] = 0
-    index = {(str(r.scenario), str(r.method)): i for i, r in agg.iterrows()}
+    index = {(str(r["scenario"]), str(r["method"])): i for i, r in agg.iterrows()}
     for i, r in agg.iterrows():
-        for tag, base in baselines(r.method).items():
-            j = index.get((str(r.scenario), base))
+        name = r["scenario"]  # the scenario's name (a column of the table)
+        for tag, base in baselines(r["method"]).items():
+            j = index.get((str(name), base))
             if j is None:
                 continue
             for stat in ("mean", "median", "hdi", "kept"):
                 col = STAT_COLUMN[stat]
                 agg.loc[i, f"red_{stat}_vs_{tag}"] = reduction(agg.loc[i, col], agg.loc[j, col])
             if frame is not None:
-                ma, mb, n = paired_kept(frame, r.scenario, str(r.method), base)
+                ma, mb, n = paired_kept(frame, name, str(r["method"]), base)
                 agg.loc[i, f"red_kept_vs_{tag}"] = reduction(ma, mb)
                 agg.loc[i, f"n_kept_vs_{tag}"] = n
     return agg

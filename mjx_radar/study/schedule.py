@@ -29,9 +29,7 @@ __all__ = ["StudyPrograms", "program_key", "start"]
 def program_key(chunk, programs: dict) -> tuple:
     """What identifies the program a chunk runs in a study: ``(shape, (kind, planner),
     steps)`` (the batch, device mesh and output kind are the study's own)."""
-    from mjx_radar.task.params import shape_key
-
-    shape = shape_key(chunk.scenario)
+    shape = chunk.spec.shape
     return shape, programs[(shape, chunk.method)], chunk.steps
 
 
@@ -54,13 +52,13 @@ def start(todo, batch: int, mesh) -> StudyPrograms:
     from mjx_radar.engine import runner
 
     t0 = time.perf_counter()
-    programs = runner.program_map([(c.scenario, c.method) for c in todo])
+    programs = runner.program_map([(c.spec, c.method) for c in todo])
     pending: dict = {}
     ids = np.zeros(batch, np.int32)  # only their number matters
     for c in todo:
         key = program_key(c, programs)
         if key not in pending:
             pending[key] = runner.start_programs(
-                c.scenario, c.method, ids, c.steps, full=False, mesh=mesh, program=key[1]
+                c.spec, c.method, ids, c.steps, full=False, mesh=mesh, program=key[1]
             )
     return StudyPrograms(pending, programs, t0)

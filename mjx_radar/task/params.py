@@ -72,8 +72,9 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
     if scenario.target_motion:  # per-target motion (a track starts at its CSV's start)
         from mjx_radar.physics import target_motion
 
-        target_init = np.array(target_motion.initial_states(scenario), float)
-        motion = target_motion.motion_params(scenario, dtype)
+        x0, tables, timing = scenario.target_init, scenario.target_motion, scenario.timing
+        target_init = np.array(target_motion.initial_states(x0, tables, timing.dt_filter), float)
+        motion = target_motion.motion_params(x0, tables, timing, scenario.sigma_w2, dtype)
     if scenario.terrain is not None and scenario.terrain.targets_agl:  # z above the ground
         from mjx_radar.io.terrain_file import height_np
 

@@ -97,7 +97,12 @@ def _rollout_backend(scenario: Scenario, ground: Ground) -> Callable:
     dt = scenario.timing.dt_control / k
     if scenario.mpc.rollout == "mjx":
         # one radar, vmapped over the N radars by radar_rollout (see planner_plant)
-        plant = physics.planner_plant(scenario) if k == 1 else physics.make_plant(1, 0, dt, limits)
+        dt_control = scenario.timing.dt_control
+        plant = (
+            physics.planner_plant(dt_control, limits)
+            if k == 1
+            else physics.make_plant(1, 0, dt, limits)
+        )
 
         def integrate(state, u):
             return radar_rollout(plant, state, u)
@@ -115,6 +120,14 @@ def _rollout_backend(scenario: Scenario, ground: Ground) -> Callable:
     if k == 1:
         return integrate
     return lambda state, u: integrate(state, jnp.repeat(u, k, axis=0))[k - 1 :: k]
+
+
+def _truth_plant(shape: Scenario):
+    """The truth plant of a scenario shape (:func:`~mjx_radar.physics.plant.truth_plant`)."""
+    world = (shape.obstacles, shape.terrain, shape.moving_obstacles)
+    return physics.truth_plant(
+        shape.n_radars, shape.n_targets, shape.timing.dt_filter, shape.limits, *world
+    )
 
 
 def make_task(shape: Scenario, kind: str = "all") -> RadarTask:
@@ -164,7 +177,7 @@ def _make_task(shape: Scenario, registry: tuple) -> RadarTask:
         measurement=measurement.make_model(shape.measurement.model),
         terms=costs.builtin_terms(world, shape.mpc) + costs.registered_terms(shape),
         rollout=_rollout_backend(shape, world.ground),
-        truth=physics.truth_plant(shape),
+        truth=_truth_plant(shape),
         a_filter=motion.cv_transition(t.dt_filter, m),
         q_filter_unit=motion.cv_process_noise(t.dt_filter, 1.0, m),
         a_control=motion.cv_transition(t.dt_control, m),
