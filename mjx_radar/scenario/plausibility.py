@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.scenario import schema_tracker
+from mjx_radar.scenario import schema_tracker, tracker_roles
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
 
@@ -64,6 +64,7 @@ def check_scenario(s: Scenario) -> None:
     _check_imm(s)
     _check_tracker(s)
     schema_tracker.check(s)
+    tracker_roles.check(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
             f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "
@@ -246,6 +247,14 @@ def _check_tracker(s: Scenario) -> None:
     t, m = s.tracker, s.n_targets
     if t.association == "pda":
         return
+    if tracker_roles.registered_associator(t.association):  # a plug-in: it drives the
+        if not s.detection.clutter and tracker_roles.roles(s).management == "known":
+            raise ScenarioError(  # bank on cluttered scans, the track table on any
+                f'tracker.association = "{t.association}": needs clutter '
+                f'(detection.clutter_density > 0) or tracker.management = "managed"; '
+                f"without them the returns are labelled"
+            )
+        return
     if not s.detection.clutter:
         raise ScenarioError(
             f'tracker.association = "{t.association}": needs clutter (detection.clutter_density '
@@ -253,7 +262,7 @@ def _check_tracker(s: Scenario) -> None:
         )
     if t.association == "jpda" and t.marginals == "multisensor":
         _check_multisensor(t, s.n_radars, m)
-    exact = t.association in ("gnn", "mht") or t.marginals == "exact"
+    exact = t.association in ("gnn", "mht") or t.marginals == "exact"  # jpda: exact
     events = (t.candidates + 1) ** m
     if exact and events > MAX_EVENTS:
         raise ScenarioError(
