@@ -20,6 +20,7 @@ from mjx_radar.contracts import PluginError
 from mjx_radar.env import scan, trackers
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.registry import ASSOCIATORS
+from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task.task import build
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
@@ -69,8 +70,12 @@ def test_associator_registration(cleanup):
 
 def test_an_associator_without_clutter_or_a_table_is_refused(cleanup):
     mjx_radar.register_associator("door_a", auction_associator)
+    smoke = mjx_radar.load_scenario("smoke")
     with pytest.raises(ScenarioError, match='^tracker.association = "door_a": needs clutter'):
-        mjx_radar.load_scenario("smoke").replace(tracker={"association": "door_a"})
+        smoke.replace(tracker={"association": "door_a"})
+    table = {"association": "door_a", "management": "managed"}  # the table takes it
+    s = load_scenario("paper_3r4t").replace(filter={"structure": "per-target"}, tracker=table)
+    assert s.tracker.association == "door_a" and not s.detection.clutter
 
 
 def _update(s):
@@ -122,6 +127,7 @@ def test_a_registered_associator_drives_the_bank(clutter, cleanup):
     assert (xy < 0.99).all()  # every drone updated (P = I before; radars on the ground)
 
 
+@pytest.mark.slow  # a closed-loop compile (~1 min on CPU); CI runs the bank's loop
 def test_the_example_drives_the_managed_table(clutter, cleanup):
     """The example's associator in the managed track table's closed loop (1 trial, 8
     steps; the bank's loop: tests/test_examples.py::test_custom_associator)."""
