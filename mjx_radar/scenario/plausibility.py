@@ -35,7 +35,8 @@ The rules (docs/scenarios.md, "Plausibility"):
   JPDA* needs ``tracker.marginals = "exact"``; the multi-sensor JPDA's radar tuples
   ``(candidates + 1)^N`` at most ``MAX_TUPLES`` and its events ``tuples^M`` at most
   ``MAX_EVENTS``; the MHT (``"mht"``) needs clutter, and its children per radar
-  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``.
+  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``; a registered associator needs
+  clutter or the managed table. The roles' rules: :mod:`mjx_radar.scenario.tracker_roles`.
 """
 
 from __future__ import annotations
@@ -262,7 +263,7 @@ def _check_tracker(s: Scenario) -> None:
         )
     if t.association == "jpda" and t.marginals == "multisensor":
         _check_multisensor(t, s.n_radars, m)
-    exact = t.association in ("gnn", "mht") or t.marginals == "exact"  # jpda: exact
+    exact = t.association in ("gnn", "mht") or t.marginals == "exact"
     events = (t.candidates + 1) ** m
     if exact and events > MAX_EVENTS:
         raise ScenarioError(
