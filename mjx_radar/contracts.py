@@ -9,6 +9,9 @@ missing, before anything is traced:
   environment, with ``init()`` and ``plan(carry, obs, key) -> (action [N, 2], carry)``
   (``record(carry, action)`` optional);
 * :class:`TrackerFactory`: ``factory(task, params) -> FilterOps``;
+* :class:`AssociatorFactory`: ``factory(task, params) -> associate``, the association of
+  unlabelled scans to tracks (``[tracker] association``; it drives the per-target bank
+  and the managed track table);
 * :class:`SensorPlugin`: a ``MeasurementModel`` subclass made without arguments, or an
   instance of one that carries its own parameters, with ``dim >= 1`` and its five methods;
 * :class:`CostTermPlugin`: ``fn(h: Horizon, task, params) -> [H]``, a cost per horizon
@@ -50,6 +53,20 @@ class TrackerFactory(Protocol):
     def __call__(self, task: Any, params: Any) -> Any: ...
 
 
+class AssociatorFactory(Protocol):
+    """``factory(task, params) -> associate``, with (K tracks, N radars, L returns each)::
+
+        associate(means [K, 6], covs [K, 6, 6], live [K], zs [N, L, dim], valid [N, L],
+                  radar_pos [N, 3]) -> (means [K, 6], covs [K, 6, 6], nll [K, N, L])
+
+    the tracks' posterior after every radar's scan and each return's negative
+    log-likelihood under each track (``+inf`` outside its gate; the managed track table
+    reads its claims and hits from it, :mod:`mjx_radar.estimation.track_update`).
+    Pure JAX, static shapes."""
+
+    def __call__(self, task: Any, params: Any) -> Any: ...
+
+
 @runtime_checkable
 class SensorPlugin(Protocol):
     """A measurement model (:class:`mjx_radar.estimation.measurement.MeasurementModel`)."""
@@ -79,6 +96,8 @@ METHODS = {
     "planner": {"init": 0, "plan": 3},
     "sensor": {"predict": 2, "variance": 3, "sample": 4, "residual": 2, "pair_information": 5},
 }
+#: the kinds registered as ``factory(task, params)`` and what the factory returns
+FACTORIES = {"tracker": "FilterOps", "associator": "associate"}
 #: names no plug-in may take: ``auto`` means "chosen from the scenario's options"
 RESERVED = {"tracker": ("auto",), "planner": ("auto",), "sensor": ("auto",)}
 
@@ -152,14 +171,14 @@ def check(kind: str, name: str, obj: Any) -> None:
                 f"planner {name!r}: register the class (or a factory env -> planner), "
                 f"not an instance of {what}"
             )
-    elif kind == "tracker":
+    elif kind in FACTORIES:
         if not callable(obj):
             raise PluginError(
-                f"tracker {name!r}: a factory(task, params) -> FilterOps, not a {what}"
+                f"{kind} {name!r}: a factory(task, params) -> {FACTORIES[kind]}, not a {what}"
             )
         if not takes(obj, 2):
             raise PluginError(
-                f"tracker {name!r}: the factory {getattr(obj, '__name__', what)}"
+                f"{kind} {name!r}: the factory {getattr(obj, '__name__', what)}"
                 f"{inspect.signature(obj)} must take (task, params)"
             )
     elif kind == "cost term":

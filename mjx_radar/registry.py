@@ -1,4 +1,4 @@
-"""One registry style for every plug-in: cost terms, planners, trackers, sensors.
+"""One registry style for every plug-in: cost terms, planners, trackers, associators, sensors.
 
 A :class:`Registry` maps names to plug-ins (functions or classes). Built-in entries
 are listed when the registry is made; entries registered from scripts are kept apart,
@@ -239,6 +239,20 @@ TRACKERS = Registry(
         "gnn": "mjx_radar.env.association_ops:gnn_bank",
         "mht": "mjx_radar.env.mht_ops:mht_bank",
         "managed": "mjx_radar.env.managed:managed_tracker",
+    },
+)
+#: associators of unlabelled scans by name (:mod:`mjx_radar.env.trackers`): ``[tracker]
+#: association``. A built-in entry is the per-target bank that runs it (``factory(task,
+#: params) -> FilterOps``); one of :func:`mjx_radar.register_associator` is
+#: ``factory(task, params) -> associate`` (:class:`mjx_radar.contracts.AssociatorFactory`),
+#: which drives the bank and the managed track table alike
+ASSOCIATORS = Registry(
+    "associator",
+    {
+        "pda": "mjx_radar.env.filter_ops:pda_bank",
+        "jpda": "mjx_radar.env.association_ops:jpda_bank",
+        "gnn": "mjx_radar.env.association_ops:gnn_bank",
+        "mht": "mjx_radar.env.mht_ops:mht_bank",
     },
 )
 #: cost terms of the planner's objective by name (:mod:`mjx_radar.task.costs`): the

@@ -74,6 +74,16 @@ def test_custom_planner(tmp_path, cache_dir):
     assert all(0 < r < 100 for r in rmse) and rmse[0] != rmse[1]
 
 
+def test_custom_associator(tmp_path, cache_dir):
+    """An associator of the user's own (examples/_auction.py), registered from the script,
+    runs as ``[tracker] association`` on a cluttered scenario (1 trial, 16 steps)."""
+    out = _run("custom_associator", tmp_path / "o", cache_dir)
+    lines = (tmp_path / "o" / "custom_associator.txt").read_text().splitlines()
+    assert [line.split(":")[0].strip() for line in lines] == ["pda", "auction"], out
+    rmse = [float(line.split("RMSE ")[1].split(" m")[0]) for line in lines]
+    assert all(0 < r < 100 for r in rmse) and rmse[0] != rmse[1]
+
+
 @pytest.mark.slow  # CI keeps compare_methods, custom_cost, video_and_snapshot (suite time)
 def test_scenario_in_code(tmp_path, cache_dir):
     import mjx_radar

@@ -174,11 +174,11 @@ def test_imm_scenario_rules():
 
 
 def test_appearing_targets_restart_their_modes():
-    """filter_ops: a drone appearing at step k gets every mode at its fresh (combined)
+    """The IMM form: a drone appearing at step k gets every mode at its fresh (combined)
     estimate and uniform probabilities; the other drones' modes are untouched."""
     import dataclasses
 
-    from mjx_radar.env import filter_ops
+    from mjx_radar.env import trackers
     from mjx_radar.task.task import build
 
     s = load_scenario("waypoints_3r4t")
@@ -186,7 +186,7 @@ def test_appearing_targets_restart_their_modes():
     s = s.replace(filter={"structure": "per-target", "motion": "imm"},
                   target_motion=(*s.target_motion[:3], late))  # fmt: skip
     task, params = build(s, "stationary")
-    fops = filter_ops.make(task, params)
+    fops = trackers.make(task, params)
     rng = np.random.default_rng(0)
     modes = imm.ImmState(
         jnp.asarray(rng.normal(size=(4, 3, 6)), jnp.float32),

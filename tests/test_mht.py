@@ -176,11 +176,11 @@ def test_one_hypothesis_is_the_sequential_gnn_bank():
 
 def test_scenario_selects_and_refuses_mht():
     import mjx_radar
-    from mjx_radar.env.filter_ops import tracker_name
+    from mjx_radar.scenario.tracker_roles import composed
 
     s = mjx_radar.load_scenario("clutter_3r4t")
     assert s.tracker.association == "pda" and s.tracker.hypotheses == 16  # off by default
-    assert tracker_name(s.replace(tracker={"association": "mht"})) == "mht"
+    assert composed(s.replace(tracker={"association": "mht"})) == "mht"
     with pytest.raises(ScenarioError, match="tracker.hypotheses"):
         s.replace(tracker={"association": "mht", "hypotheses": 0})
     with pytest.raises(ScenarioError, match="tracker.hypotheses = 1024"):

@@ -2,10 +2,10 @@
 
 import pytest
 
-from mjx_radar.env.filter_ops import tracker_name
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.scenario.schema_tracker import TrackerConfig
+from mjx_radar.scenario.tracker_roles import composed
 from mjx_radar.task.params import shape_key
 
 
@@ -16,16 +16,19 @@ def clutter():
 
 def test_default_is_todays_pda(clutter):
     assert TrackerConfig().association == "pda"
-    assert tracker_name(clutter) == "pda"
-    assert tracker_name(load_scenario("smoke")) != "pda"  # no clutter: the bank or the CKF
+    assert composed(clutter) == "pda"
+    assert composed(load_scenario("smoke")) != "pda"  # no clutter: the bank or the CKF
 
 
 @pytest.mark.parametrize("assoc", ["jpda", "gnn"])
 def test_association_selects_the_tracker_and_its_program(clutter, assoc):
     s = clutter.replace(tracker={"association": assoc})
-    assert tracker_name(s) == assoc
+    assert composed(s) == assoc
     assert shape_key(s) != shape_key(clutter)  # a program of its own
-    assert tracker_name(s.replace(filter={"tracker": "pda"})) == "pda"  # explicit wins
+    assert composed(s.replace(filter={"tracker": assoc})) == assoc  # named as composed
+    with pytest.raises(ScenarioError) as err:  # a name the options do not compose
+        s.replace(filter={"tracker": "pda"})
+    assert str(err.value).startswith(f'filter.tracker = "pda": the options compose "{assoc}"')
 
 
 def test_tracker_table_in_toml_and_through_the_cli(clutter, tmp_path):
@@ -36,7 +39,7 @@ def test_tracker_table_in_toml_and_through_the_cli(clutter, tmp_path):
     s.to_toml(path)
     assert "[tracker]" in path.read_text()
     back = load_scenario(path)
-    assert back.tracker == s.tracker and tracker_name(back) == "jpda"
+    assert back.tracker == s.tracker and composed(back) == "jpda"
     assert main(["validate", str(path)]) == 0
     path.write_text(path.read_text().replace('association = "jpda"', 'association = "pmbm"'))
     assert main(["validate", str(path)]) == 2
@@ -72,7 +75,7 @@ def test_bad_tracker_fields_give_one_line(clutter, table, start):
 def test_multisensor_is_a_program_of_its_own(clutter):
     s = clutter.replace(tracker={"association": "jpda"})
     ms = s.replace(tracker={"marginals": "multisensor"})
-    assert tracker_name(ms) == "jpda" and ms.tracker.tuples == 8
+    assert composed(ms) == "jpda" and ms.tracker.tuples == 8
     assert shape_key(ms) != shape_key(s)
     assert shape_key(ms.replace(tracker={"tuples": 6})) != shape_key(ms)
 
@@ -80,9 +83,11 @@ def test_multisensor_is_a_program_of_its_own(clutter):
 def test_joint_association_needs_clutter():
     with pytest.raises(ScenarioError, match='tracker.association = "jpda": needs clutter'):
         load_scenario("smoke").replace(tracker={"association": "jpda"})
-    # 17^4 events refused above; LBP has no enumeration and takes any candidates setting
+    # 17^4 events refused above; LBP has no enumeration: it reads no candidates setting
     s = load_scenario("clutter_3r4t")
-    assert s.replace(tracker={"association": "jpda", "marginals": "lbp", "candidates": 16})
+    assert s.replace(tracker={"association": "jpda", "marginals": "lbp", "lbp_iterations": 9})
+    with pytest.raises(ScenarioError, match="^tracker.candidates = 16: read only with tracker"):
+        s.replace(tracker={"association": "jpda", "marginals": "lbp", "candidates": 16})
 
 
 def test_run_option_association_sets_the_table():
@@ -90,6 +95,6 @@ def test_run_option_association_sets_the_table():
     from mjx_radar.api import run_case
 
     req = run_case.request("clutter_3r4t", association="gnn")
-    assert req.scenario.tracker.association == "gnn" and tracker_name(req.scenario) == "gnn"
+    assert req.scenario.tracker.association == "gnn" and composed(req.scenario) == "gnn"
     with pytest.raises(ScenarioError, match="^--association: tracker.association"):
         run_case.request("clutter_3r4t", cli=True, association="pmbm")

@@ -62,8 +62,8 @@ def simulate(
             (``run --planner``; :func:`mjx_radar.register_planner`).
         rollouts: ``"mjx"`` or ``"analytic"`` planner rollouts (``run --rollouts``;
             default the scenario's).
-        association: ``"pda"``, ``"jpda"``, ``"gnn"`` or ``"mht"``: the scenario's ``[tracker]
-            association`` for this run (``run --association``; docs/tracking.md).
+        association: ``"pda"``, ``"jpda"``, ``"gnn"``, ``"mht"`` or a registered one: the
+            scenario's ``[tracker] association`` (``run --association``; docs/tracking.md).
         precision: ``"float32"`` or ``"float64"`` (x64 mode for this run; ``--precision``).
         deterministic: deterministic GPU kernels (:mod:`mjx_radar.engine.determinism`):
             ``None`` (default) on where JAX's GPU backend has not started, else as the

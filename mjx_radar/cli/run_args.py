@@ -69,8 +69,9 @@ def add_output_arguments(p: argparse.ArgumentParser) -> None:
         "--association",
         default=None,
         metavar="NAME",
-        help="association of cluttered scans: pda, jpda, gnn or mht (the scenario's [tracker] "
-        "association; its other options in the TOML file, docs/tracking.md)",
+        help="association of cluttered scans: pda, jpda, gnn, mht or one registered from a "
+        "--plugin file (the scenario's [tracker] association; its other options in the TOML "
+        "file, docs/tracking.md)",
     )
     p.add_argument(
         "--masks",

@@ -40,7 +40,7 @@ from mjx_radar.engine.export_cache import SPLIT, WHOLE
 from mjx_radar.engine.live_programs import LiveCache
 from mjx_radar.env import records
 from mjx_radar.planners import records as plan_records
-from mjx_radar.registry import PLANNERS, SENSORS, TRACKERS
+from mjx_radar.registry import ASSOCIATORS, PLANNERS, SENSORS, TRACKERS
 from mjx_radar.rundir import results
 from mjx_radar.task import cost_plugins
 from mjx_radar.task.method import parse_method
@@ -87,6 +87,7 @@ def _variant(planner: str = "mppi") -> tuple:
         planner,
         PLANNERS.key((planner,)),
         TRACKERS.key(),
+        ASSOCIATORS.key(),
         SENSORS.key(),
     )
 

@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar import precision
-from mjx_radar.env import filter_ops, inputs, placement, presence, track_health
+from mjx_radar.env import inputs, placement, presence, track_health, trackers
 from mjx_radar.env.period import make_filter_step
 from mjx_radar.env.state import LoopState, Observation, State
 from mjx_radar.env.streams import streams_of, trial_key
@@ -78,7 +78,7 @@ class RadarEnv:
         self.n_radars, self.n_targets = task.fleet.n_radars, task.n_targets
         self.action_size = 2 * self.n_radars
         self._form = ckf_sqrt.form_ops(task.filter.form)
-        self._tracker = filter_ops.make(task, params)
+        self._tracker = trackers.make(task, params)
         self._table = self._tracker.tracks  # None: the joint estimate, indexed like the truth
         #: tracks the planner sees: M (the joint estimate) or the table's K slots
         self.n_tracks = self.n_targets if self._table is None else task.tracker.max_tracks

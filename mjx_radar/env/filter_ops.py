@@ -1,17 +1,18 @@
-"""The closed loop's tracker behind one contract (:class:`FilterOps`), found by name.
+"""The tracker contract (:class:`FilterOps`) and the built-in filter forms.
 
-Built-in trackers (:data:`mjx_radar.registry.TRACKERS`): ``"ckf"`` the paper's joint
-CKF, ``"bank"`` the per-target bank (``filter.structure = "per-target"``,
+The filter forms (docs/tracking.md, "Roles"): ``"ckf"`` the paper's joint CKF,
+``"bank"`` the per-target bank (``filter.structure = "per-target"``,
 :mod:`~mjx_radar.estimation.filter_bank`) in the covariance or square-root form,
 ``"imm"`` the IMM bank (``filter.motion = "imm"``, :mod:`~mjx_radar.estimation.imm`:
-CV + coordinated turns, docs/filters.md) and ``"pda"`` the per-target bank with PDA
-association of cluttered scans (``[detection] clutter``). :func:`tracker_name` picks
-the scenario's; :func:`mjx_radar.register_tracker` adds one. Every tracker keeps the
-joint interface ``mean [6M], cov [6M, 6M]`` (the combined estimate for the IMM), which
-is what the metrics, the lost-track detector and the planner see; a tracker's own
-state rides along as ``modes`` (the IMM's :class:`~mjx_radar.estimation.imm.ImmState`;
-``()`` for the others, so their programs and numbers are the same as before). ``"jpda"``
-and ``"gnn"`` (joint association of cluttered scans, ``[tracker]``) are in
+CV + coordinated turns, docs/filters.md), and ``"pda"`` the per-target bank with PDA
+association of cluttered scans (``[detection] clutter``). :mod:`mjx_radar.env.trackers`
+composes the scenario's tracker from its roles; :func:`mjx_radar.register_tracker` adds
+a whole one. Every tracker keeps the joint interface ``mean [6M], cov [6M, 6M]`` (the
+combined estimate for the IMM), which is what the metrics, the lost-track detector and
+the planner see; a tracker's own state rides along as ``modes`` (the IMM's
+:class:`~mjx_radar.estimation.imm.ImmState`; ``()`` for the others, so their programs
+and numbers are the same as before). The associators ``"jpda"`` and ``"gnn"`` (joint
+association of cluttered scans, ``[tracker]``) drive the bank in
 :mod:`mjx_radar.env.association_ops`, ``"mht"`` (K association histories across scans)
 in :mod:`mjx_radar.env.mht_ops`.
 """
@@ -24,11 +25,8 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.contracts import PluginError
 from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement_filter
 from mjx_radar.physics import target_motion
-from mjx_radar.plugin_errors import failure, guarded_call
-from mjx_radar.registry import TRACKERS
 from mjx_radar.task.task import RadarTask, process_noise
 
 
@@ -56,93 +54,6 @@ class FilterOps(NamedTuple):
     begin: Callable
     init: Callable = lambda mean, cov: ()  # noqa: E731
     tracks: Callable | None = None
-
-
-def tracker_name(tables) -> str:
-    """The tracker of ``tables``' ``filter``, ``tracker`` and ``detection`` tables (a
-    :class:`~mjx_radar.task.task.RadarTask` or a scenario): ``[filter] tracker``, or by
-    their options (``[tracker] management = "managed"``: ``"managed"``; clutter:
-    ``[tracker] association``, ``"pda"`` by default, ``filter.motion = "imm"``:
-    ``"imm"``, per-target: ``"bank"``, else ``"ckf"``)."""
-    filt, tracker = tables.filter, tables.tracker
-    if tracker.management == "managed":
-        return "managed"
-    if filt.tracker != "auto":
-        return filt.tracker
-    if tables.detection.clutter:  # [tracker] association: pda, jpda, gnn or mht
-        return tracker.association
-    if filt.motion == "imm":
-        return "imm"
-    return "bank" if filt.structure == "per-target" else "ckf"
-
-
-def make(task: RadarTask, params) -> FilterOps:
-    """The scenario's tracker (:func:`tracker_name`) with the noise model of ``params.method``.
-
-    A registered tracker's factory must return a :class:`FilterOps` (one-line
-    :class:`~mjx_radar.contracts.PluginError` otherwise, or for its own exception, in the
-    factory or in one of its functions while the loop is traced)."""
-    name = tracker_name(task)
-    factory = TRACKERS.get(name)
-    if name.lower() not in TRACKERS.registered():
-        return factory(task, params)
-    try:
-        ops = factory(task, params)
-    except PluginError:
-        raise
-    except Exception as err:  # noqa: BLE001 -- the user's code: one line and its frames
-        raise failure("tracker", name, "factory", err) from None
-    if not isinstance(ops, FilterOps):
-        raise PluginError(
-            f"tracker {name!r}: its factory returned {type(ops).__name__}, not FilterOps"
-            " (predict, update, begin[, init, tracks])"
-        )
-    calls = {c: getattr(ops, c) for c in FilterOps._fields if callable(getattr(ops, c))}
-    calls = {c: guarded_call("tracker", name, c, f) for c, f in calls.items()}
-    for c in ("predict", "update"):
-        calls[c] = _checked(name, c, calls[c])
-    return ops._replace(**calls)
-
-
-def _checked(name: str, call: str, fn: Callable) -> Callable:
-    """A registered tracker's ``predict`` or ``update``, whose result must be
-    ``(mean, cov, modes)`` with the given mean's and cov's shapes (checked where traced)."""
-
-    def checked(mean, cov, modes, *args, **kwargs):
-        out = fn(mean, cov, modes, *args, **kwargs)
-        if not (isinstance(out, tuple | list) and len(out) == 3):
-            got = f"{len(out)} values" if isinstance(out, tuple | list) else type(out).__name__
-            raise PluginError(
-                f"tracker {name!r}: {call}() returned {got}; expected (mean, cov, modes)"
-            )
-        for what, given, got in (("mean", mean, out[0]), ("cov", cov, out[1])):
-            if jnp.shape(got) != jnp.shape(given):
-                raise PluginError(
-                    f"tracker {name!r}: {call}() returned a {what} of shape "
-                    f"{list(jnp.shape(got))}; expected {list(jnp.shape(given))}"
-                )
-        return out
-
-    return checked
-
-
-def register_tracker(name: str, factory=None):
-    """Registers a tracker: ``factory(task, params) -> FilterOps`` (usable as a decorator).
-
-    Select it in a scenario with ``[filter] tracker = "name"``. Its code is part of the
-    program cache key. Built-ins: ``ckf``, ``bank``, ``imm``, ``pda``, ``jpda``, ``gnn``, ``mht``
-    (docs/extending.md).
-    """
-
-    def add(f):
-        return TRACKERS.register(name, f)
-
-    return add if factory is None else add(factory)
-
-
-def unregister_tracker(name: str) -> None:
-    """Removes a registered tracker (built-ins stay)."""
-    TRACKERS.unregister(name)
 
 
 def keep(ok_pred, ok, post, pred, prev):

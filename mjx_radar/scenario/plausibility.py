@@ -35,7 +35,8 @@ The rules (docs/scenarios.md, "Plausibility"):
   JPDA* needs ``tracker.marginals = "exact"``; the multi-sensor JPDA's radar tuples
   ``(candidates + 1)^N`` at most ``MAX_TUPLES`` and its events ``tuples^M`` at most
   ``MAX_EVENTS``; the MHT (``"mht"``) needs clutter, and its children per radar
-  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``.
+  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``; a registered associator needs
+  clutter or the managed table. The roles' rules: :mod:`mjx_radar.scenario.tracker_roles`.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from __future__ import annotations
 import math
 
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.scenario import schema_tracker
+from mjx_radar.scenario import schema_tracker, tracker_roles
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
 
@@ -64,6 +65,7 @@ def check_scenario(s: Scenario) -> None:
     _check_imm(s)
     _check_tracker(s)
     schema_tracker.check(s)
+    tracker_roles.check(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
             f"mppi.elite_threshold = {s.mppi.elite_threshold}: leaves no elite sample out of "
@@ -245,6 +247,14 @@ def _check_imm(s: Scenario) -> None:
 def _check_tracker(s: Scenario) -> None:
     t, m = s.tracker, s.n_targets
     if t.association == "pda":
+        return
+    if tracker_roles.registered_associator(t.association):  # a plug-in: it drives the
+        if not s.detection.clutter and tracker_roles.roles(s).management == "known":
+            raise ScenarioError(  # bank on cluttered scans, the track table on any
+                f'tracker.association = "{t.association}": needs clutter '
+                f'(detection.clutter_density > 0) or tracker.management = "managed"; '
+                f"without them the returns are labelled"
+            )
         return
     if not s.detection.clutter:
         raise ScenarioError(

@@ -80,9 +80,9 @@ class FilterConfig:
             "auto",
             registry=TRACKERS,
             doc=(
-                "the tracker: auto (by the options above, [detection] and [tracker]: ckf, bank, "
-                "imm, pda, jpda, gnn or mht), a built-in one, or one registered with "
-                "mjx_radar.register_tracker"
+                "the tracker: auto (composed from the options above, [detection] and "
+                "[tracker]: docs/tracking.md, Roles), the built-in name they compose, or one "
+                "registered with mjx_radar.register_tracker"
             ),
         ),
     )

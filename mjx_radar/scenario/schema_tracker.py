@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import ScenarioError, choice, flag, rule
+from mjx_radar.registry import ASSOCIATORS
 
 MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
 MAX_STAR_WORK = 500_000  # events x M! target permutations of JPDA*
@@ -53,9 +54,11 @@ class TrackerConfig:
             "jpda",
             "gnn",
             "mht",
+            registry=ASSOCIATORS,
             doc=(
                 "association of cluttered scans: per-target PDA, joint JPDA, GNN assignment, "
-                "or mht (the K best association histories across scans)"
+                "mht (the K best association histories across scans), or one registered "
+                "with mjx_radar.register_associator"
             ),
         ),
     )
@@ -240,10 +243,10 @@ def check(s) -> None:
     t = s.tracker
     if t.management != "managed" and s.filter.tracker != "managed":
         return
-    if t.association != "pda":  # its own association (gating, the track table)
+    if t.association != "pda" and t.association.lower() not in ASSOCIATORS.registered():
         raise ScenarioError(
-            f'tracker.association = "{t.association}": the managed tracker ignores it '
-            '(tracker.management = "managed" associates returns to its track table); remove it'
+            f'tracker.association = "{t.association}": the managed tracker takes "pda" or a '
+            f"registered associator ({t.association} drives the per-target bank only)"
         )
     if t.confirm_m > t.confirm_n:
         raise ScenarioError(
