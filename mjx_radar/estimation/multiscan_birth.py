@@ -220,13 +220,19 @@ def _pack(good, score, chi2, joined, s: MultiScanSettings):
     return sel[best], ok[best]
 
 
-def _seed(c: Candidates, fits, s: MultiScanSettings, p_empty):
-    """Step 5: the best unused seeds into the empty slots."""
-    x, p, chi2, joined, good, score = fits
-    on = c.age > 0
+def _taken(c: Candidates, fits):
+    """``[C]`` bool: seeds within ``AVOID_D2`` of a live candidate (the same point)."""
+    x, p = fits[:2]
     dv = x[None] - c.mean[:, None, :3]  # [Kc, C, 3]
     d2 = jnp.sum(dv * linalg.psd_solve(p[None] + c.cov[:, None, :3, :3], dv), -1)
-    good = good & ~jnp.any(on[:, None] & (d2 < AVOID_D2), axis=0)
+    return jnp.any((c.age > 0)[:, None] & (d2 < AVOID_D2), axis=0)
+
+
+def _seed(c: Candidates, fits, taken, s: MultiScanSettings, p_empty):
+    """Step 5: the best seeds not ``taken [C]`` into the empty slots."""
+    x, p, chi2, joined, good, score = fits
+    on = c.age > 0
+    good = good & ~taken
     count = jnp.sum(joined >= 0, axis=1)
     good = good & (chi2 < chi2_bound(jnp.maximum(count * s.dim - 3, 0).astype(chi2.dtype)))
     j, ok = _pack(good, score, chi2, joined, s)
@@ -270,5 +276,6 @@ def step(cands: Candidates, fits, f6, s: MultiScanSettings, avoid=None, p_empty:
     """
     f6 = f6.astype(cands.mean.dtype)
     cands = _associate(cands, fits, f6, s)
+    taken = _taken(cands, fits)  # before promotion: a born candidate's seed is no new one
     born, cands = _promote(cands, s, avoid)
-    return born, _seed(cands, fits, s, p_empty)
+    return born, _seed(cands, fits, taken, s, p_empty)
