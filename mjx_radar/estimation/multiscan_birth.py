@@ -26,13 +26,16 @@ three-point initiation). Per scan:
    ``max_births``, lowest ``χ²/dof`` first; a promoted candidate's rivals of age S
    sharing one of its returns are dropped), with the fitted ``[x, v]`` and its
    covariance;
-5. **seed** empty slots with the best unused seeds (at most ``new_per_scan``, by the
-   one-scan rank; seeds within ``AVOID_D2`` of a candidate or of each other are the
-   same point), state ``[x_j, 0]``, covariance ``diag(P_j, σ_v² I)``.
+5. **seed** empty slots with seeds no candidate holds (not within ``AVOID_D2`` of one,
+   χ²_j below its 0.999 quantile): at most ``new_per_scan`` disjoint seeds (no shared
+   return) chosen by a pilot greedy packing (:func:`_pack`: the most seeds, then the
+   least χ²), state ``[x_j, 0]``, covariance ``diag(P_j, σ_v² I)``.
 
 A ghost made of different drones' returns keeps fitting only as long as every range
-it borrows stays consistent with one CV point; the real drone's candidate grows beside
-it and, with a lower accumulated χ², is born first.
+it borrows stays consistent with one CV point, and its misfit adds up over the scans
+while the drone's noise averages; the packing prefers the drones' disjoint seeds to
+the ghost that borrows one return from each (docs/track_management.md: what the CV
+gate can and cannot tell apart at 25 ms scans).
 """
 
 from __future__ import annotations
