@@ -128,6 +128,16 @@ def test_bad_birth_scans_one_line(value):
     assert "\n" not in msg and msg.startswith("tracker.birth_scans"), msg
 
 
+def test_birth_scans_in_toml(tmp_path):
+    sc = load_scenario("raid_4r8t").replace(
+        tracker={"management": "managed", "birth_scans": 3},
+        filter={"structure": "per-target", "ground_prior": True},
+    )
+    sc.to_toml(tmp_path / "s.toml")
+    assert "birth_scans = 3" in (tmp_path / "s.toml").read_text()
+    assert load_scenario(tmp_path / "s.toml").tracker.birth_scans == 3
+
+
 def test_birth_scans_one_is_the_default_program():
     from mjx_radar.task.params import shape_key
 
