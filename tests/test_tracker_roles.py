@@ -60,6 +60,7 @@ def test_roles_of_the_options(smoke, clutter):
             {"association": "mht", "lbp_iterations": 5},
             "tracker.lbp_iterations = 5",
         ),
+        ("raid_4r8t", {}, {"birth_scans": 2}, "tracker.birth_scans = 2: read only with"),
         (
             "clutter_3r4t",
             {},
@@ -81,6 +82,7 @@ def test_options_the_roles_read_are_kept(smoke, clutter):
     assert clutter.replace(tracker={"association": "jpda", "marginals": "lbp", "lbp_iterations": 5})
     assert clutter.replace(tracker={"association": "gnn", "candidates": 3})
     assert clutter.replace(tracker={"management": "managed", "max_tracks": 8})
+    assert clutter.replace(tracker={"management": "managed", "birth_scans": 2})
 
 
 def test_a_registered_tracker_replaces_the_roles(smoke):

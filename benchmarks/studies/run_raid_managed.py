@@ -13,6 +13,10 @@ summary (``OUT/summary.md``, ``OUT/summary.json``)::
 
     python benchmarks/studies/run_raid_managed.py --out runs/raid_managed --trials 200 --chunk 50
 
+``--birth-scans 1,3`` adds the managed rows with multi-scan births (``[tracker]
+birth_scans = 3``, written to ``OUT/managed_b3/METHOD``; the row ``managed`` is
+``birth_scans = 1``).
+
 GOSPA (Rahmathullah, García-Fernández & Svensson 2017) of truth set X (m present
 drones) and estimate set Y (n confirmed tracks), α = 2::
 
@@ -51,9 +55,14 @@ def gospa(truth, present, est, exist, c: float, p: float = 2.0):
     return total ** (1 / p), loc, m - k, n - k
 
 
-def scenario_for(management: str, max_tracks: int, steps: int, options=()):
+def label(management: str, birth_scans: int) -> str:
+    """The output folder of a row: ``managed_b3`` for ``birth_scans = 3``."""
+    return f"managed_b{birth_scans}" if management == "managed" and birth_scans > 1 else management
+
+
+def scenario_for(management: str, max_tracks: int, steps: int, options=(), birth_scans: int = 1):
     """raid_4r8t with the per-target filter (and the track table, ``options``: more
-    ``[tracker]`` fields as ``KEY=VALUE``)."""
+    ``[tracker]`` fields as ``KEY=VALUE``; ``birth_scans``: the multi-scan births)."""
     from mjx_radar.scenario.reader import load_scenario
 
     sc = load_scenario("raid_4r8t")
@@ -61,6 +70,8 @@ def scenario_for(management: str, max_tracks: int, steps: int, options=()):
     if management == "managed":
         extra = {k: float(v) if "." in v else int(v) for k, v in (o.split("=") for o in options)}
         changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
+        if birth_scans > 1:  # absent otherwise: the default program
+            changes["tracker"]["birth_scans"] = birth_scans
     return sc.replace(timing={"steps": steps}, **changes)
 
 
@@ -144,6 +155,11 @@ def main(argv=None):
     ap.add_argument("--methods", default="ddr-sfim,stationary")
     ap.add_argument("--management", default="managed,known")
     ap.add_argument("--max-tracks", type=int, default=16)
+    ap.add_argument(
+        "--birth-scans",
+        default="1",
+        help="[tracker] birth_scans of the managed rows, a list (1,3: rows managed, managed_b3)",
+    )
     ap.add_argument("--cutoff", type=float, default=50.0, help="GOSPA cut-off c [m]")
     ap.add_argument(
         "--tracker",
@@ -153,10 +169,18 @@ def main(argv=None):
         help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0",
     )
     a = ap.parse_args(argv)
-    cases = [(g, m) for g in a.management.split(",") for m in a.methods.split(",")]
+    try:
+        scans = [int(b) for b in a.birth_scans.split(",")]
+    except ValueError:
+        scans = [0]
+    if not all(1 <= b <= 10 for b in scans):
+        ap.error(f"--birth-scans: integers in [1, 10], got {a.birth_scans!r}")
+    rows = [(g, b) for g in a.management.split(",") for b in (scans if g == "managed" else [1])]
+    runs = [(label(g, b), m, g, b) for g, b in rows for m in a.methods.split(",")]
+    cases = [(name, m) for name, m, _, _ in runs]
     dt = None
-    for management, method in cases:
-        sc = scenario_for(management, a.max_tracks, a.steps, a.tracker)
+    for management, method, kind, b in runs:
+        sc = scenario_for(kind, a.max_tracks, a.steps, a.tracker, b)
         dt = sc.timing.dt_filter
         for t0 in range(0, a.trials, a.chunk):
             t1 = min(t0 + a.chunk, a.trials)

@@ -11,7 +11,9 @@ returns (each radar's buffer is sorted by range). Per scan:
    :mod:`~mjx_radar.estimation.track_update`; any associator of that signature drops in
    through ``managed_tracker(..., associator=...)``);
 3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`);
-4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.track_birth`).
+4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.track_birth`;
+   with ``birth_scans > 1`` through the candidates of
+   :mod:`~mjx_radar.estimation.multiscan_birth`, and ``modes`` is ``(table, candidates)``).
 
 ``FilterOps.tracks`` shows the table (:class:`~mjx_radar.estimation.track_table.TrackView`):
 the planner plans for it, the records hold it. For the loop's metrics (RMSE, NEES, the
@@ -24,7 +26,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
-from mjx_radar.estimation import clutter, track_birth, track_table, track_update
+from mjx_radar.estimation import clutter, multiscan_birth, track_birth, track_table, track_update
 
 __all__ = ["managed_tracker", "truth_view", "CUTOFF_M", "DENSITY_FLOOR"]
 
@@ -49,6 +51,8 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     births = track_birth.BirthSettings(
         cfg.max_births, birth_r, cfg.birth_height, cfg.birth_height_std, cfg.birth_speed_std
     )
+    multi = cfg.birth_scans > 1  # multi-scan births: modes = (table, candidates)
+    ms = _multiscan_settings(cfg, model.dim)
     a6 = task.a6_filter
     q6 = params.sigma_w2 * task.w6_filter_unit
     dp, ccr = params.detection, params.method.ccr
@@ -70,9 +74,13 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
         associate = associator(task, params)
 
     def init(mean, cov):  # no track: the tracker is not told where the drones start
-        return track_table.empty(k, n, mean.dtype, p_empty)
+        table = track_table.empty(k, n, mean.dtype, p_empty)
+        return (
+            (table, multiscan_birth.empty(ms.capacity, n, mean.dtype, p_empty)) if multi else table
+        )
 
-    def predict(mean, cov, table):
+    def predict(mean, cov, modes):
+        table = modes[0] if multi else modes
         on = track_table.live(table)
         a = a6.astype(table.mean.dtype)
         m = table.mean @ a.T
@@ -81,9 +89,10 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
             mean=jnp.where(on[:, None], m, table.mean),
             cov=jnp.where(on[:, None, None], p, table.cov),
         )
-        return mean, cov, table
+        return mean, cov, ((table, modes[1]) if multi else table)
 
-    def update(mean, cov, table, z, radar_pos, scan, los=None):
+    def update(mean, cov, modes, z, radar_pos, scan, los=None):
+        table, cands = modes if multi else (modes, None)
         if scan.zs is None:  # no clutter: the detected returns are the scan
             valid = jnp.ones(z.shape[:2], bool) if scan.seen is None else scan.seen
             zs = z
@@ -94,15 +103,31 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
         table = track_table.maintain(table, hit, rules, p_empty)
         r_var = track_birth.scan_variances(model, zs, params.noise, ccr)
         avoid = (table.mean[:, :3], table.cov[:, :3, :3], track_table.live(table))
-        new = track_birth.births(
-            model, zs, valid & ~explained, r_var, radar_pos, dp.gate, births, avoid
-        )
+        free = valid & ~explained
+        if multi:
+            fits = track_birth.fit_seeds(model, zs, free, r_var, radar_pos, dp.gate, births, avoid)
+            new, cands = multiscan_birth.step(cands, fits, a6, ms, avoid, p_empty)
+            return mean, cov, (track_table.insert(table, *new), cands)
+        new = track_birth.births(model, zs, free, r_var, radar_pos, dp.gate, births, avoid)
         return mean, cov, track_table.insert(table, *new)
 
-    def tracks(table):
-        return track_table.view(table, cfg.tentative_weight)
+    def tracks(modes):
+        return track_table.view(modes[0] if multi else modes, cfg.tentative_weight)
 
     return FilterOps(predict, update, lambda modes, mean, cov, k: modes, init, tracks)
+
+
+def _multiscan_settings(cfg, dim: int) -> multiscan_birth.MultiScanSettings:
+    """The multi-scan births of ``[tracker]`` (used when ``birth_scans > 1``): Kc =
+    ``max_tracks`` candidates, at most ``max(8, 2 max_births)`` new ones per scan."""
+    return multiscan_birth.MultiScanSettings(
+        scans=cfg.birth_scans,
+        capacity=cfg.max_tracks,
+        new_per_scan=max(8, 2 * cfg.max_births),
+        max_births=cfg.max_births,
+        speed_std=cfg.birth_speed_std,
+        dim=dim,
+    )
 
 
 def truth_view(truth, present, view: track_table.TrackView, p0, cutoff: float = CUTOFF_M):

@@ -35,7 +35,7 @@ import jax.numpy as jnp
 from mjx_radar.estimation import linalg, multilateration
 from mjx_radar.estimation.noise import at_radar
 
-__all__ = ["BirthSettings", "scan_variances", "seeds", "births", "AVOID_D2"]
+__all__ = ["BirthSettings", "scan_variances", "seeds", "fit_seeds", "births", "AVOID_D2"]
 
 AVOID_D2 = 16.27  # χ²₃ quantile 0.999: a candidate this close to a live track is that track
 
@@ -113,6 +113,31 @@ def _fit(model, x0, idx, zs, r_var, free, radar_pos, gate, s: BirthSettings):
     return x, p, chi2, joined
 
 
+def fit_seeds(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None):
+    """Every seed fitted and screened (steps 1-2 and the screen of step 3).
+
+    Args: as :func:`births`.
+
+    Returns:
+        ``(x [C, 3], P [C, 3, 3], chi2 [C], joined [C, N], good [C], score [C])``:
+        the fits, their returns (−1: none), whether each is a birth candidate (returns
+        from ``birth_radars`` radars, finite, away from every live track) and its rank
+        ``1e4 · count − min(χ², 9e3)``.
+    """
+    x0, idx, ok = seeds(model, zs, free, radar_pos, s.height)
+    fit = jax.vmap(_fit, (None, 0, 0, None, None, None, None, None, None))
+    x, p, chi2, joined = fit(model, x0, idx, zs, r_var, free, radar_pos, gate, s)
+    count = jnp.sum(joined >= 0, axis=1)
+    good = ok & (count >= s.birth_radars) & jnp.all(jnp.isfinite(x), -1)
+    if avoid is not None:
+        pos, pc, on = avoid
+        dv = x[:, None, :] - pos[None]  # [C, K, 3]
+        d2 = jnp.sum(dv * linalg.psd_solve(p[:, None] + pc[None], dv), -1)
+        good = good & ~jnp.any(on[None, :] & (d2 < AVOID_D2), axis=1)
+    score = count * 1e4 - jnp.minimum(chi2, 9e3)
+    return x, p, chi2, joined, good, score
+
+
 def births(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None):
     """Up to ``s.max_births`` new tracks from the free returns (module docstring).
 
@@ -127,17 +152,7 @@ def births(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None
     Returns:
         ``(mean [B, 6], cov [B, 6, 6], ok [B])`` the births in order of rank.
     """
-    x0, idx, ok = seeds(model, zs, free, radar_pos, s.height)
-    fit = jax.vmap(_fit, (None, 0, 0, None, None, None, None, None, None))
-    x, p, chi2, joined = fit(model, x0, idx, zs, r_var, free, radar_pos, gate, s)
-    count = jnp.sum(joined >= 0, axis=1)
-    good = ok & (count >= s.birth_radars) & jnp.all(jnp.isfinite(x), -1)
-    if avoid is not None:
-        pos, pc, on = avoid
-        dv = x[:, None, :] - pos[None]  # [C, K, 3]
-        d2 = jnp.sum(dv * linalg.psd_solve(p[:, None] + pc[None], dv), -1)
-        good = good & ~jnp.any(on[None, :] & (d2 < AVOID_D2), axis=1)
-    score = count * 1e4 - jnp.minimum(chi2, 9e3)
+    x, p, _, joined, good, score = fit_seeds(model, zs, free, r_var, radar_pos, gate, s, avoid)
     n, ell = free.shape
     rows = jnp.arange(n)
     dtype = x.dtype

@@ -202,6 +202,18 @@ class TrackerConfig:
             float, 0.0, 1e4, lo_open=True, unit="m/s", doc="managed: velocity std of a new track"
         ),
     )
+    birth_scans: int = field(
+        default=1,
+        metadata=rule(
+            int,
+            1,
+            10,
+            doc=(
+                "managed: consecutive scans a birth candidate must fit with constant "
+                "velocity before it becomes a track (1: one-scan births)"
+            ),
+        ),
+    )
     tentative_weight: float = field(
         default=0.0,
         metadata=rule(

@@ -56,6 +56,7 @@ _MANAGED_FIELDS = (
     "birth_height",
     "birth_height_std",
     "birth_speed_std",
+    "birth_scans",
     "tentative_weight",
 )
 #: ``[filter]`` options of the IMM form
