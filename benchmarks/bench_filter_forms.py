@@ -24,7 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_timing import median_seconds  # noqa: E402
 
 from mjx_radar.engine.run_spec import run_spec
-from mjx_radar.estimation import ckf_sqrt, filter_bank, sensing  # noqa: E402
+from mjx_radar.estimation.filters import ckf_sqrt, filter_bank  # noqa: E402
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.physics import motion  # noqa: E402
 from mjx_radar.scenario.schema import RadarEquation  # noqa: E402
 

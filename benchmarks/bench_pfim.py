@@ -18,7 +18,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import fisher, linalg_small
+from mjx_radar.estimation import linalg_small
+from mjx_radar.estimation.information import fisher
 from mjx_radar.physics.motion import cv_process_noise, cv_transition
 
 

@@ -43,7 +43,8 @@ import numpy as np
 from mjx_radar.engine import runner
 from mjx_radar.env import placement
 from mjx_radar.env.streams import trial_streams
-from mjx_radar.estimation import ckf, filter_bank, sensing
+from mjx_radar.estimation.filters import ckf, filter_bank
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.physics import motion
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.scenario.schema import RadarEquation

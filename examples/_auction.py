@@ -13,7 +13,7 @@ loop's scan and under ``vmap`` over trials. Registered by examples/custom_associ
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import pda
+from mjx_radar.estimation.data_association import pda
 
 BIG = 1e6  # the cost of a forbidden pair (outside the gate, another track's miss column)
 

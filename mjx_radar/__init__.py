@@ -36,8 +36,8 @@ _LAZY = {
     "unregister_tracker": "mjx_radar.env.trackers",
     "register_associator": "mjx_radar.env.trackers",
     "unregister_associator": "mjx_radar.env.trackers",
-    "register_sensor": "mjx_radar.estimation.sensors",
-    "unregister_sensor": "mjx_radar.estimation.sensors",
+    "register_sensor": "mjx_radar.estimation.sensor.sensors",
+    "unregister_sensor": "mjx_radar.estimation.sensor.sensors",
 }
 _SUBPACKAGES = ("env", "planners")  # mjx_radar.env.make(...), mjx_radar.planners.PLANNERS
 

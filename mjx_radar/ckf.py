@@ -1,7 +1,8 @@
-"""Public alias (SPEC §11) of :mod:`mjx_radar.estimation.ckf`: the cubature Kalman filter."""
+"""Public alias (SPEC §11) of :mod:`mjx_radar.estimation.filters.ckf`: the cubature Kalman
+filter."""
 
-from mjx_radar.estimation.ckf import *  # noqa: F403
-from mjx_radar.estimation.ckf import __all__  # noqa: F401
+from mjx_radar.estimation.filters.ckf import *  # noqa: F403
+from mjx_radar.estimation.filters.ckf import __all__  # noqa: F401
 from mjx_radar.precision import pin_module
 
 pin_module(globals(), __all__)  # full float32 dots when called directly (mjx_radar.precision)

@@ -61,7 +61,7 @@ class AssociatorFactory(Protocol):
 
     the tracks' posterior after every radar's scan and each return's negative
     log-likelihood under each track (``+inf`` outside its gate; the managed track table
-    reads its claims and hits from it, :mod:`mjx_radar.estimation.track_update`).
+    reads its claims and hits from it, :mod:`mjx_radar.estimation.tracks.track_update`).
     Pure JAX, static shapes."""
 
     def __call__(self, task: Any, params: Any) -> Any: ...
@@ -69,7 +69,7 @@ class AssociatorFactory(Protocol):
 
 @runtime_checkable
 class SensorPlugin(Protocol):
-    """A measurement model (:class:`mjx_radar.estimation.measurement.MeasurementModel`)."""
+    """A measurement model (:class:`mjx_radar.estimation.sensor.measurement.MeasurementModel`)."""
 
     name: str
     dim: int

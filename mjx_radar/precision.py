@@ -27,7 +27,7 @@ The public SPEC §11 functions (``mjx_radar.ckf``, ``mjx_radar.fisher``,
 ``mjx_radar.estimation`` functions directly outside those entry points (eagerly or
 under its own ``jax.jit``) wraps the calls in ``with mjx_radar.precision.scope():``
 (or decorates its function with :func:`pinned`). The host float64 PCRLB
-(``estimation.pcrlb``) is numpy and needs nothing.
+(``estimation.information.pcrlb``) is numpy and needs nothing.
 
 A user must not change :data:`ESTIMATION`. :data:`PLANNER` may be relaxed if the GPU
 measurement (``benchmarks/check_precision.py``, ``benchmarks/bench_mppi.py``, docs/scaling.md)

@@ -273,12 +273,12 @@ COST_TERMS = Registry(
         )
     },
 )
-#: sensors (measurement models) by name (:mod:`mjx_radar.estimation.measurement`):
+#: sensors (measurement models) by name (:mod:`mjx_radar.estimation.sensor.measurement`):
 #: ``[measurement] model``
 SENSORS = Registry(
     "sensor",
     {
-        "range": "mjx_radar.estimation.measurement:RangeModel",
-        "range-azimuth": "mjx_radar.estimation.measurement:RangeAzimuthModel",
+        "range": "mjx_radar.estimation.sensor.measurement:RangeModel",
+        "range-azimuth": "mjx_radar.estimation.sensor.measurement:RangeAzimuthModel",
     },
 )

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from mjx_radar.estimation import association, lbp
+from mjx_radar.estimation.data_association import association, lbp
 
 
 def _random_logr(rng, m, n, gated=0.5):

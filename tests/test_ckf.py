@@ -10,7 +10,9 @@ import scipy.stats
 from filterpy.kalman import CubatureKalmanFilter
 from filterpy.kalman.CubatureKalmanFilter import spherical_radial_sigmas
 
-from mjx_radar.estimation import ckf, linalg, sensing
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.physics import motion
 from mjx_radar.scenario.schema import RadarEquation
 

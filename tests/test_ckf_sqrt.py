@@ -19,7 +19,8 @@ from filterpy.kalman import KalmanFilter
 
 from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.env.track_health import min_pivot
-from mjx_radar.estimation import ckf, ckf_sqrt, filter_bank, ground_prior, measurement, sensing
+from mjx_radar.estimation.filters import ckf, ckf_sqrt, filter_bank, ground_prior
+from mjx_radar.estimation.sensor import measurement, sensing
 from mjx_radar.physics import motion
 from mjx_radar.scenario.schema import RadarEquation
 

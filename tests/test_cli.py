@@ -152,7 +152,9 @@ def test_public_python_interface():
     # SPEC §11: the top-level names users and outside checks rely on.
     import mjx_radar
     from mjx_radar import physics
-    from mjx_radar.estimation import ckf, fisher, sensing
+    from mjx_radar.estimation.filters import ckf
+    from mjx_radar.estimation.information import fisher
+    from mjx_radar.estimation.sensor import sensing
 
     s = mjx_radar.load_scenario("scenarios/paper_3r4t.toml")
     assert isinstance(s, mjx_radar.Scenario) and s.n_radars == 3

@@ -9,7 +9,8 @@ from scipy.stats import norm
 
 from mjx_radar.engine import runner
 from mjx_radar.engine.run_spec import run_spec
-from mjx_radar.estimation import clutter, pda
+from mjx_radar.estimation.data_association import pda
+from mjx_radar.estimation.sensor import clutter
 from mjx_radar.task.params import detection_of
 
 STEPS = 40

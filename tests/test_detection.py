@@ -9,7 +9,7 @@ import pytest
 
 from mjx_radar.engine import runner
 from mjx_radar.engine.run_spec import run_spec
-from mjx_radar.estimation import detection
+from mjx_radar.estimation.sensor import detection
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.rundir import results
 from mjx_radar.scenario.schema import DetectionConfig

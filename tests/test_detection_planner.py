@@ -4,7 +4,7 @@ import jax
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import fisher
+from mjx_radar.estimation.information import fisher
 from mjx_radar.task import costs
 from mjx_radar.task.costs import Horizon
 from mjx_radar.task.task import build

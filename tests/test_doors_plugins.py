@@ -14,7 +14,7 @@ import pytest
 import mjx_radar
 from mjx_radar import env as radar_env
 from mjx_radar.contracts import PluginError
-from mjx_radar.estimation.measurement import MeasurementModel, RangeModel
+from mjx_radar.estimation.sensor.measurement import MeasurementModel, RangeModel
 
 
 @pytest.fixture
@@ -131,7 +131,7 @@ def test_a_cost_terms_own_exception_lists_the_horizons_fields(cleanup):
 SENSOR = """
 import dataclasses
 from mjx_radar import register_sensor
-from mjx_radar.estimation.measurement import RangeModel
+from mjx_radar.estimation.sensor.measurement import RangeModel
 
 @register_sensor("door_cli_s")
 @dataclasses.dataclass(frozen=True)

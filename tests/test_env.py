@@ -61,7 +61,7 @@ def test_reset_vmaps_over_keys_and_step_scans(tiny):
 def test_observation_holds_no_truth_and_reward_is_minus_log_det(tiny):
     """The observation's fields; the reward against numpy's slogdet in float64 (the
     PSD-safe Cholesky log det agrees to round-off there)."""
-    from mjx_radar.estimation import ckf_sqrt
+    from mjx_radar.estimation.filters import ckf_sqrt
     from mjx_radar.physics import plant
 
     with jax.enable_x64(True):
@@ -189,7 +189,7 @@ def test_registered_sensor_and_tracker_are_selected_by_the_scenario(tiny):
     use them."""
     import mjx_radar
     from mjx_radar.env import filter_ops
-    from mjx_radar.estimation.measurement import RangeModel
+    from mjx_radar.estimation.sensor.measurement import RangeModel
     from mjx_radar.scenario.reader import ScenarioError
 
     with pytest.raises(ScenarioError, match=r"measurement\.model = 'twin': must be one of range"):

@@ -8,7 +8,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import measurement, measurement_filter
+from mjx_radar.estimation.filters import measurement_filter
+from mjx_radar.estimation.sensor import measurement
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task.method import parse_method
 from mjx_radar.task.params import detection_of, task_params
@@ -133,7 +134,7 @@ def test_detection_snr_is_per_radar_in_a_mixed_fleet():
     """With [detection] on, each radar's SNR constant k = 10^((snr_db+gain)/10)/M r_ref^4
     comes from its own radar equation (closed form; float32 arrays: rtol 1e-6)."""
     import mjx_radar
-    from mjx_radar.estimation import detection
+    from mjx_radar.estimation.sensor import detection
 
     s = mjx_radar.load_scenario("mixed_6r4t").replace(
         detection={"model": "swerling1", "gain_db": 10.0}

@@ -3,7 +3,7 @@
 Stone Soup (``stonesoup.metricgenerator.ospametric``) is an independent implementation:
 ``GOSPAMetric.compute_gospa_metric`` solves the rectangular assignment of the capped
 costs with scipy and splits the value into localisation / missed / false exactly as
-:mod:`mjx_radar.estimation.gospa` does, so every part must agree to float64 round-off
+:mod:`mjx_radar.estimation.tracks.gospa` does, so every part must agree to float64 round-off
 (1e-9 relative: sums of a few distances below 100 m). ``OSPAMetric`` assigns on the
 capped distances ``min(d, c)`` rather than their p-th powers: the same optimum for
 p = 1 (compared to 1e-9), an upper bound of the exact OSPA otherwise (checked as such,
@@ -18,8 +18,8 @@ import itertools
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import gospa
-from mjx_radar.estimation.continuity import continuity_events
+from mjx_radar.estimation.tracks import gospa
+from mjx_radar.estimation.tracks.continuity import continuity_events
 
 ss = pytest.importorskip("stonesoup.metricgenerator.ospametric")
 from stonesoup.types.state import State  # noqa: E402

@@ -3,7 +3,7 @@
 Checks (a tiny stationary run, 2 trials x 16 steps, target 1 appearing at 0.2 s):
 
 * the metrics-only program (studies) and the full one (runs) give the same columns,
-  and they equal :func:`mjx_radar.estimation.gospa.set_metrics` of the run's own arrays;
+  and they equal :func:`mjx_radar.estimation.tracks.gospa.set_metrics` of the run's own arrays;
 * with p = 2 and a cutoff far beyond every error, ``GOSPA² = min_π Σ d²`` can only
   undercut the loop's ``n · rmse_pos²`` (n targets present, the identity assignment),
   and equals it wherever the identity is optimal;
@@ -18,7 +18,7 @@ import pytest
 
 from mjx_radar.engine import runner
 from mjx_radar.engine.run_spec import run_spec
-from mjx_radar.estimation.gospa import set_metrics
+from mjx_radar.estimation.tracks.gospa import set_metrics
 from mjx_radar.rundir import results
 from mjx_radar.scenario.schema import TargetMotion
 

@@ -1,4 +1,4 @@
-"""Tests of the IMM filter (``filter.motion = "imm"``, estimation/imm.py) against a
+"""Tests of the IMM filter (``filter.motion = "imm"``, estimation/filters/imm.py) against a
 textbook IMM written here in numpy (Bar-Shalom, Li & Kirubarajan 2001, §11.6.6)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.engine.run_spec import run_spec
-from mjx_radar.estimation import filter_bank, imm
+from mjx_radar.estimation.filters import filter_bank, imm
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.physics import motion
 from mjx_radar.scenario.reader import load_scenario

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from mjx_radar.estimation import jpda, pda
+from mjx_radar.estimation.data_association import jpda, pda
 
 stonesoup = pytest.importorskip("stonesoup")
 from stonesoup.dataassociator.neighbour import GNNWith2DAssignment  # noqa: E402
@@ -204,8 +204,8 @@ def test_sequential_bank_update_matches_stonesoup_cubature_jpda(model_name):
     R exactly (ours evaluates DDR's R at the predicted measurement, Stone Soup's is fixed).
     Azimuths stay far from ±π (no wrap). Tolerance 1e-8: our Cholesky adds a ~1e-13
     relative jitter to P before the cubature points."""
-    from mjx_radar.estimation.measurement import RangeAzimuthModel, RangeModel
-    from mjx_radar.estimation.noise import NoiseParams
+    from mjx_radar.estimation.sensor.measurement import RangeAzimuthModel, RangeModel
+    from mjx_radar.estimation.sensor.noise import NoiseParams
 
     model = RangeModel() if model_name == "range" else RangeAzimuthModel()
     az = model.dim == 2

@@ -10,7 +10,7 @@ import pytest
 
 from mjx_radar.env import environment, managed
 from mjx_radar.errors import ScenarioError
-from mjx_radar.estimation import track_table
+from mjx_radar.estimation.tracks import track_table
 from mjx_radar.scenario.reader import load_scenario
 
 MANAGED = {"management": "managed", "max_tracks": 6}

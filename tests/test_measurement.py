@@ -8,9 +8,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import ckf, fisher, sensing
-from mjx_radar.estimation import measurement as me
-from mjx_radar.estimation import measurement_filter as mf
+from mjx_radar.estimation.filters import ckf
+from mjx_radar.estimation.filters import measurement_filter as mf
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor import measurement as me
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.scenario.schema import MeasurementConfig, RadarEquation, Scenario
 
 RADARS = np.array([[0.0, 0.0, 0.0], [200.0, 100.0, 0.0], [-150.0, 250.0, 0.0]])

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from mjx_radar.estimation import jpda, mht
+from mjx_radar.estimation.data_association import jpda, mht
 from mjx_radar.io.checks import ScenarioError
 
 DT = 0.1
@@ -145,8 +145,8 @@ def test_pruned_weights_are_the_best_children_of_the_kept_parents():
 
 
 def test_one_hypothesis_is_the_sequential_gnn_bank():
-    from mjx_radar.estimation.measurement import RangeModel
-    from mjx_radar.estimation.noise import NoiseParams
+    from mjx_radar.estimation.sensor.measurement import RangeModel
+    from mjx_radar.estimation.sensor.noise import NoiseParams
 
     model = RangeModel()
     rng = np.random.default_rng(5)
@@ -221,8 +221,8 @@ def _merge_reference(means, covs, logw, tau, labels=False):
 
 @pytest.mark.parametrize("labels", [False, True])
 def test_merge_matches_a_loop_reference_and_keeps_the_mass(labels):
-    from mjx_radar.estimation.association import permutations
-    from mjx_radar.estimation.mht_merge import merge_duplicates
+    from mjx_radar.estimation.data_association.association import permutations
+    from mjx_radar.estimation.data_association.mht_merge import merge_duplicates
 
     rng = np.random.default_rng(11)
     c, m = 24, 3

@@ -23,7 +23,7 @@ import pytest
 from scipy.stats import chi2
 
 from mjx_radar.engine.run_spec import run_spec
-from mjx_radar.estimation import jpda, mht
+from mjx_radar.estimation.data_association import jpda, mht
 from mjx_radar.io.checks import ScenarioError
 
 DT = 0.1
@@ -157,8 +157,8 @@ def test_soft_scan_after_branching_matches_enumeration():
 
 
 def test_one_hypothesis_branches_then_is_the_jpda_bank():
-    from mjx_radar.estimation.measurement import RangeModel
-    from mjx_radar.estimation.noise import NoiseParams
+    from mjx_radar.estimation.sensor.measurement import RangeModel
+    from mjx_radar.estimation.sensor.noise import NoiseParams
 
     model = RangeModel()
     rng = np.random.default_rng(5)

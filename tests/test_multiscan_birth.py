@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.errors import ScenarioError
-from mjx_radar.estimation import multiscan_birth as msb
+from mjx_radar.estimation.tracks import multiscan_birth as msb
 from mjx_radar.physics import motion
 from mjx_radar.scenario.reader import load_scenario
 

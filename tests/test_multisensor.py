@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2, multivariate_normal
 
-from mjx_radar.estimation import jpda, multisensor
-from mjx_radar.estimation.noise import NoiseParams
+from mjx_radar.estimation.data_association import jpda, multisensor
+from mjx_radar.estimation.sensor.noise import NoiseParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,7 +119,7 @@ def test_tuple_marginals_match_a_plain_enumeration():
 
 @pytest.mark.parametrize("model_name", ["range", "range-azimuth"])
 def test_one_radar_is_the_exact_jpda(model_name):
-    from mjx_radar.estimation.measurement import RangeAzimuthModel, RangeModel
+    from mjx_radar.estimation.sensor.measurement import RangeAzimuthModel, RangeModel
 
     model = RangeModel() if model_name == "range" else RangeAzimuthModel()
     rng = np.random.default_rng(5)

@@ -7,8 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import fisher
-from mjx_radar.estimation.sensing import noise_constant
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor.sensing import noise_constant
 from mjx_radar.loop import closed_loop
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task import objective

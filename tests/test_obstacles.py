@@ -9,8 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import ckf, fisher
-from mjx_radar.estimation.sensing import ddr_noise_cov, range_model
+from mjx_radar.estimation.filters import ckf
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor.sensing import ddr_noise_cov, range_model
 from mjx_radar.physics import plant as physics
 from mjx_radar.scenario.reader import ScenarioError, load_scenario, scenario_from_dict
 from mjx_radar.scenario.schema import MPCConfig, Obstacle, RadarLimits, Scenario

@@ -5,7 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import fisher, linalg, pcrlb, sensing
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.information import fisher, pcrlb
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.physics import motion
 from mjx_radar.scenario.schema import RadarEquation
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from mjx_radar.estimation import pda
+from mjx_radar.estimation.data_association import pda
 
 
 def textbook_pda(x, P, Z, valid, H, R, pd, lam, pg):
@@ -92,8 +92,8 @@ def test_mixed_fleet_noise_per_radar_in_the_bank_and_the_planner_factor():
     own constants in the bank's update and the planner's factor (was a broadcast error)."""
     from types import SimpleNamespace
 
-    from mjx_radar.estimation.measurement import RangeModel
-    from mjx_radar.estimation.noise import NoiseParams
+    from mjx_radar.estimation.sensor.measurement import RangeModel
+    from mjx_radar.estimation.sensor.noise import NoiseParams
 
     n, m, k = 2, 2, 3
     shared = NoiseParams(*(jnp.float32(v) for v in (1e-6, 1.0, 1e-6, 1.0)))

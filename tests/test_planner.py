@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import ckf
+from mjx_radar.estimation.filters import ckf
 from mjx_radar.loop import closed_loop
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task import objective

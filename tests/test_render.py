@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import fisher
+from mjx_radar.estimation.information import fisher
 from mjx_radar.viz import gl
 from mjx_radar.viz.overlays import RADAR_RGB
 from mjx_radar.viz.render import frame_camera, scene_model, set_state

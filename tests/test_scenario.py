@@ -116,7 +116,7 @@ def test_target_on_fixed_radar_and_zero_keep_out():
 
 
 def test_noise_std_matches_sensing_noise_constant():
-    from mjx_radar.estimation.sensing import noise_constant
+    from mjx_radar.estimation.sensor.sensing import noise_constant
 
     for eq, m in [(RadarEquation(), 4), (RadarEquation(fc=3e9, snr_db=10.0, r_ref=2e3), 3)]:
         s = Scenario(name="t", n_radars=1, target_init=((0, 0, 50, 0, 0, 0),) * m, radar_eq=eq)

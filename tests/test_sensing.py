@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import sensing
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.scenario.schema import RadarEquation
 
 P = RadarEquation()

@@ -12,8 +12,8 @@ import pytest
 
 import mjx_radar
 from mjx_radar.contracts import PluginError
-from mjx_radar.estimation import sensor_guard
-from mjx_radar.estimation.measurement import RangeModel
+from mjx_radar.estimation.sensor import sensor_guard
+from mjx_radar.estimation.sensor.measurement import RangeModel
 from mjx_radar.registry import SENSORS
 
 

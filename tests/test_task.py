@@ -7,7 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import fisher, sensing
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.physics import motion
 from mjx_radar.scenario.reader import scenario_from_dict
 from mjx_radar.task import objective

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mjx_radar.env import track_health as th
-from mjx_radar.estimation.ground_prior import apply_ground_prior, reflect, reflection_signs
+from mjx_radar.estimation.filters.ground_prior import apply_ground_prior, reflect, reflection_signs
 
 DT = 0.025
 TRUTH = np.array([[0, 0, 55, 20, 10, 0], [15.4, 15.32, 70, 15, 20, 0]], np.float32)

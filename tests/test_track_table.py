@@ -10,13 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_radar.estimation import (
-    measurement,
-    multilateration,
-    track_birth,
-    track_table,
-    track_update,
-)
+from mjx_radar.estimation.sensor import measurement
+from mjx_radar.estimation.tracks import multilateration, track_birth, track_table, track_update
 
 RADARS = np.array([[-300.0, -200, 0], [250, -300, 0], [300, 250, 0], [-250, 300, 0]])
 TARGETS = np.array([[-150.0, 480, 55], [-50, 495, 63], [50, 510, 71], [150, 525, 79]])

@@ -63,7 +63,8 @@ def fixed_association_filters(task, params, truth, radars, x0, seed):
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar.estimation import detection, pda
+    from mjx_radar.estimation.data_association import pda
+    from mjx_radar.estimation.sensor import detection
 
     model, noise = task.measurement, params.noise
     A, Q = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
@@ -149,7 +150,7 @@ def estimates(ll, pos, cov, col):
 
 def trial_metrics(est: dict, truth_pos: np.ndarray, cutoff: float = 50.0) -> dict:
     """Per-trial figures of :func:`estimates` against ``truth_pos [K, M, 3]``."""
-    from mjx_radar.estimation.gospa import set_metrics
+    from mjx_radar.estimation.tracks.gospa import set_metrics
 
     out = {}
     for name in ("true", "mmse", "map"):

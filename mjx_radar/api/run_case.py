@@ -72,7 +72,7 @@ class RunRequest:
 def run_header(scenario):
     """What a run directory records of ``scenario``
     (:class:`~mjx_radar.rundir.writer.RunHeader`), read once for its writer."""
-    from mjx_radar.estimation.sensing import noise_constant
+    from mjx_radar.estimation.sensor.sensing import noise_constant
     from mjx_radar.rundir.writer import RunHeader
 
     s, each = scenario, None

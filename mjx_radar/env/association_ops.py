@@ -2,7 +2,7 @@
 
 Both are the per-target bank (covariance form) of :func:`mjx_radar.env.filter_ops.clutter_bank`
 whose cluttered scans are shared between the targets jointly, radar after radar
-(:func:`mjx_radar.estimation.jpda.update_bank`), with the options of the scenario's
+(:func:`mjx_radar.estimation.data_association.jpda.update_bank`), with the options of the scenario's
 ``[tracker]`` table: JPDA with exact marginals over each target's ``candidates`` best
 gated measurements (optionally JPDA*), loopy-BP marginals (``lbp_iterations``) or the
 multi-sensor JPDA (all radars at once, ``tuples``), and GNN, the best joint assignment.
@@ -12,7 +12,7 @@ Without clutter (labelled returns) both are the bank.
 from __future__ import annotations
 
 from mjx_radar.env.filter_ops import FilterOps, clutter_bank
-from mjx_radar.estimation import jpda
+from mjx_radar.estimation.data_association import jpda
 from mjx_radar.task.task import RadarTask
 
 

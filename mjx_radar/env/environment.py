@@ -29,7 +29,8 @@ from mjx_radar.env import inputs, placement, presence, track_health, trackers
 from mjx_radar.env.period import make_filter_step
 from mjx_radar.env.state import LoopState, Observation, State
 from mjx_radar.env.streams import streams_of, trial_key
-from mjx_radar.estimation import ckf_sqrt, linalg
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf_sqrt
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.physics import plant as physics
 from mjx_radar.task import objective

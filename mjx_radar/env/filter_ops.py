@@ -2,15 +2,15 @@
 
 The filter forms (docs/tracking.md, "Roles"): ``"ckf"`` the paper's joint CKF,
 ``"bank"`` the per-target bank (``filter.structure = "per-target"``,
-:mod:`~mjx_radar.estimation.filter_bank`) in the covariance or square-root form,
-``"imm"`` the IMM bank (``filter.motion = "imm"``, :mod:`~mjx_radar.estimation.imm`:
+:mod:`~mjx_radar.estimation.filters.filter_bank`) in the covariance or square-root form,
+``"imm"`` the IMM bank (``filter.motion = "imm"``, :mod:`~mjx_radar.estimation.filters.imm`:
 CV + coordinated turns, docs/filters.md), and ``"pda"`` the per-target bank with PDA
 association of cluttered scans (``[detection] clutter``). :mod:`mjx_radar.env.trackers`
 composes the scenario's tracker from its roles; :func:`mjx_radar.register_tracker` adds
 a whole one. Every tracker keeps the joint interface ``mean [6M], cov [6M, 6M]`` (the
 combined estimate for the IMM), which is what the metrics, the lost-track detector and
 the planner see; a tracker's own state rides along as ``modes`` (the IMM's
-:class:`~mjx_radar.estimation.imm.ImmState`; ``()`` for the others, so their programs
+:class:`~mjx_radar.estimation.filters.imm.ImmState`; ``()`` for the others, so their programs
 and numbers are the same as before). The associators ``"jpda"`` and ``"gnn"`` (joint
 association of cluttered scans, ``[tracker]``) drive the bank in
 :mod:`mjx_radar.env.association_ops`, ``"mht"`` (K association histories across scans)
@@ -25,7 +25,13 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import ckf_sqrt, filter_bank, ground_prior, imm, measurement_filter
+from mjx_radar.estimation.filters import (
+    ckf_sqrt,
+    filter_bank,
+    ground_prior,
+    imm,
+    measurement_filter,
+)
 from mjx_radar.physics import target_motion
 from mjx_radar.task.task import RadarTask, process_noise
 

@@ -1,21 +1,21 @@
 """The ``"managed"`` tracker: a track table for an unknown, changing number of drones (issue 35).
 
 Selected by ``[tracker] management = "managed"`` (docs/track_management.md). Its own
-state (``modes``) is a :class:`~mjx_radar.estimation.track_table.TrackTable` of
+state (``modes``) is a :class:`~mjx_radar.estimation.tracks.track_table.TrackTable` of
 ``max_tracks`` slots; it never reads the joint estimate ``[6M]`` the loop carries (which
 is indexed like the truth), nor the presence of the drones, nor the order of the
 returns (each radar's buffer is sorted by range). Per scan:
 
 1. predict every live slot (CV, the filter's process noise);
 2. associate the scans to the live slots (the per-track PDA associator by default,
-   :mod:`~mjx_radar.estimation.track_update`; any associator of that signature drops in
+   :mod:`~mjx_radar.estimation.tracks.track_update`; any associator of that signature drops in
    through ``managed_tracker(..., associator=...)``);
 3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`);
-4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.track_birth`;
+4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.tracks.track_birth`;
    with ``birth_scans > 1`` through the candidates of
-   :mod:`~mjx_radar.estimation.multiscan_birth`, and ``modes`` is ``(table, candidates)``).
+   :mod:`~mjx_radar.estimation.tracks.multiscan_birth`, and ``modes`` is ``(table, candidates)``).
 
-``FilterOps.tracks`` shows the table (:class:`~mjx_radar.estimation.track_table.TrackView`):
+``FilterOps.tracks`` shows the table (:class:`~mjx_radar.estimation.tracks.track_table.TrackView`):
 the planner plans for it, the records hold it. For the loop's metrics (RMSE, NEES, the
 lost-track detector) :func:`truth_view` assigns confirmed tracks to the present drones.
 """
@@ -26,7 +26,8 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
-from mjx_radar.estimation import clutter, multiscan_birth, track_birth, track_table, track_update
+from mjx_radar.estimation.sensor import clutter
+from mjx_radar.estimation.tracks import multiscan_birth, track_birth, track_table, track_update
 
 __all__ = ["managed_tracker", "truth_view", "CUTOFF_M", "DENSITY_FLOOR"]
 
@@ -42,7 +43,7 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     Args:
         task, params: the scenario's task and runtime parameters.
         associator: ``factory(task, params) -> associate`` (the signature of
-            :mod:`~mjx_radar.estimation.track_update`); default per-track PDA.
+            :mod:`~mjx_radar.estimation.tracks.track_update`); default per-track PDA.
     """
     model, cfg = task.measurement, task.tracker
     n, k = task.fleet.n_radars, cfg.max_tracks

@@ -1,18 +1,20 @@
 """The ``"mht"`` tracker: K association histories kept across scans (docs/tracking.md).
 
 Selected by ``[tracker] association = "mht"`` (cluttered scans only). Its own state
-(``modes``) is a :class:`~mjx_radar.estimation.mht.HypState`: ``hypotheses`` (K) global
+(``modes``) is a :class:`~mjx_radar.estimation.data_association.mht.HypState`: ``hypotheses`` (K)
+global
 hypotheses, each a per-target bank (covariance form) with its log weight. Per scan
 every hypothesis is predicted, then every radar's scan makes the children of every
 hypothesis and joint event over each target's ``candidates`` best returns, pruned to
-the K heaviest (:func:`mjx_radar.estimation.mht.update_bank`). The joint estimate the
+the K heaviest (:func:`mjx_radar.estimation.data_association.mht.update_bank`). The joint estimate
+the
 loop carries (``mean [6M]``, ``cov [6M, 6M]``: metrics, lost-track detector, planner)
 is the heaviest hypothesis's bank, so the planner plans for the best hypothesis. The
 filter's Pd of a pair is the model's at each hypothesis's predicted range (0 where the
 line of sight is blocked), as in the PDA and JPDA banks. With ``branch_scans = B > 0`` only
 the first B scans branch (``begin`` sets the state's scan counter from the loop's step);
 later scans give each hypothesis JPDA's soft update weighted by its likelihood
-(:func:`mjx_radar.estimation.mht.soft_update`).
+(:func:`mjx_radar.estimation.data_association.mht.soft_update`).
 """
 
 from __future__ import annotations
@@ -22,7 +24,9 @@ import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
 from mjx_radar.errors import ScenarioError
-from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, mht
+from mjx_radar.estimation.data_association import mht
+from mjx_radar.estimation.filters import filter_bank, ground_prior
+from mjx_radar.estimation.sensor import clutter, detection
 from mjx_radar.physics import target_motion
 from mjx_radar.task.task import RadarTask
 

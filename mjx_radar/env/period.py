@@ -22,7 +22,10 @@ import jax.numpy as jnp
 from mjx_radar.env import filter_ops, managed, presence, scan, track_health
 from mjx_radar.env.records import StepRecord
 from mjx_radar.env.streams import streams_of
-from mjx_radar.estimation import ckf_sqrt, fisher, linalg, measurement
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf_sqrt
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor import measurement
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics import target_motion
 from mjx_radar.world import moving

@@ -74,7 +74,7 @@ SET_KEYS = ("truth_pos", "present", "track_pos", "track_exists")
 
 
 def estimate_sets(target, track_pos, track_exist, present) -> dict:
-    """The truths and the estimates as sets (:mod:`mjx_radar.estimation.gospa`).
+    """The truths and the estimates as sets (:mod:`mjx_radar.estimation.tracks.gospa`).
 
     Works on jax and numpy arrays with any leading axes. The estimates are the step's
     ``track_pos`` / ``track_exist`` (:class:`StepRecord`): for a tracker that knows the

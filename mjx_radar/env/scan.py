@@ -2,10 +2,10 @@
 
 The closed loop (:mod:`mjx_radar.loop.closed_loop`) asks :func:`observe` what the
 radars report at filter step k: with a Pd model each visible pair is detected with its
-Pd (:mod:`mjx_radar.estimation.detection`), with clutter every radar's scan is the
+Pd (:mod:`mjx_radar.estimation.sensor.detection`), with clutter every radar's scan is the
 fixed buffer of its detected returns and its false alarms
-(:mod:`mjx_radar.estimation.clutter`), which :func:`pda_update` associates per target
-(:mod:`mjx_radar.estimation.pda`). Draws come from the trial's detection streams
+(:mod:`mjx_radar.estimation.sensor.clutter`), which :func:`pda_update` associates per target
+(:mod:`mjx_radar.estimation.data_association.pda`). Draws come from the trial's detection streams
 (:func:`mjx_radar.env.streams.detection_streams`), folded with k.
 
 A missed pair is skipped like a blocked one (the CKF ``mask``) and the PCRLB counts the
@@ -21,7 +21,9 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.env.streams import detection_streams_of
-from mjx_radar.estimation import clutter, detection, filter_bank, ground_prior, jpda, pda
+from mjx_radar.estimation.data_association import jpda, pda
+from mjx_radar.estimation.filters import filter_bank, ground_prior
+from mjx_radar.estimation.sensor import clutter, detection
 
 
 class Scan(NamedTuple):
@@ -68,8 +70,9 @@ def observe(det_cfg, params, key, k, radar_pos, target_pos, z, vis) -> Scan:
 
 def pda_update(task, params, model, ccr, mean, cov, scan: Scan, radar_pos, los, assoc=None):
     """Sequential PDA per target of a scan with clutter (per-target bank, covariance form),
-    or with ``assoc`` a joint association rule (:func:`mjx_radar.estimation.jpda.rule`) of
-    all targets per radar (:func:`mjx_radar.estimation.jpda.update_bank`).
+    or with ``assoc`` a joint association rule
+    (:func:`mjx_radar.estimation.data_association.jpda.rule`) of
+    all targets per radar (:func:`mjx_radar.estimation.data_association.jpda.update_bank`).
 
     The filter's Pd of a pair is the model's at the predicted range (0 where ``los`` says
     the pair is blocked); the clutter density per unit measurement volume is

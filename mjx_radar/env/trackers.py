@@ -29,7 +29,8 @@ import jax.numpy as jnp
 from mjx_radar.contracts import PluginError
 from mjx_radar.env import filter_ops, managed
 from mjx_radar.env.filter_ops import FilterOps
-from mjx_radar.estimation import filter_bank, ground_prior, track_update
+from mjx_radar.estimation.filters import filter_bank, ground_prior
+from mjx_radar.estimation.tracks import track_update
 from mjx_radar.plugin_errors import failure, guarded_call
 from mjx_radar.registry import ASSOCIATORS, TRACKERS
 from mjx_radar.scenario import tracker_roles

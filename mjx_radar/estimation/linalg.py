@@ -235,7 +235,8 @@ def logdet_psd(A, floor=0.0):
 
     Computed as ``2 Σ log diag(L)`` with ``L = psd_cholesky(A + floor·I)``. For a
     rank-deficient ``A`` and ``floor = 0`` the result is finite but dominated by
-    the jitter δ; pass an absolute ``floor`` (e.g. :data:`mjx_radar.estimation.fisher.INFO_FLOOR`
+    the jitter δ; pass an absolute ``floor`` (e.g.
+    :data:`mjx_radar.estimation.information.fisher.INFO_FLOOR`
     = 1e-6 1/m² for Fisher matrices with entries O(1e-2..1e2)) to make such
     values meaningful and smooth.
 

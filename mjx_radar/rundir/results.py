@@ -83,8 +83,8 @@ def set_columns(sets: dict, cutoff: float, order: float) -> dict:
             (:func:`mjx_radar.env.records.estimate_sets`).
         cutoff: GOSPA / OSPA cutoff c [m]; order: their order p.
     """
-    from mjx_radar.estimation.continuity import continuity_events
-    from mjx_radar.estimation.gospa import set_metrics
+    from mjx_radar.estimation.tracks.continuity import continuity_events
+    from mjx_radar.estimation.tracks.gospa import set_metrics
 
     truth, here = sets["truth_pos"], sets["present"]
     out = set_metrics(truth, here, sets["track_pos"], sets["track_exists"], cutoff, order)

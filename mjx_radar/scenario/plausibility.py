@@ -48,7 +48,7 @@ from mjx_radar.scenario import schema_tracker, tracker_roles
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
 
-SPEED_OF_LIGHT = 299792458.0  # c [m/s] (same as estimation.sensing)
+SPEED_OF_LIGHT = 299792458.0  # c [m/s] (same as estimation.sensor.sensing)
 MAX_SPEED = 1e3  # initial target speed [m/s]
 MAX_STEP = 100.0  # target displacement per filter step [m]
 SIGMA_R_RANGE = (1e-6, 1e6)  # range noise std at r_ref [m]

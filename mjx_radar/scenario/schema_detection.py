@@ -18,7 +18,7 @@ class DetectionConfig:
     """Detection probability, false alarms and association (issue 23, docs/detection.md).
 
     Off by default (``model = "perfect"``, no clutter): the paper's measurements. The
-    numbers are runtime parameters (:class:`mjx_radar.estimation.detection.DetectionParams`);
+    numbers are runtime parameters (:class:`mjx_radar.estimation.sensor.detection.DetectionParams`);
     the model, the clutter switch, the cap and the planner switch are static.
     """
 

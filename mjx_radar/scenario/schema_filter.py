@@ -20,16 +20,17 @@ class FilterConfig:
     """The tracking filter (SPEC §4 and its options).
 
     ``structure``: "joint" (the paper's one CKF over all 6M dimensions) or "per-target"
-    (M independent 6-D CKFs, :mod:`mjx_radar.estimation.filter_bank`: the natural filter
+    (M independent 6-D CKFs, :mod:`mjx_radar.estimation.filters.filter_bank`: the natural filter
     for independent targets measured separately; it differs in the cubature rule only).
     ``ground_prior``: reflect a target's estimate to z >= 0 after each update
-    (:mod:`mjx_radar.estimation.ground_prior`; drones fly above the radars' ground
+    (:mod:`mjx_radar.estimation.filters.ground_prior`; drones fly above the radars' ground
     plane). Off for the paper's reproduction.
-    ``form``: "covariance" (the paper's CKF) or "sqrt" (:mod:`mjx_radar.estimation.ckf_sqrt`).
+    ``form``: "covariance" (the paper's CKF) or "sqrt"
+    (:mod:`mjx_radar.estimation.filters.ckf_sqrt`).
     ``motion``: the per-target motion model, "cv" (the paper's) or "imm": an interacting
     multiple model of CV and coordinated turns at ``±imm_turn_rate`` in the horizontal
     plane with mode-switch probability ``imm_switch_prob`` per second
-    (:mod:`mjx_radar.estimation.imm`, docs/filters.md; static: part of the compiled shape).
+    (:mod:`mjx_radar.estimation.filters.imm`, docs/filters.md; static: part of the compiled shape).
     """
 
     structure: str = field(

@@ -36,7 +36,8 @@ class RadarEquation:
 
 @dataclass(frozen=True)
 class MeasurementConfig:
-    """Measurement model of each radar-target pair (see :mod:`mjx_radar.estimation.measurement`).
+    """Measurement model of each radar-target pair (see
+    :mod:`mjx_radar.estimation.sensor.measurement`).
 
     ``model``: "range" (round-trip range, SPEC §1) or "range-azimuth" (range plus
     monopulse azimuth). The azimuth noise follows from the radar equation with the

@@ -21,7 +21,7 @@ Definitions (T trials, K steps of one scenario and method):
 * **RMS RMSE vs bound per step**: ``sqrt(mean_T rmse_pos²)`` vs
   ``sqrt(mean_T crlb_pos²)`` (``crlb_pos² = mean_m tr[J_m⁻¹]_pos``): both are
   square roots of mean squared errors, the only clean comparison with the PCRLB
-  (:func:`mjx_radar.estimation.pcrlb.rmse_vs_bound`).
+  (:func:`mjx_radar.estimation.information.pcrlb.rmse_vs_bound`).
 * One number per scenario and method: the mean over the K steps of each per-step
   statistic (``mean_rmse_pos``, ``median_rmse_pos``, ``hdi_hi_pos``, ``kept_rmse_pos``).
 * **GOSPA, OSPA** (docs/tracking_metrics.md): means over trials and steps of the

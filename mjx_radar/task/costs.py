@@ -38,7 +38,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import detection, fisher, measurement, pda
+from mjx_radar.estimation.data_association import pda
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor import detection, measurement
 from mjx_radar.task import cost_plugins
 from mjx_radar.task.method import information_of
 from mjx_radar.world import moving

@@ -18,7 +18,8 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar import precision
-from mjx_radar.estimation import ckf, linalg
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf
 from mjx_radar.task.costs import Horizon
 
 

@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import detection, measurement
+from mjx_radar.estimation.sensor import detection, measurement
 from mjx_radar.io.checks import is_host, is_runtime
 from mjx_radar.scenario.schema import DetectionConfig, Scenario
 from mjx_radar.task.method import Method, MethodFlags
@@ -100,7 +100,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
 
 
 def detection_of(scenario: Scenario, dtype=None):
-    """The scenario's :class:`~mjx_radar.estimation.detection.DetectionParams`: its
+    """The scenario's :class:`~mjx_radar.estimation.sensor.detection.DetectionParams`: its
     ``[detection]`` table with the radar equation of every radar (each its own in a
     mixed fleet whose ``[[radar_override]]`` tables give one)."""
     eq = scenario.radar_eq

@@ -22,7 +22,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import measurement
+from mjx_radar.estimation.sensor import measurement
 from mjx_radar.physics import kinematics, motion
 from mjx_radar.physics import plant as physics
 from mjx_radar.physics.rollout import radar_rollout

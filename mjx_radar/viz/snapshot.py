@@ -45,7 +45,7 @@ def fim_heatmap(radar_pos, xs, ys, z, C):
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar.estimation import fisher
+    from mjx_radar.estimation.information import fisher
 
     radar_pos = jnp.asarray(radar_pos)
     gx, gy = jnp.meshgrid(jnp.asarray(xs), jnp.asarray(ys))

@@ -2,7 +2,7 @@
 
 J. L. Williams and R. A. Lau, "Approximate evaluation of marginal association
 probabilities with belief propagation", IEEE Trans. Aerospace and Electronic Systems
-50(4), 2014. The joint events of :mod:`mjx_radar.estimation.association` form a
+50(4), 2014. The joint events of :mod:`mjx_radar.estimation.data_association.association` form a
 bipartite graph of targets t (choose a measurement j or miss, weights ``w_t0``,
 ``w_tj = r_tj`` against clutter) and measurements j (taken by at most one target; the
 clutter alternative has weight 1). With ``ν_{j→t} = 1`` initially, one iteration is::

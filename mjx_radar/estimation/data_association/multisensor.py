@@ -1,6 +1,7 @@
 """Multi-sensor JPDA: every radar's scan associated jointly, one tuple per target (issue 35).
 
-The sequential rules (:mod:`mjx_radar.estimation.jpda`) associate radar after radar and
+The sequential rules (:mod:`mjx_radar.estimation.data_association.jpda`) associate radar after
+radar and
 collapse each target's mixture in between; with range-only radars a single radar's
 return says nothing about which drone it is, and the collapsed means land between the
 drones (ghosts). Here a target's association hypothesis is a *tuple*
@@ -41,12 +42,15 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import association, ckf, linalg
-from mjx_radar.estimation.noise import at_radar
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.data_association import association
+from mjx_radar.estimation.filters import ckf
+from mjx_radar.estimation.sensor.noise import at_radar
 
 
 class Rule(NamedTuple):
-    """The multi-sensor JPDA as a rule of :func:`mjx_radar.estimation.jpda.update_bank`."""
+    """The multi-sensor JPDA as a rule of
+    :func:`mjx_radar.estimation.data_association.jpda.update_bank`."""
 
     g: int  # returns per radar and target in the tuples
     k: int  # tuples per target in the joint events (the all-missed one included)
@@ -192,7 +196,8 @@ def joint_marginals(logr, slot, k: int):
 def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, density, gate, pg, g, k):
     """Multi-sensor JPDA of every radar's scan at once (the per-target bank).
 
-    Args: as :func:`mjx_radar.estimation.pda.update_bank`; ``g`` returns per radar and
+    Args: as :func:`mjx_radar.estimation.data_association.pda.update_bank`; ``g`` returns per radar
+    and
         target in the tuples, ``k`` tuples per target in the joint events (static).
 
     Returns:

@@ -44,7 +44,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import ckf, linalg
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf
 
 __all__ = [
     "N_MODES",
@@ -199,7 +200,8 @@ def predict_bank(state: ImmState, F, Q, Pi) -> ImmState:
 
 def update_bank(state: ImmState, z, radar_pos, h_pair, R_fn, mask=None, residual=None):
     """:func:`update` of every target from its N radars (arguments as
-    :func:`mjx_radar.estimation.filter_bank.update_bank`: ``z [N, M, p]``, ``mask [N, M]``)."""
+    :func:`mjx_radar.estimation.filters.filter_bank.update_bank`: ``z [N, M, p]``, ``mask [N,
+    M]``)."""
     n, m, p = z.shape
     zm = jnp.swapaxes(jnp.asarray(z, state.means.dtype), 0, 1).reshape(m, n * p)
 

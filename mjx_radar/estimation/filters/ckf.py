@@ -131,7 +131,7 @@ def update(mean, cov, z, h, R, mask=None, residual=None, with_innovation=False):
             of two measurements (angles wrapped); default plain subtraction.
         with_innovation: also return the innovation ``ν[p]`` and its covariance
             ``Pzz[p, p]`` (masked rows: ν = 0, identity rows/columns), e.g. for the
-            IMM's mode likelihood ``N(ν; 0, Pzz)`` (:mod:`mjx_radar.estimation.imm`).
+            IMM's mode likelihood ``N(ν; 0, Pzz)`` (:mod:`mjx_radar.estimation.filters.imm`).
 
     Returns:
         ``(mean[n], cov[n, n])`` posterior moments (``+ (ν, Pzz)`` with ``with_innovation``).

@@ -9,12 +9,12 @@ across scans (Reid, IEEE TAC 24(6), 1979; Cox & Hingorani's K-best pruning, IEEE
 
 Radar after radar (sequential, like the JPDA bank), every hypothesis h and joint event
 θ (each target one of its ``G`` best gated returns or none, no return twice:
-:func:`mjx_radar.estimation.association.event_table`) make a child with
+:func:`mjx_radar.estimation.data_association.association.event_table`) make a child with
 
     log w_{h,θ} = log w_h + Σ_t log(1 − P_D,ht P_G) + Σ_{t detected in θ} log r_{ht θ(t)}
 
 where ``r_htj = P_D,ht N(ν_htj; 0, S_ht) / (λ (1 − P_D,ht P_G))`` is the JPDA's likelihood
-ratio under hypothesis h (:func:`~mjx_radar.estimation.association.log_ratios`), so
+ratio under hypothesis h (:func:`~mjx_radar.estimation.data_association.association.log_ratios`), so
 ``w_{h,θ} ∝ w_h p(Z_n, θ | h)`` up to a factor every child of the scan shares (Poisson
 clutter ``λ^L``). The ``(Π_t (1 − P_D,ht P_G))`` term differs between parents and is
 kept. Each child's targets take the Kalman update with their return (``x + K ν_j``,
@@ -25,7 +25,8 @@ feasible histories and G no smaller than the returns, this is the exact Bayesian
 posterior over association histories (``tests/test_mht.py`` enumerates it); with K = 1
 it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened
 and near-duplicates merged before the K heaviest are kept
-(:mod:`~mjx_radar.estimation.mht_merge`). The estimate is the heaviest hypothesis's bank
+(:mod:`~mjx_radar.estimation.data_association.mht_merge`). The estimate is the heaviest
+hypothesis's bank
 (MAP). With ``branch > 0`` (:func:`update_bank`) only the first scans branch; afterwards
 each hypothesis sums its children (:func:`soft_update`: its JPDA update, its weight times
 the scan's likelihood), a bank of JPDA filters started from the first scans' K best
@@ -42,7 +43,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import association, filter_bank, linalg, mht_merge, pda
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.data_association import association, mht_merge, pda
+from mjx_radar.estimation.filters import filter_bank
 
 __all__ = [  # noqa: RUF022
     "HypState",
@@ -128,7 +131,8 @@ def radar_update(
         g: candidates per target G (static, ``≤ L``).
         residual: optional measurement residual (angles wrapped).
         merge: ``(τ, screen, labels)`` static: with τ > 0 the ``screen · K`` heaviest
-            children are merged (:func:`~mjx_radar.estimation.mht_merge.merge_duplicates`,
+            children are merged
+            (:func:`~mjx_radar.estimation.data_association.mht_merge.merge_duplicates`,
             label-free with ``labels``) before the K heaviest are kept; τ = 0: no merging
             (the exact K best).
 

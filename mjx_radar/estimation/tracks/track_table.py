@@ -7,7 +7,7 @@ trials, scan over time). Per slot: the 6-D CV estimate ``mean [6]``, ``cov [6, 6
 the consecutive misses, the age in scans and a label (unique per trial, never reused).
 
 Life cycle, per scan (:func:`maintain`), with ``hit`` whether the slot's track was
-associated (gated returns from enough radars, :mod:`~mjx_radar.estimation.track_update`):
+associated (gated returns from enough radars, :mod:`~mjx_radar.estimation.tracks.track_update`):
 
 * history ``h ← ((h << 1) | hit) mod 2ⁿ``, ``misses ← 0 if hit else misses + 1``, ``age ← age + 1``;
 * **M-of-N confirmation**: a tentative track with ``popcount(h) >= m`` becomes confirmed;

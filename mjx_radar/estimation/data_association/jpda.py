@@ -1,6 +1,7 @@
 """Joint association update of the per-target bank: JPDA, JPDA*, GNN (issue 35).
 
-Radar after radar (sequential, like :func:`mjx_radar.estimation.pda.update_bank`), the
+Radar after radar (sequential, like :func:`mjx_radar.estimation.data_association.pda.update_bank`),
+the
 M targets' cubature moments against radar n's scan (:func:`pda.innovations`: ``K_t``,
 ``S_t``, innovations ``ν_tj``, ``d_tj²``) give the log likelihood ratios ``log r[M, L]``
 (:func:`association.log_ratios`); an association rule turns them into weights
@@ -14,7 +15,7 @@ The rules (:func:`rule`): ``"exact"`` JPDA marginals by enumeration
 propagation (:func:`lbp.lbp_marginals`), ``"gnn"`` the best joint event (hard weights:
 the Kalman update with the assigned measurement, or none), and ``"multisensor"``, which
 is not sequential: every radar's scan at once, over radar tuples
-(:mod:`mjx_radar.estimation.multisensor`). With one target every rule
+(:mod:`mjx_radar.estimation.data_association.multisensor`). With one target every rule
 but GNN is the PDA of that target. Pure JAX, static shapes, ``vmap``-able over trials.
 """
 
@@ -24,18 +25,20 @@ import functools
 
 import jax
 
-from mjx_radar.estimation import association, lbp, multisensor, pda
+from mjx_radar.estimation.data_association import association, lbp, multisensor, pda
 
 __all__ = ["rule", "joint_update", "update_bank"]
 
 
 def rule(kind: str, candidates: int = 4, iterations: int = 20, star: bool = False, tuples=8):
     """The association rule ``logr[M, L] -> (β_0[M], β[M, L])`` by name, or for
-    ``"multisensor"`` a :class:`~mjx_radar.estimation.multisensor.Rule` (every radar at once).
+    ``"multisensor"`` a :class:`~mjx_radar.estimation.data_association.multisensor.Rule` (every
+    radar at once).
 
     Args:
         kind: ``"exact"`` (JPDA, enumeration), ``"lbp"`` (JPDA, loopy BP), ``"gnn"`` or
-            ``"multisensor"`` (JPDA over radar tuples, :mod:`~mjx_radar.estimation.multisensor`).
+            ``"multisensor"`` (JPDA over radar tuples,
+            :mod:`~mjx_radar.estimation.data_association.multisensor`).
         candidates: G, measurements per target in the enumeration (exact, gnn; capped at
             L), per radar and target in the tuples (multisensor).
         iterations: loopy-BP sweeps.
@@ -81,8 +84,9 @@ def joint_update(means, covs, z, valid, h, R, pd, density, gate, pg, assoc, resi
 def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, density, gate, pg, assoc):
     """Sequential joint association of every radar's scan (the per-target bank).
 
-    Args: as :func:`mjx_radar.estimation.pda.update_bank`, and ``assoc`` the rule (a
-        :class:`~mjx_radar.estimation.multisensor.Rule`: all radars at once).
+    Args: as :func:`mjx_radar.estimation.data_association.pda.update_bank`, and ``assoc`` the rule
+    (a
+        :class:`~mjx_radar.estimation.data_association.multisensor.Rule`: all radars at once).
 
     Returns:
         ``(means[M, 6], covs[M, 6, 6])`` posterior moments.

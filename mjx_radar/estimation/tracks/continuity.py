@@ -2,7 +2,7 @@
 
 Input: the assignment ``a[t, k, i]`` of each truth i at step k of trial t (the
 estimate, i.e. the track slot, it is assigned to with ``d < c`` in the optimal GOSPA
-assignment, :func:`mjx_radar.estimation.gospa.set_metrics`; -1 when unassigned), the
+assignment, :func:`mjx_radar.estimation.tracks.gospa.set_metrics`; -1 when unassigned), the
 truths' presence and the tracks' existence. Events per trial and step (their sums
 over the steps are the per-trial counts):
 

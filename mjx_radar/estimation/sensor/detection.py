@@ -186,7 +186,7 @@ def planner_weights(model: str, params: DetectionParams, radar_pos, target_xyz, 
     a detected pair, so the expected FIM of the scan is ``Σ_n Pd_n J_n`` (the
     information-reduction factor of Pd < 1 without clutter, Niu, Willett & Bar-Shalom
     2001). ``factor`` (clutter) multiplies it by the PDA reduction ``q(Pd, λ)``
-    (:mod:`mjx_radar.estimation.pda`).
+    (:mod:`mjx_radar.estimation.data_association.pda`).
 
     Args:
         model: ``"swerling1"`` or ``"fixed"`` (static).
@@ -194,11 +194,11 @@ def planner_weights(model: str, params: DetectionParams, radar_pos, target_xyz, 
         radar_pos: ``[..., N, 3]`` radar positions.
         target_xyz: ``(x, y, z)`` point coordinates, each ``[..., K]``.
         factor: optional ``factor(pd[..., N, K], d2[..., N, K]) -> [..., N, K]`` replacing
-            Pd (clutter: :func:`mjx_radar.estimation.pda.planner_factor`).
+            Pd (clutter: :func:`mjx_radar.estimation.data_association.pda.planner_factor`).
 
     Returns:
         ``[..., N, K]`` weights (the ``mask`` of
-        :func:`mjx_radar.estimation.measurement.information_components`).
+        :func:`mjx_radar.estimation.sensor.measurement.information_components`).
     """
     radar_pos = jnp.asarray(radar_pos)
     d2 = sum(

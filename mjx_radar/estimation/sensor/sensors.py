@@ -2,15 +2,15 @@
 
 A scenario's ``[measurement] model`` names one (:data:`mjx_radar.registry.SENSORS`):
 ``"range"`` (the paper's round-trip range) or ``"range-azimuth"`` (monopulse azimuth
-too, docs/measurement.md) or a :class:`~mjx_radar.estimation.measurement.MeasurementModel`
+too, docs/measurement.md) or a :class:`~mjx_radar.estimation.sensor.measurement.MeasurementModel`
 subclass given to :func:`register_sensor`. The truth sampler, the trackers, the
 planner's information and the PCRLB all go through the model.
 """
 
 from __future__ import annotations
 
-from mjx_radar.estimation import sensor_guard
-from mjx_radar.estimation.measurement import MeasurementModel, RangeAzimuthModel, RangeModel
+from mjx_radar.estimation.sensor import sensor_guard
+from mjx_radar.estimation.sensor.measurement import MeasurementModel, RangeAzimuthModel, RangeModel
 from mjx_radar.registry import SENSORS
 
 #: the built-in sensors

@@ -2,7 +2,7 @@
 
 ``noise_params`` evaluates the radar equation on the host in float64 (the range
 constant C, its CCR variance at R2T, and the azimuth constant
-``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, see :mod:`mjx_radar.estimation.measurement`)
+``c_az = θ_3dB² / (2 k_m² SNR_ref R_ref⁴)``, see :mod:`mjx_radar.estimation.sensor.measurement`)
 and returns them as the :class:`NoiseParams` pytree the programs take at run time.
 
 A mixed fleet (``[[radar_override]]`` with a ``radar_equation``) has one set of constants
@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import sensing
+from mjx_radar.estimation.sensor import sensing
 from mjx_radar.scenario.schema import MeasurementConfig, RadarEquation, Scenario
 
 

@@ -6,7 +6,8 @@ live slot from every radar's unlabelled scan and gives each return's negative
 log-likelihood under each track's predicted measurement, ``nll = d² + log det S``
 (``d² = νᵀ S⁻¹ ν``; ``+inf`` outside the gate ``d² < γ``, for invalid returns and
 empty slots). :func:`pda_associator` is the per-track PDA of
-:mod:`~mjx_radar.estimation.pda` (radar after radar, each track on its own); a joint
+:mod:`~mjx_radar.estimation.data_association.pda` (radar after radar, each track on its own); a
+joint
 associator (JPDA, GNN) with the same signature drops in.
 
 From ``nll`` the table learns (:func:`update`), per radar i: each track's nearest
@@ -22,8 +23,12 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import ckf, detection, ground_prior, linalg, pda, track_table
-from mjx_radar.estimation.noise import at_radar
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.data_association import pda
+from mjx_radar.estimation.filters import ckf, ground_prior
+from mjx_radar.estimation.sensor import detection
+from mjx_radar.estimation.sensor.noise import at_radar
+from mjx_radar.estimation.tracks import track_table
 
 __all__ = ["pda_associator", "update", "sorted_scans", "innovation_nll"]
 

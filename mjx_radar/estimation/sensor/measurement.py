@@ -28,7 +28,7 @@ finite numbers (no NaN); azimuth information still grows like 1/ρ² there.
 
 Adding a model: subclass :class:`MeasurementModel` (frozen dataclass, new ``name``
 and ``dim``), implement ``predict``, ``variance``, ``sample``, ``residual``,
-``pair_information``, and register it (:func:`mjx_radar.estimation.sensors.register_sensor`).
+``pair_information``, and register it (:func:`mjx_radar.estimation.sensor.sensors.register_sensor`).
 """
 
 from __future__ import annotations
@@ -40,8 +40,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.contracts import placeholder
-from mjx_radar.estimation import fisher, sensing, sensor_guard
-from mjx_radar.estimation.noise import NoiseParams, at_radar, noise_params, per_pair
+from mjx_radar.estimation.information import fisher
+from mjx_radar.estimation.sensor import sensing, sensor_guard
+from mjx_radar.estimation.sensor.noise import NoiseParams, at_radar, noise_params, per_pair
 
 __all__ = [  # noqa: RUF022
     "RHO2_EPS",
@@ -217,7 +218,7 @@ class RangeAzimuthModel(MeasurementModel):
 def make_model(name: str) -> MeasurementModel:
     """The sensor called ``name``, made from :data:`mjx_radar.registry.SENSORS`.
 
-    The same as :func:`mjx_radar.estimation.sensors.make_sensor` (one-line ``ValueError``
+    The same as :func:`mjx_radar.estimation.sensor.sensors.make_sensor` (one-line ``ValueError``
     for an unknown name; a registered sensor's own exceptions as one line).
     """
     return sensor_guard.make(name)

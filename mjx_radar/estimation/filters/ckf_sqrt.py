@@ -20,14 +20,14 @@ Update (points from (x̂⁻, S⁻); ``S_R S_Rᵀ = R``)::
     S_zz = Tria([𝒵, S_R]),  P_xz = 𝒳 𝒵ᵀ,  K = (P_xz / S_zzᵀ) / S_zz,
     x̂⁺ = x̂ + K (z − ẑ),  S⁺ = Tria([𝒳 − K 𝒵, K S_R]).
 
-In exact arithmetic this is the covariance-form CKF of :mod:`mjx_radar.estimation.ckf`:
+In exact arithmetic this is the covariance-form CKF of :mod:`mjx_radar.estimation.filters.ckf`:
 ``S⁻S⁻ᵀ = 𝒳*𝒳*ᵀ + Q``, ``S_zz S_zzᵀ = Pzz``, and
 ``(𝒳 − K𝒵)(𝒳 − K𝒵)ᵀ + K R Kᵀ = P − K Pxzᵀ − Pxz Kᵀ + K Pzz Kᵀ = P − K Pzz Kᵀ``.
 ``P`` is never formed or subtracted, so ``S Sᵀ`` is PSD by construction and the
 factor's condition number is the square root of P's (float32 keeps ~7 digits of
 S, i.e. ~14 of P's dynamic range).
 
-Everything else follows :func:`mjx_radar.estimation.ckf.update`: ``R`` may be a
+Everything else follows :func:`mjx_radar.estimation.filters.ckf.update`: ``R`` may be a
 callable ``R(ẑ)`` (DDR noise), ``residual`` wraps angle differences (deviations
 about ``h(x̂)``), and ``mask[p]`` drops measurements exactly: their rows of 𝒵 and
 innovations are zeroed and their rows/columns of R replaced by the identity, so
@@ -51,7 +51,8 @@ import jax
 import jax.numpy as jnp
 from jax.scipy.linalg import solve_triangular
 
-from mjx_radar.estimation import ckf, linalg
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf
 
 __all__ = ["tria", "covariance", "factor", "psd_factor", "predict", "update", "Form", "form_ops"]
 

@@ -34,8 +34,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import ckf, ckf_sqrt
-from mjx_radar.estimation.sensing import ddr_noise_cov
+from mjx_radar.estimation.filters import ckf, ckf_sqrt
+from mjx_radar.estimation.sensor.sensing import ddr_noise_cov
 
 __all__ = [
     "joint_to_bank",

@@ -268,7 +268,7 @@ def logdet_components(entries, floor: float = INFO_FLOOR):
 
     Args:
         entries: ``(xx, xy, xz, yy, yz, zz)``, each ``[...]`` (as returned by
-            :func:`mjx_radar.estimation.measurement.information_components`).
+            :func:`mjx_radar.estimation.sensor.measurement.information_components`).
         floor: absolute information floor [1/m²].
     """
     return linalg_small.logdet_sym3(*entries, floor=floor)

@@ -1,11 +1,11 @@
 """Multi-scan births: a seed becomes a track only if it moves like a CV point over S scans.
 
 ``[tracker] birth_scans = S > 1`` (docs/track_management.md "Multi-scan births"). The
-one-scan births of :mod:`~mjx_radar.estimation.track_birth` turn the best fitted seed
+one-scan births of :mod:`~mjx_radar.estimation.tracks.track_birth` turn the best fitted seed
 of a scan into a tentative track; with range-only radars three or four returns of
 *different* drones can fit one point (a ghost), and a ghost born first claims the
 drone's returns. Here the scan's screened seed fits (``x_j [C, 3]``, ``P_j``, their
-returns and residual ``χ²_j``, :func:`~mjx_radar.estimation.track_birth.fit_seeds`)
+returns and residual ``χ²_j``, :func:`~mjx_radar.estimation.tracks.track_birth.fit_seeds`)
 feed a fixed table of Kc **candidates** (:class:`Candidates`), each a constant-velocity
 least-squares fit of the seeds it collected on consecutive scans (the multiple-scan
 initiation of Blackman & Popoli 1999, §3.4, with the velocity gate of two- and
@@ -46,7 +46,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.estimation import linalg
-from mjx_radar.estimation.track_birth import AVOID_D2
+from mjx_radar.estimation.tracks.track_birth import AVOID_D2
 
 __all__ = ["Candidates", "MultiScanSettings", "empty", "cv_update", "chi2_bound", "step"]
 
@@ -268,7 +268,7 @@ def step(cands: Candidates, fits, f6, s: MultiScanSettings, avoid=None, p_empty:
     """One scan of the candidate table (module docstring).
 
     Args:
-        cands: the table; fits: :func:`~mjx_radar.estimation.track_birth.fit_seeds`'s
+        cands: the table; fits: :func:`~mjx_radar.estimation.tracks.track_birth.fit_seeds`'s
             ``(x [C, 3], P [C, 3, 3], chi2 [C], joined [C, N], good [C], score [C])``.
         f6: ``[6, 6]`` the CV transition of one scan; s: :class:`MultiScanSettings`.
         avoid: optional ``(pos [K, 3], cov [K, 3, 3], live [K])`` the live tracks.

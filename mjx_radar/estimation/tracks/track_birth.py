@@ -5,7 +5,7 @@ Each radar's scan is an unlabelled buffer ``zs [N, L, dim]`` with a ``free [N, L
 
 1. **Seeds.** Range-only: every triple of radars and every choice of one free return
    from each (``C = C(N, 3) L³`` candidates) is trilaterated
-   (:func:`~mjx_radar.estimation.multilateration.trilaterate`, the solution above the
+   (:func:`~mjx_radar.estimation.tracks.multilateration.trilaterate`, the solution above the
    radars). Range-azimuth: every free return of every radar is a point at the
    height prior ``h₀`` (``C = N L``).
 2. **Fit.** Gauss-Newton on the seed's returns gives ``x_s, P_s``; every other radar's
@@ -32,8 +32,9 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation import linalg, multilateration
-from mjx_radar.estimation.noise import at_radar
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.sensor.noise import at_radar
+from mjx_radar.estimation.tracks import multilateration
 
 __all__ = ["BirthSettings", "scan_variances", "seeds", "fit_seeds", "births", "AVOID_D2"]
 

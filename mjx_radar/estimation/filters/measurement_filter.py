@@ -1,13 +1,14 @@
 """A measurement model as the CKF's functions (docs/measurement.md, "CKF"): the stacked
 measurement function ``h``, the diagonal noise covariance ``R`` and the residual of flat
-stacked measurements (angle components wrapped) for :func:`mjx_radar.estimation.ckf.update`."""
+stacked measurements (angle components wrapped) for
+:func:`mjx_radar.estimation.filters.ckf.update`."""
 
 from __future__ import annotations
 
 import jax.numpy as jnp
 
-from mjx_radar.estimation.measurement import MeasurementModel
-from mjx_radar.estimation.noise import NoiseParams, per_row
+from mjx_radar.estimation.sensor.measurement import MeasurementModel
+from mjx_radar.estimation.sensor.noise import NoiseParams, per_row
 
 
 def measurement_function(model: MeasurementModel, radar_pos):

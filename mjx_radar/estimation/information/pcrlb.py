@@ -10,7 +10,7 @@ it in numpy float64 from the saved arrays, per target m (6×6)::
     J_nm = vis_nm · u uᵀ (4 / (C r⁴) + 8 / r²),    u = (p_Tm − p_Rn) / r,
 
 with the CV model ``A = [[I, Δt I], [0, I]]``, ``W = σ_W² G Gᵀ``,
-``G = [½Δt² I; Δt I]`` (:mod:`mjx_radar.estimation.fisher`,
+``G = [½Δt² I; Δt I]`` (:mod:`mjx_radar.estimation.information.fisher`,
 :mod:`mjx_radar.physics.motion`). The bound on target m's position error is
 ``tr[J_m⁻¹]_pos`` (the upper-left 3×3 of the inverse); its mean over targets is
 the bound on the per-step squared position RMSE, ``E[rmse_pos²] >= mean_m

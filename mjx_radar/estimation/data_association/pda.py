@@ -3,7 +3,7 @@
 With false alarms a radar's scan is an unlabelled set of measurements ``z_1..z_L``
 (fixed buffer, ``valid`` mask). For one target with predicted measurement ``ẑ``,
 innovation covariance ``S``, cross covariance ``P_xz`` and gain ``K = P_xz S⁻¹`` (the
-cubature moments of :func:`mjx_radar.estimation.ckf.update`), the PDA filter
+cubature moments of :func:`mjx_radar.estimation.filters.ckf.update`), the PDA filter
 (Bar-Shalom, Daum & Huang, "The probabilistic data association filter", IEEE Control
 Systems Magazine 29(6), 2009, eqs. 33-47; Bar-Shalom & Li, *Multitarget-Multisensor
 Tracking*, 1995, §6.4) is::
@@ -28,8 +28,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_radar.estimation import ckf, linalg
-from mjx_radar.estimation.noise import NoiseParams, at_radar
+from mjx_radar.estimation import linalg
+from mjx_radar.estimation.filters import ckf
+from mjx_radar.estimation.sensor.noise import NoiseParams, at_radar
 
 __all__ = [  # noqa: RUF022
     "pda_update",
@@ -156,8 +157,8 @@ def update_bank(means, covs, zs, valid, radar_pos, model, noise, ccr, pd, densit
         means: ``[M, 6]``; covs: ``[M, 6, 6]`` predicted moments.
         zs: ``[N, L, p]`` scans; valid: ``[N, L]`` (:func:`clutter.scan_buffer`).
         radar_pos: ``[N, 3]``.
-        model: :class:`~mjx_radar.estimation.measurement.MeasurementModel` (static).
-        noise: :class:`~mjx_radar.estimation.noise.NoiseParams`; ccr: filter noise flag.
+        model: :class:`~mjx_radar.estimation.sensor.measurement.MeasurementModel` (static).
+        noise: :class:`~mjx_radar.estimation.sensor.noise.NoiseParams`; ccr: filter noise flag.
         pd: ``[N, M]`` the filter's detection probability of each pair (0: not seen).
         density, gate, pg: clutter density per unit volume, gate γ, gate probability.
 
@@ -270,7 +271,7 @@ def planner_factor(det, model, params):
     """
     if not det.clutter:
         return None
-    from mjx_radar.estimation import clutter
+    from mjx_radar.estimation.sensor import clutter
 
     table = irf_table(model.dim, float(det.gate_probability))
     lam = clutter.density(params.detection, model.dim)

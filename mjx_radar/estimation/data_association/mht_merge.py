@@ -1,4 +1,4 @@
-"""Merging near-duplicate hypotheses of the MHT (:mod:`mjx_radar.estimation.mht`).
+"""Merging near-duplicate hypotheses of the MHT (:mod:`mjx_radar.estimation.data_association.mht`).
 
 With a fixed budget K, a hypothesis tree degenerates: the K heaviest children of a scan
 are mostly one parent's, differing in assignments that barely move its bank (two

@@ -25,7 +25,7 @@ def sample_clutter(key, params, n_radars: int, cap: int, dim: int):
 
     Args:
         key: the scan's key of the clutter stream.
-        params: :class:`mjx_radar.estimation.detection.DetectionParams`.
+        params: :class:`mjx_radar.estimation.sensor.detection.DetectionParams`.
         n_radars: N (static); cap: buffer size (static); dim: measurement size (static).
 
     Returns:

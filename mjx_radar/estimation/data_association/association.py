@@ -35,7 +35,7 @@ detected targets and the same measurements, in another order) only the most prob
 kept before normalising. Siblings are scored over all L measurements (not only the
 candidates), with the M! target permutations that map detected targets to detected ones.
 
-The loopy-BP approximation is :mod:`mjx_radar.estimation.lbp`.
+The loopy-BP approximation is :mod:`mjx_radar.estimation.data_association.lbp`.
 """
 
 from __future__ import annotations

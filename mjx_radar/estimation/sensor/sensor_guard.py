@@ -1,7 +1,7 @@
 """A sensor made by name, a registered one wrapped so that its own exceptions read as one line.
 
-:func:`make` is what :func:`mjx_radar.estimation.measurement.make_model` and
-:func:`mjx_radar.estimation.sensors.make_sensor` call: a built-in sensor is made as is; a
+:func:`make` is what :func:`mjx_radar.estimation.sensor.measurement.make_model` and
+:func:`mjx_radar.estimation.sensor.sensors.make_sensor` call: a built-in sensor is made as is; a
 registered one as its class's :func:`guarded` subclass, whose contract methods raise, while
 the loop is traced, one line naming the sensor and the method, with the user's frames
 (:mod:`mjx_radar.plugin_errors`).

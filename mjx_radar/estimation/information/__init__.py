@@ -1,0 +1,1 @@
+"""Fisher information of range measurements (SFIM, PFIM) and the PCRLB."""

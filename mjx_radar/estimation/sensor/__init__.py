@@ -1,0 +1,2 @@
+"""Radar sensing: the radar equation, measurement models and sensors, noise, detection and
+clutter."""
