@@ -10,7 +10,7 @@ polls the server as the page does: ``figure.json`` once, then ``state.json`` eve
 250 ms (``--client http``), or a real headless Chromium showing the page
 (``--client chromium``, needs playwright and /usr/bin/chromium; its software WebGL
 competes for the CPU). The segments are those of ``run --view`` (at most one simulated
-second; :func:`mjx_radar.viz.live.live_periods`); without it, those of ``run``. Usage::
+second; :func:`mjx_radar.viz.live_view.live.live_periods`); without it, those of ``run``. Usage::
 
     python benchmarks/bench_live_view.py --scenario smoke --steps 400 --rollouts analytic
 """
@@ -52,7 +52,7 @@ def main() -> None:
 
     from mjx_radar.engine import compile_cache, runner
     from mjx_radar.scenario.reader import load_with_overrides
-    from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.live_view.live import LiveView
     from mjx_radar.viz.scene import scene_of
 
     compile_cache.enable()

@@ -23,9 +23,9 @@ import mjx_radar
 from mjx_radar.engine import runner
 from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.errors import InputError
-from mjx_radar.viz import live as live_mod
+from mjx_radar.viz.live_view import live as live_mod
 from mjx_radar.viz.scene import scene_of
-from mjx_radar.viz.viewer_traces import LAYERS
+from mjx_radar.viz.view.viewer_traces import LAYERS
 
 STEPS = 40  # 10 control periods of 4 filter steps; one period per segment
 TRIALS = [0, 3]

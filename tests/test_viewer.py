@@ -21,8 +21,8 @@ from mjx_radar.api.run_case import run_header
 from mjx_radar.errors import InputError
 from mjx_radar.rundir.results import METRIC_COLUMNS
 from mjx_radar.rundir.writer import write_run
-from mjx_radar.viz import viewer, viewer_budget
-from mjx_radar.viz.viewer_traces import LAYERS
+from mjx_radar.viz.view import viewer, viewer_budget
+from mjx_radar.viz.view.viewer_traces import LAYERS
 
 cli_main = importlib.import_module("mjx_radar.cli.main")
 CHROMIUM = Path("/usr/bin/chromium")
@@ -207,7 +207,7 @@ def test_headless_browser_draws_the_scene(smoke2, tmp_path):
 
 def test_zero_samples_draws_none(smoke2):
     """``--samples 0`` draws no MPPI sample (``argsort(w)[-0:]`` had kept them all)."""
-    from mjx_radar.viz.viewer_traces import frame_traces
+    from mjx_radar.viz.view.viewer_traces import frame_traces
 
     tr = viewer.load_trial(viewer.load_run(smoke2), 0)
     assert frame_traces(tr, 10, 0, None)[6]["x"].size == 0
@@ -240,7 +240,7 @@ def test_terrain_surface_is_the_height_grid(hills, tmp_path):
     the simulator's reader) and the radars stand on it at their recorded z."""
     import imageio.v3 as iio
 
-    from mjx_radar.viz.viewer_world import terrain_nodes
+    from mjx_radar.viz.view.viewer_world import terrain_nodes
 
     rd = viewer.load_run(hills)
     t = rd.scenario.terrain

@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 
 import mjx_radar
-from mjx_radar.viz import viewer, viewer_budget
 from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB
+from mjx_radar.viz.view import viewer, viewer_budget
 
 CHROMIUM = Path("/usr/bin/chromium")
 pytestmark = pytest.mark.skipif(
@@ -208,7 +208,7 @@ def _records(seg: int, t: int = 2, p: int = 4, m: int = 2, n: int = 2, h: int = 
 
 
 def test_live_page_redraws_the_scene(browser):
-    from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.live_view.live import LiveView
     from mjx_radar.viz.scene import scene_of
 
     view = LiveView(scene_of(mjx_radar.load_scenario("smoke")), [0, 5], 80, port=0)
@@ -248,7 +248,7 @@ def test_terrain_surface_renders(browser, tmp_path):
     camera projects interior nodes, in colours of the surface, not the white background."""
     import imageio.v3 as iio
 
-    from mjx_radar.viz.viewer_world import terrain_nodes
+    from mjx_radar.viz.view.viewer_world import terrain_nodes
 
     s = mjx_radar.load_scenario("hills_4r4t")
     rd = viewer.load_run(synthetic_run(tmp_path / "hills", s, steps=40))

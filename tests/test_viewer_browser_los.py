@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import mjx_radar
-from mjx_radar.viz import viewer, viewer_budget
+from mjx_radar.viz.view import viewer, viewer_budget
 
 CHROMIUM = Path("/usr/bin/chromium")
 pytestmark = pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium")
@@ -128,7 +128,7 @@ def test_live_page_opened_after_the_run_replays_it(browser):
     """A warm-cache run ends before the page opens: the page (the server lingering) shows
     the run from step 1, segment by segment, to the last step, then "live"; the slider
     goes back to step 8; no console warning."""
-    from mjx_radar.viz.live import LiveView
+    from mjx_radar.viz.live_view.live import LiveView
     from mjx_radar.viz.scene import scene_of
 
     view = LiveView(scene_of(mjx_radar.load_scenario("smoke")), [0, 5], 80, port=0)

@@ -218,7 +218,7 @@ class Run:
             max_frames: at most this many frames per trial (every k-th filter step).
             samples: MPPI samples per frame (default up to 32, fewer to fit ~14 MB).
         """
-        from mjx_radar.viz.viewer import view
+        from mjx_radar.viz.view.viewer import view
 
         return view(self._saved(), path, trial, max_frames, samples).path
 

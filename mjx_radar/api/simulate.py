@@ -125,7 +125,7 @@ def _simulate(req, progress: bool, view=(False, None, 0)) -> Run:
     from mjx_radar.api import run_case
     from mjx_radar.rundir import results
     from mjx_radar.rundir.writer import TRAJECTORY_KEYS, run_meta
-    from mjx_radar.viz import live as live_view
+    from mjx_radar.viz.live_view import live as live_view
     from mjx_radar.viz.scene import scene_of
 
     s, ids, steps, method = req.scenario, req.trials, req.steps, req.method.name

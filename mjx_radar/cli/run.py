@@ -16,7 +16,7 @@ written atomically, ``run.json`` last; an interrupted write removes what it wrot
 interrupted overwrite never leaves a directory that looks complete. Trials whose
 filter diverged (``res["diverged"]``) make the command exit 1 after writing the
 results, unless ``--keep-diverged``. ``--view`` serves a live view of the run
-(:mod:`mjx_radar.viz.live`) at the URL it prints; after the results are written it keeps
+(:mod:`mjx_radar.viz.live_view.live`) at the URL it prints; after the results are written it keeps
 serving the whole run until Ctrl-C, or ``--view-linger`` seconds.
 """
 
@@ -159,7 +159,7 @@ def _live_view(args, s, trials, steps):
     """The live server of ``--view`` (``None`` without it)."""
     if not (args.view or args.view_port is not None):
         return None
-    from mjx_radar.viz.live import start
+    from mjx_radar.viz.live_view.live import start
     from mjx_radar.viz.scene import scene_of
 
     return start(scene_of(s), trials, steps, args.view_port)

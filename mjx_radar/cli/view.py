@@ -1,4 +1,4 @@
-"""``mjx-radar view RUN_DIR``: the command line of :func:`mjx_radar.viz.viewer.view`."""
+"""``mjx-radar view RUN_DIR``: the command line of :func:`mjx_radar.viz.view.viewer.view`."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import time
 from pathlib import Path
 
 from mjx_radar.cli.args import positive_int
-from mjx_radar.viz.viewer import view
-from mjx_radar.viz.viewer_budget import MAX_FRAMES
+from mjx_radar.viz.view.viewer import view
+from mjx_radar.viz.view.viewer_budget import MAX_FRAMES
 
 
 def _trials(text: str) -> list[int]:

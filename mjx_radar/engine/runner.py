@@ -130,7 +130,7 @@ def run_trials(
             ControlRecord)`` of numpy arrays ``[T, steps or control steps of the
             segment, ...]`` (if ``full``; else the metrics dict and ``None``). The next
             segment already runs meanwhile (engine.device_lane); keep it cheap (e.g.
-            :meth:`mjx_radar.viz.live.LiveView.update`).
+            :meth:`mjx_radar.viz.live_view.live.LiveView.update`).
         masks: with ``full``, also the per-pair masks ``visible`` and ``detected``
             ``[T, K, N, M]`` (a program of its own; off: they are not computed).
         program: ``(kind, planner)`` of the program to run the method with: one that

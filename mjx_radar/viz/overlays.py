@@ -43,7 +43,7 @@ class StepOverlay:
 def world_state(scene, t: float, m: int):
     """Fixed sites [N], waypoint routes and presence [M] of a
     :class:`~mjx_radar.viz.scene.Scene` at time ``t`` [s] (filter step k: ``(k + 1) dt``);
-    shared with the viewer (:mod:`mjx_radar.viz.viewer_traces`)."""
+    shared with the viewer (:mod:`mjx_radar.viz.view.viewer_traces`)."""
     fixed = np.array(scene.fixed, bool)
     present, routes = np.ones(m, bool), []
     for tm in scene.target_motion:

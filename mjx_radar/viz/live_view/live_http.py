@@ -3,7 +3,7 @@
 ``/`` the page, ``/plotly.min.js`` the plotly.js of the installed ``plotly`` package
 (offline, no CDN), ``/figure.json`` the initial figure, ``/state.json?trial=J&since=SEQ``
 the layers at the latest step of trial position J; answered from a
-:class:`mjx_radar.viz.live.LiveView` (``page_bytes``, ``figure_bytes``, ``state_bytes``).
+:class:`mjx_radar.viz.live_view.live.LiveView` (``page_bytes``, ``figure_bytes``, ``state_bytes``).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def plotly_js() -> bytes:
 
 
 def handler(live):
-    """The request handler class of ``live`` (a :class:`~mjx_radar.viz.live.LiveView`)."""
+    """The request handler class of ``live`` (a :class:`~mjx_radar.viz.live_view.live.LiveView`)."""
 
     class Handler(BaseHTTPRequestHandler):
         def do_GET(self):  # noqa: N802 (http.server's name)

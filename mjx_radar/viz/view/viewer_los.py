@@ -19,7 +19,7 @@ import functools
 
 import numpy as np
 
-from mjx_radar.viz.viewer_world import polylines, segments
+from mjx_radar.viz.view.viewer_world import polylines, segments
 
 
 def visibility(ground, obstacles, moving, radar, target, times) -> np.ndarray:

@@ -39,6 +39,6 @@ def legend_per_layer(fig) -> dict:
 
 def hide_blocked_entry(fig, occluders: bool) -> None:
     """No "blocked lines of sight" legend entry where nothing can block one (``occluders``:
-    :func:`mjx_radar.viz.viewer_los.has_occluders` of the scene)."""
+    :func:`mjx_radar.viz.view.viewer_los.has_occluders` of the scene)."""
     if not occluders:
         fig.update_traces(showlegend=False, selector={"name": "blocked lines of sight"})

@@ -1,4 +1,4 @@
-"""Geometry and per-frame traces of the offline HTML viewer (:mod:`mjx_radar.viz.viewer`).
+"""Geometry and per-frame traces of the offline HTML viewer (:mod:`mjx_radar.viz.view.viewer`).
 
 Everything here is numpy on the host: polylines are ``[P, 3]`` float32 arrays with a
 NaN row between pieces (plotly draws a gap there), so one trace holds all radars'
@@ -6,7 +6,7 @@ rings, all samples or all lines of sight of a step, and a frame is a handful of
 array slices, not a Python loop over points.
 
 :func:`static_traces` gives the layers that never move (ground extent, terrain surface,
-obstacles, waypoint routes: :mod:`mjx_radar.viz.viewer_world`); :func:`frame_traces` the
+obstacles, waypoint routes: :mod:`mjx_radar.viz.view.viewer_world`); :func:`frame_traces` the
 layers of one filter step, in the order of :data:`LAYERS`. Fixed radar sites
 (``[[radar_override]] mobile = false``) are their own layer (cross markers); drones absent
 at a step (``[[target_motion]]`` appear / leave) are NaN there (not drawn), with their
@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjx_radar.viz import viewer_los
 from mjx_radar.viz.overlays import RADAR_RGB, TARGET_RGB, world_state
-from mjx_radar.viz.viewer_world import (
+from mjx_radar.viz.view import viewer_los
+from mjx_radar.viz.view.viewer_world import (
     ground_z,
     polylines,
     route_trace,
@@ -202,7 +202,7 @@ def frame_traces(tr, k: int, samples: int, plan_xy: np.ndarray | None, visible=N
         samples: at most this many MPPI samples, the highest weights.
         plan_xy: ``[C, H, N, 2]`` planned radar paths of the trial, or ``None``.
         visible: ``[N, M]`` bool line of sight at the step, or ``None``: computed here
-            (:func:`mjx_radar.viz.viewer_los.visibility`; pass it for many frames at once).
+            (:func:`mjx_radar.viz.view.viewer_los.visibility`; pass it for many frames at once).
     """
     radar = tr.radar[k, :, :3].astype(np.float32)
     n, m = radar.shape[0], tr.target.shape[1]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from mjx_radar.errors import InputError
-from mjx_radar.viz.viewer_traces import frame_traces
+from mjx_radar.viz.view.viewer_traces import frame_traces
 
 MAX_FRAMES = 150
 

@@ -4,18 +4,18 @@ A plotly figure (docs/viewer.md): left, a 3-D scene animated by frames with a ti
 slider and play / pause — ground extent and obstacle wireframes, radars with their
 trails and R2T rings, true drones, CKF estimates with their 2-sigma axes, the kept
 MPPI samples (at the radars' height, coloured by relative weight), the plan and
-the radar-to-drone lines of sight (:mod:`mjx_radar.viz.viewer_traces`); right, the
+the radar-to-drone lines of sight (:mod:`mjx_radar.viz.view.viewer_traces`); right, the
 position RMSE and the PCRLB of the selected trial against time with a marker at the
 current step, and below it, where the run has them, the detection counts and the targets
-present (:mod:`mjx_radar.viz.viewer_counts`). A dropdown selects the trial; each trial
+present (:mod:`mjx_radar.viz.view.viewer_counts`). A dropdown selects the trial; each trial
 has its own frames and slider (a few lines of JavaScript swap them:
-:mod:`mjx_radar.viz.viewer_controls`). Each layer is one named trace, shown or
+:mod:`mjx_radar.viz.view.viewer_controls`). Each layer is one named trace, shown or
 hidden from the legend. plotly.js is embedded: opening the file makes no request.
 
 Steps are subsampled to at most ``max_frames`` frames per trial (every k-th filter
 step, the last step always included) and at most ``samples`` MPPI samples (the
 highest weights) per frame; a terrain surface is subsampled to at most 160 nodes per
-side (:mod:`mjx_radar.viz.viewer_world`); the title says what was dropped.
+side (:mod:`mjx_radar.viz.view.viewer_world`); the title says what was dropped.
 """
 
 from __future__ import annotations
@@ -30,15 +30,21 @@ import numpy as np
 
 from mjx_radar.errors import InputError
 from mjx_radar.io.atomic import atomic_write, check_writable
-from mjx_radar.viz import viewer_counts as counts
-from mjx_radar.viz import viewer_figure as stages
 from mjx_radar.viz.run_dir import RunDir, load_run, load_trial
-from mjx_radar.viz.viewer_budget import MAX_FRAMES, ViewInfo, fit_budget, frame_steps, trial_list
-from mjx_radar.viz.viewer_controls import TRIAL_JS
-from mjx_radar.viz.viewer_legend import hide_blocked_entry
-from mjx_radar.viz.viewer_los import visibility
-from mjx_radar.viz.viewer_traces import layer_styles, static_traces
-from mjx_radar.viz.viewer_world import terrain_nodes
+from mjx_radar.viz.view import viewer_counts as counts
+from mjx_radar.viz.view import viewer_figure as stages
+from mjx_radar.viz.view.viewer_budget import (
+    MAX_FRAMES,
+    ViewInfo,
+    fit_budget,
+    frame_steps,
+    trial_list,
+)
+from mjx_radar.viz.view.viewer_controls import TRIAL_JS
+from mjx_radar.viz.view.viewer_legend import hide_blocked_entry
+from mjx_radar.viz.view.viewer_los import visibility
+from mjx_radar.viz.view.viewer_traces import layer_styles, static_traces
+from mjx_radar.viz.view.viewer_world import terrain_nodes
 
 
 def build_figure(run_dir, trial=None, max_frames: int = MAX_FRAMES, samples: int | None = None):

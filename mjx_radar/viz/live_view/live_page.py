@@ -1,18 +1,18 @@
-"""The page and the JSON documents of the live view (:mod:`mjx_radar.viz.live`).
+"""The page and the JSON documents of the live view (:mod:`mjx_radar.viz.live_view.live`).
 
 The page (:data:`PAGE`) loads plotly.js from the live server itself (``/plotly.min.js``,
 the copy inside the installed ``plotly`` package: no CDN, works offline), fetches the
 figure once (``/figure.json``: :func:`figure_json`) and then polls ``/state.json``
 (:func:`state_json`) every 250 ms; a new state replaces the data of the animated layers
-of :data:`mjx_radar.viz.viewer_traces.LAYERS` and of the metrics curves in one
+of :data:`mjx_radar.viz.view.viewer_traces.LAYERS` and of the metrics curves in one
 ``Plotly.react`` (one redraw; ``uirevision`` keeps the camera and the legend's layer
 toggles as the user left them).
 
-The layers are those of the offline viewer (:func:`~mjx_radar.viz.viewer_traces.frame_traces`)
+The layers are those of the offline viewer (:func:`~mjx_radar.viz.view.viewer_traces.frame_traces`)
 at the latest filter step received: radars with trails and R2T rings, drones, estimates
 with 2-sigma axes, the acting MPPI samples and plan, lines of sight, fixed sites (and the
 static terrain and waypoint routes); right, RMSE and PCRLB of the selected trial so far,
-and below them the counts of :mod:`mjx_radar.viz.viewer_counts` where the run has
+and below them the counts of :mod:`mjx_radar.viz.view.viewer_counts` where the run has
 detection on or targets that appear / leave.
 """
 
@@ -22,11 +22,11 @@ import json
 
 import numpy as np
 
-from mjx_radar.viz import viewer_counts as counts
-from mjx_radar.viz.live_html import PAGE
-from mjx_radar.viz.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
-from mjx_radar.viz.viewer_traces import frame_traces, layer_styles, static_traces
-from mjx_radar.viz.viewer_world import aspect
+from mjx_radar.viz.live_view.live_html import PAGE
+from mjx_radar.viz.view import viewer_counts as counts
+from mjx_radar.viz.view.viewer_legend import hide_blocked_entry, legend_per_layer, sample_legend
+from mjx_radar.viz.view.viewer_traces import frame_traces, layer_styles, static_traces
+from mjx_radar.viz.view.viewer_world import aspect
 
 
 def _num(a) -> list:
@@ -45,7 +45,7 @@ def figure_json(scene, lo, hi, ztop: float, title: str, cols=()) -> tuple[str, l
     """The live figure before any data; ``(json, layer indices, metrics indices)``.
 
     Built from the scene alone (before the simulation starts, so it costs the run
-    nothing): the layers of :data:`~mjx_radar.viz.viewer_traces.LAYERS` are empty until
+    nothing): the layers of :data:`~mjx_radar.viz.view.viewer_traces.LAYERS` are empty until
     the first ``/state.json``.
 
     Args:
@@ -54,7 +54,7 @@ def figure_json(scene, lo, hi, ztop: float, title: str, cols=()) -> tuple[str, l
         lo, hi: ``[2]`` xy corners of the ground extent.
         ztop: top of the z axis [m].
         title: figure title.
-        cols: the counts panel's metrics (:func:`~mjx_radar.viz.viewer_counts.count_columns`).
+        cols: the counts panel's metrics (:func:`~mjx_radar.viz.view.viewer_counts.count_columns`).
     """
     import plotly.graph_objects as go
 

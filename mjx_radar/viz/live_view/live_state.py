@@ -1,5 +1,5 @@
 """The live view's data side: the records kept so far, a trial's arrays up to any step,
-the scene box (:mod:`mjx_radar.viz.live`).
+the scene box (:mod:`mjx_radar.viz.live_view.live`).
 
 Every segment's records are kept (references to the arrays the runner already holds on
 the host, no copy), so the page can show any step received from the run's start, not

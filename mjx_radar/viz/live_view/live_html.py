@@ -1,4 +1,4 @@
-"""The live view's page (:mod:`mjx_radar.viz.live_page` serves it, docs/viewer.md).
+"""The live view's page (:mod:`mjx_radar.viz.live_view.live_page` serves it, docs/viewer.md).
 
 It loads plotly.js from the live server (``/plotly.min.js``), the figure once
 (``/figure.json``), then polls ``/state.json`` every 250 ms. Opened at any time, it first

@@ -1,4 +1,4 @@
-"""The viewer's controls (:mod:`mjx_radar.viz.viewer`): per-trial time sliders, play /
+"""The viewer's controls (:mod:`mjx_radar.viz.view.viewer`): per-trial time sliders, play /
 pause, and the trial dropdown with the few lines of JavaScript that swap the sliders."""
 
 from __future__ import annotations

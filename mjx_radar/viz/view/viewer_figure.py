@@ -1,4 +1,4 @@
-"""The stages of the viewer's figure (:func:`mjx_radar.viz.viewer.build_figure`).
+"""The stages of the viewer's figure (:func:`mjx_radar.viz.view.viewer.build_figure`).
 
 Each stage adds one part to a plotly figure: :func:`scene_box` (the drawn extent of the
 trials and the vehicles' roads), :func:`add_scene` (static layers, the animated layers at
@@ -12,12 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from mjx_radar.errors import InputError
-from mjx_radar.viz import viewer_counts as counts
 from mjx_radar.viz.run_dir import RunDir
-from mjx_radar.viz.viewer_controls import menus, slider
-from mjx_radar.viz.viewer_legend import legend_per_layer, sample_legend
-from mjx_radar.viz.viewer_traces import frame_traces
-from mjx_radar.viz.viewer_world import aspect
+from mjx_radar.viz.view import viewer_counts as counts
+from mjx_radar.viz.view.viewer_controls import menus, slider
+from mjx_radar.viz.view.viewer_legend import legend_per_layer, sample_legend
+from mjx_radar.viz.view.viewer_traces import frame_traces
+from mjx_radar.viz.view.viewer_world import aspect
 
 RMSE_RGB, CRLB_RGB = "rgb(0,90,200)", "rgb(220,0,0)"
 
@@ -82,11 +82,11 @@ def add_scene(fig, layers, tr0, k0, samples, box, cols):
     Args:
         fig: the figure (traces added).
         layers: ``(static, styles)``: a function ``(lo, hi) -> static traces`` and the
-            animated layers' styles (:func:`~mjx_radar.viz.viewer_traces.layer_styles`).
+            animated layers' styles (:func:`~mjx_radar.viz.view.viewer_traces.layer_styles`).
         tr0: the first trial shown; ``k0`` its first frame's step.
         samples: MPPI samples per frame.
         box: :func:`scene_box`'s ``(lo, hi, ztop)``.
-        cols: the count columns drawn (:mod:`~mjx_radar.viz.viewer_counts`).
+        cols: the count columns drawn (:mod:`~mjx_radar.viz.view.viewer_counts`).
 
     Returns:
         ``(first, anim, zrange)``: the first animated trace's index, the indices every

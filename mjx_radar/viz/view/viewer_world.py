@@ -1,7 +1,8 @@
 """The world layers of the viewer that do not move: terrain surface and waypoint routes.
 
-Shared by the offline HTML (:mod:`mjx_radar.viz.viewer`) and the live view
-(:mod:`mjx_radar.viz.live_page`) through :func:`mjx_radar.viz.viewer_traces.static_traces`.
+Shared by the offline HTML (:mod:`mjx_radar.viz.view.viewer`) and the live view
+(:mod:`mjx_radar.viz.live_view.live_page`) through
+:func:`mjx_radar.viz.view.viewer_traces.static_traces`.
 
 - :func:`polylines` and :func:`segments`: the NaN-separated ``[P, 3]`` float32 polylines
   every layer is drawn with (one trace holds many pieces).

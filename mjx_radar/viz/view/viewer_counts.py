@@ -1,7 +1,7 @@
 """The viewer's counts panel: detections, visible pairs, false alarms, targets present vs time.
 
-Shown below the RMSE / PCRLB panel (offline HTML, :mod:`mjx_radar.viz.viewer`, and live
-view, :mod:`mjx_radar.viz.live_page`) only when there is something to count:
+Shown below the RMSE / PCRLB panel (offline HTML, :mod:`mjx_radar.viz.view.viewer`, and live
+view, :mod:`mjx_radar.viz.live_view.live_page`) only when there is something to count:
 
 - ``detections``, ``visible_pairs``, ``false_alarms`` (``metrics.parquet`` columns of the
   same names, docs/detection.md) when the run has detection on: a Pd model that draws

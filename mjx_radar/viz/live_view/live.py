@@ -9,12 +9,13 @@ trip inside the compiled loop); the server thread turns the latest state into JS
 when a browser asks for it, once per segment and trial. :func:`live_periods` shortens
 the segments where needed so the view updates at least once per simulated second.
 
-Routes (:mod:`mjx_radar.viz.live_http`): ``/`` the page (:mod:`mjx_radar.viz.live_page`),
+Routes (:mod:`mjx_radar.viz.live_view.live_http`): ``/`` the page
+(:mod:`mjx_radar.viz.live_view.live_page`),
 ``/plotly.min.js``, ``/figure.json`` the initial figure (built from the run's
 :class:`~mjx_radar.viz.scene.Scene` before the run), ``/state.json?trial=J&since=SEQ``
 the layers at the latest step of trial position J
 (only ``{"seq": SEQ, "ends": [...]}`` if nothing new), ``&step=K`` at filter step K (every
-segment is kept: :mod:`mjx_radar.viz.live_state`). After the run, :meth:`LiveView.linger`
+segment is kept: :mod:`mjx_radar.viz.live_view.live_state`). After the run, :meth:`LiveView.linger`
 keeps serving until Ctrl-C or for a number of seconds.
 """
 
@@ -29,10 +30,10 @@ from http.server import ThreadingHTTPServer
 import numpy as np
 
 from mjx_radar.errors import InputError
-from mjx_radar.viz import live_page
-from mjx_radar.viz.live_http import handler, plotly_js
-from mjx_radar.viz.live_state import Records, grow_box, paths_box, trial_at
-from mjx_radar.viz.viewer_counts import count_columns
+from mjx_radar.viz.live_view import live_page
+from mjx_radar.viz.live_view.live_http import handler, plotly_js
+from mjx_radar.viz.live_view.live_state import Records, grow_box, paths_box, trial_at
+from mjx_radar.viz.view.viewer_counts import count_columns
 
 DEFAULT_PORT = 8765
 SAMPLES = 16  # MPPI samples drawn per state (the highest weights)

@@ -1,0 +1,1 @@
+"""The live view (``--live``): its state, page, HTML and HTTP server."""
