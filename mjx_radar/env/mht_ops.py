@@ -46,8 +46,7 @@ def _ground(hyp: mht.HypState) -> mht.HypState:
 
 def mht_bank(task: RadarTask, params) -> FilterOps:
     """``"mht"``: the K-best multiple-hypothesis tracker (module docstring)."""
-    sc, model = task.scenario, task.measurement
-    t, det = sc.tracker, sc.detection
+    model, t, det = task.measurement, task.tracker, task.detection
     if not det.clutter:  # filter.tracker = "mht" by name: the scans must be unlabelled
         raise ScenarioError(
             'filter.tracker = "mht": needs clutter (detection.clutter_density > 0); without '
@@ -56,7 +55,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     dp = params.detection
     a6, q6 = task.a6_filter, params.sigma_w2 * task.w6_filter_unit
     ccr = params.method.ccr
-    dt = sc.timing.dt_filter
+    dt = task.timing.dt_filter
     merge = (float(t.merge_distance), int(t.merge_screen), bool(t.merge_labels))
 
     def joint(hyp):
@@ -76,7 +75,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
         tail = (*tail, merge, int(t.branch_scans))
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
-        if sc.filter.ground_prior:
+        if task.filter.ground_prior:
             modes = _ground(modes)
         return (*joint(modes), modes)
 
