@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import jax
+import pytest
 
 from mjx_radar.engine import compile_cache, programs
 from mjx_radar.engine.run_spec import run_spec
@@ -75,7 +76,19 @@ def _locked(path) -> bool:
         return False
 
 
-def test_second_process_waits_then_loads_the_first_ones_program(tiny):
+@pytest.fixture
+def no_plugins(monkeypatch):
+    """No registered plug-in, as in the other process (a fresh interpreter): a plug-in that
+    another test file left registered in this worker would enter the program's key here
+    (``engine.programs._variant``) and not there, and the two would not share a lock."""
+    from mjx_radar import registry
+
+    kinds = ("PLANNERS", "TRACKERS", "ASSOCIATORS", "COST_TERMS", "SENSORS")
+    for kind in kinds:
+        monkeypatch.setattr(getattr(registry, kind), "_user", {})
+
+
+def test_second_process_waits_then_loads_the_first_ones_program(tiny, no_plugins):
     mesh = programs.device_mesh(jax.local_devices()[:1])
     key = programs._key(shape_key(tiny), 1, False, 3, mesh, "none", "hold", False)
     lock = compile_cache.program_dir() / f"loop-{key}-d{mesh.devices.flat[0].id}.lock"
