@@ -255,10 +255,13 @@ def check(s) -> None:
     t = s.tracker
     if t.management != "managed" and s.filter.tracker != "managed":
         return
-    if t.association != "pda" and t.association.lower() not in ASSOCIATORS.registered():
+    if (
+        t.association not in ("pda", "gnn")
+        and t.association.lower() not in ASSOCIATORS.registered()
+    ):
         raise ScenarioError(
-            f'tracker.association = "{t.association}": the managed tracker takes "pda" or a '
-            f"registered associator ({t.association} drives the per-target bank only)"
+            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn" '
+            f"or a registered associator ({t.association} drives the per-target bank only)"
         )
     if t.confirm_m > t.confirm_n:
         raise ScenarioError(
