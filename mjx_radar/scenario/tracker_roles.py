@@ -126,6 +126,8 @@ def check(s) -> None:
     if registered_associator(r.associator):  # it may read any association option
         return
     assoc = r.associator or ""
+    if assoc == "gnn" and r.management == "managed":  # the table's GNN: exact, no G
+        _unused(s.tracker, "tracker", ("candidates",), 'tracker.management = "known"')
     rule = f"{assoc}/{s.tracker.marginals}" if assoc == "jpda" else assoc
     for field, readers in _ASSOCIATION_FIELDS.items():
         if not any(rule.startswith(who) for who in readers):
