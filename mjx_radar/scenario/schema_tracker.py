@@ -45,6 +45,8 @@ class TrackerConfig:
     Bloem), which keeps only the most probable of joint events that are permutations of
     each other, against track coalescence. Used only with clutter
     (``[detection] clutter_density > 0``); without clutter the returns are labelled.
+    The managed track table (``management = "managed"``) takes "pda" or "gnn" (the best
+    joint assignment of its slots, docs/track_management.md) with or without clutter.
     """
 
     association: str = field(
@@ -58,7 +60,8 @@ class TrackerConfig:
             doc=(
                 "association of cluttered scans: per-target PDA, joint JPDA, GNN assignment, "
                 "mht (the K best association histories across scans), or one registered "
-                "with mjx_radar.register_associator"
+                "with mjx_radar.register_associator; the managed table takes pda, gnn "
+                "(its joint assignment) or a registered one"
             ),
         ),
     )
