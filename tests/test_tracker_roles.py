@@ -64,8 +64,20 @@ def test_roles_of_the_options(smoke, clutter):
         (
             "clutter_3r4t",
             {},
-            {"management": "managed", "association": "gnn"},
-            'tracker.association = "gnn": the managed tracker takes "pda" or a registered',
+            {"management": "managed", "association": "mht"},
+            'tracker.association = "mht": the managed tracker takes "pda", "gnn" or a regis',
+        ),
+        (
+            "clutter_3r4t",
+            {},
+            {"management": "managed", "association": "jpda"},
+            'tracker.association = "jpda": the managed tracker takes "pda", "gnn" or a regi',
+        ),
+        (
+            "raid_4r8t",
+            PER_TARGET,
+            {"management": "managed", "association": "gnn", "candidates": 3},
+            'tracker.candidates = 3: read only with tracker.management = "known"',
         ),
     ],
 )

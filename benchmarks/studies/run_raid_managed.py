@@ -60,6 +60,16 @@ def label(management: str, birth_scans: int) -> str:
     return f"managed_b{birth_scans}" if management == "managed" and birth_scans > 1 else management
 
 
+def _value(v: str):
+    """A ``--tracker`` value: int, float or string (``association=gnn``)."""
+    for cast in (int, float):
+        try:
+            return cast(v)
+        except ValueError:
+            pass
+    return v
+
+
 def scenario_for(management: str, max_tracks: int, steps: int, options=(), birth_scans: int = 1):
     """raid_4r8t with the per-target filter (and the track table, ``options``: more
     ``[tracker]`` fields as ``KEY=VALUE``; ``birth_scans``: the multi-scan births)."""
@@ -68,7 +78,7 @@ def scenario_for(management: str, max_tracks: int, steps: int, options=(), birth
     sc = load_scenario("raid_4r8t")
     changes = {"filter": {"structure": "per-target", "ground_prior": True}}
     if management == "managed":
-        extra = {k: float(v) if "." in v else int(v) for k, v in (o.split("=") for o in options)}
+        extra = {k: _value(v) for k, v in (o.split("=") for o in options)}
         changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
         if birth_scans > 1:  # absent otherwise: the default program
             changes["tracker"]["birth_scans"] = birth_scans
@@ -166,7 +176,7 @@ def main(argv=None):
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0",
+        help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0, association=gnn",
     )
     a = ap.parse_args(argv)
     try:

@@ -8,6 +8,7 @@ returns (each radar's buffer is sorted by range). Per scan:
 
 1. predict every live slot (CV, the filter's process noise);
 2. associate the scans to the live slots (the per-track PDA associator by default,
+   ``association = "gnn"`` the joint GNN assignment,
    :mod:`~mjx_radar.estimation.tracks.track_update`; any associator of that signature drops in
    through ``managed_tracker(..., associator=...)``);
 3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`);
@@ -60,17 +61,10 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     p_empty = params.p0
     if associator is None:
         density = clutter.density(dp, model.dim) if task.detection.clutter else DENSITY_FLOOR
-        associate = track_update.pda_associator(
-            model,
-            params.noise,
-            ccr,
-            task.detection.model,
-            dp,
-            density,
-            dp.gate,
-            dp.gate_probability,
-            task.filter.ground_prior,
-        )
+        gnn = cfg.association == "gnn"  # the exclusive joint assignment
+        build = track_update.gnn_associator if gnn else track_update.pda_associator
+        args = (model, params.noise, ccr, task.detection.model, dp, density, dp.gate)
+        associate = build(*args, dp.gate_probability, task.filter.ground_prior)
     else:
         associate = associator(task, params)
 

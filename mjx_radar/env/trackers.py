@@ -6,7 +6,7 @@ form, associator of unlabelled scans, management; docs/tracking.md, "Roles") and
 * a registered whole tracker (``[filter] tracker``, :func:`register_tracker`): its
   factory, its :class:`~mjx_radar.env.filter_ops.FilterOps` checked where traced;
 * ``management = "managed"``: the track table (:mod:`mjx_radar.env.managed`) with its
-  default PDA associator, or a registered one;
+  default PDA associator, its joint GNN (``association = "gnn"``), or a registered one;
 * an associator on the per-target bank: a built-in's bank (``pda``, ``jpda``, ``gnn``,
   ``mht``: :data:`mjx_radar.registry.ASSOCIATORS`), or a registered one driving the bank
   (:func:`associated_bank`);

@@ -35,8 +35,8 @@ The rules (docs/scenarios.md, "Plausibility"):
   JPDA* needs ``tracker.marginals = "exact"``; the multi-sensor JPDA's radar tuples
   ``(candidates + 1)^N`` at most ``MAX_TUPLES`` and its events ``tuples^M`` at most
   ``MAX_EVENTS``; the MHT (``"mht"``) needs clutter, and its children per radar
-  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``; a registered associator needs
-  clutter or the managed table. The roles' rules: :mod:`mjx_radar.scenario.tracker_roles`.
+  ``hypotheses · (G + 1)^M`` at most ``MAX_CHILDREN``; a registered associator (and
+  ``"gnn"``) needs clutter or the managed table (its GNN: no enumeration, no limit).
 """
 
 from __future__ import annotations
@@ -246,10 +246,11 @@ def _check_imm(s: Scenario) -> None:
 
 def _check_tracker(s: Scenario) -> None:
     t, m = s.tracker, s.n_targets
-    if t.association == "pda":
-        return
+    managed = tracker_roles.roles(s).management == "managed"
+    if t.association == "pda" or (t.association == "gnn" and managed):
+        return  # gnn on the track table: its assignment (any K), no enumeration
     if tracker_roles.registered_associator(t.association):  # a plug-in: it drives the
-        if not s.detection.clutter and tracker_roles.roles(s).management == "known":
+        if not s.detection.clutter and not managed:
             raise ScenarioError(  # bank on cluttered scans, the track table on any
                 f'tracker.association = "{t.association}": needs clutter '
                 f'(detection.clutter_density > 0) or tracker.management = "managed"; '

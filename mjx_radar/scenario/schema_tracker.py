@@ -45,6 +45,8 @@ class TrackerConfig:
     Bloem), which keeps only the most probable of joint events that are permutations of
     each other, against track coalescence. Used only with clutter
     (``[detection] clutter_density > 0``); without clutter the returns are labelled.
+    The managed track table (``management = "managed"``) takes "pda" or "gnn" (the best
+    joint assignment of its slots, docs/track_management.md) with or without clutter.
     """
 
     association: str = field(
@@ -58,7 +60,8 @@ class TrackerConfig:
             doc=(
                 "association of cluttered scans: per-target PDA, joint JPDA, GNN assignment, "
                 "mht (the K best association histories across scans), or one registered "
-                "with mjx_radar.register_associator"
+                "with mjx_radar.register_associator; the managed table takes pda, gnn "
+                "(its joint assignment) or a registered one"
             ),
         ),
     )
@@ -255,10 +258,13 @@ def check(s) -> None:
     t = s.tracker
     if t.management != "managed" and s.filter.tracker != "managed":
         return
-    if t.association != "pda" and t.association.lower() not in ASSOCIATORS.registered():
+    if (
+        t.association not in ("pda", "gnn")
+        and t.association.lower() not in ASSOCIATORS.registered()
+    ):
         raise ScenarioError(
-            f'tracker.association = "{t.association}": the managed tracker takes "pda" or a '
-            f"registered associator ({t.association} drives the per-target bank only)"
+            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn" '
+            f"or a registered associator ({t.association} drives the per-target bank only)"
         )
     if t.confirm_m > t.confirm_n:
         raise ScenarioError(

@@ -6,7 +6,7 @@ A tracker is composed of roles (docs/tracking.md, "Roles"), each picked by the o
   ``"bank"`` (per-target CKFs, ``"per-target"``), ``"imm"`` (``filter.motion = "imm"``);
   ``filter.form`` (covariance or square root) applies to the first two;
 * the **associator** of unlabelled scans, ``tracker.association``: a built-in (``pda``,
-  ``jpda``, ``gnn``, ``mht``: they drive the per-target bank; ``pda`` also the managed
+  ``jpda``, ``gnn``, ``mht``: they drive the per-target bank; ``pda`` and ``gnn`` also the managed
   track table) or one of :func:`mjx_radar.register_associator` (it drives both). None
   when the returns are labelled (no clutter, known drones);
 * the **management**: ``"known"`` drones, or ``"managed"`` (the track table's initiator
@@ -30,7 +30,7 @@ from mjx_radar.registry import ASSOCIATORS, TRACKERS
 __all__ = ["Roles", "roles", "composed", "check", "TABLE_ASSOCIATORS"]
 
 #: the built-in associators that also drive the managed track table (registered ones do)
-TABLE_ASSOCIATORS = ("pda",)
+TABLE_ASSOCIATORS = ("pda", "gnn")
 #: ``[tracker]`` options and the associators that read them (jpda's by marginals)
 _ASSOCIATION_FIELDS = {
     "marginals": ("jpda",),
@@ -126,6 +126,8 @@ def check(s) -> None:
     if registered_associator(r.associator):  # it may read any association option
         return
     assoc = r.associator or ""
+    if assoc == "gnn" and r.management == "managed":  # the table's GNN: exact, no G
+        _unused(s.tracker, "tracker", ("candidates",), 'tracker.management = "known"')
     rule = f"{assoc}/{s.tracker.marginals}" if assoc == "jpda" else assoc
     for field, readers in _ASSOCIATION_FIELDS.items():
         if not any(rule.startswith(who) for who in readers):

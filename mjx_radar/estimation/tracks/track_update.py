@@ -8,7 +8,8 @@ log-likelihood under each track's predicted measurement, ``nll = d² + log det S
 empty slots). :func:`pda_associator` is the per-track PDA of
 :mod:`~mjx_radar.estimation.data_association.pda` (radar after radar, each track on its own); a
 joint
-associator (JPDA, GNN) with the same signature drops in.
+associator with the same signature drops in: :func:`gnn_associator` (``association =
+"gnn"``) gives each return to at most one track, the best joint event per radar.
 
 From ``nll`` the table learns (:func:`update`), per radar i: each track's nearest
 return (its *claim*, min over l of ``nll[k, i, l]``); the track *sees* radar i when it
@@ -24,13 +25,13 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.estimation import linalg
-from mjx_radar.estimation.data_association import pda
+from mjx_radar.estimation.data_association import assignment, association, pda
 from mjx_radar.estimation.filters import ckf, ground_prior
 from mjx_radar.estimation.sensor import detection
 from mjx_radar.estimation.sensor.noise import at_radar
 from mjx_radar.estimation.tracks import track_table
 
-__all__ = ["pda_associator", "update", "sorted_scans", "innovation_nll"]
+__all__ = ["pda_associator", "gnn_associator", "update", "sorted_scans", "innovation_nll"]
 
 
 def innovation_nll(mean, cov, zs, h, R, residual, gate):
@@ -113,6 +114,50 @@ def pda_associator(
             means, covs, nll = one_radar(
                 means, covs, on, pd[:, i], zs[i], valid[i], radar_pos[i], own
             )
+            out.append(nll)
+        if reflect:
+            means, covs = jax.vmap(ground_prior.apply_ground_prior)(means, covs)
+        return means, covs, jnp.stack(out, axis=1)
+
+    return associate
+
+
+def _pd(det_model, det_params, means, on, radar_pos):
+    """``[K, N]`` the filter's Pd of each live slot at each radar (0 for empty slots)."""
+    d2 = jnp.sum((means[:, None, :3] - radar_pos[None]) ** 2, -1)
+    pd = detection.pair_probability(det_model, det_params, d2)
+    return jnp.clip(jnp.where(on[:, None], pd, 0.0), 0.0, 1.0 - 1e-6)  # b > 0 if perfect
+
+
+def gnn_associator(model, noise, ccr, det_model, det_params, density, gate, pg, reflect):
+    """The joint GNN associator of the track table (``association = "gnn"``).
+
+    Radar after radar, the live slots' cubature moments against the scan give the log
+    likelihood ratios ``log r[K, L]`` (:func:`association.log_ratios`: ``−inf`` outside
+    the gate, for invalid returns and empty slots); the best joint event
+    (:func:`assignment.gnn_assignment`, exact over all K slots) gives each track one
+    return or none and no return to two tracks; each track takes the Kalman update with
+    its return (:func:`pda.mixture` with hard weights). ``nll`` is finite only on the
+    assigned pairs, so the table's hits and explained returns are the assignment's.
+
+    Args: as :func:`pda_associator` (without ``exclusive``: the assignment is exclusive).
+    """
+
+    def one_radar(means, covs, pd, z, ok, h, R):
+        moments = jax.vmap(lambda x, P: pda.innovations(x, P, z, h, R, model.residual))
+        K, S, nu, d2, logdet = moments(means, covs)
+        b, seen = pda.miss_ratio(pd, density, logdet, pg)
+        beta0, beta = assignment.gnn_assignment(association.log_ratios(d2, ok, b, seen, gate))
+        means, covs = jax.vmap(pda.mixture)(means, covs, K, S, nu, beta0, beta)
+        nll = jnp.where(beta > 0.5, d2 + logdet[:, None], jnp.inf)
+        return means, covs, nll
+
+    def associate(means, covs, on, zs, valid, radar_pos):
+        pd = _pd(det_model, det_params, means, on, radar_pos)
+        out = []
+        for i in range(radar_pos.shape[0]):  # radar after radar (static N)
+            h, R = pda.radar_model(model, noise, ccr, radar_pos, i)
+            means, covs, nll = one_radar(means, covs, pd[:, i], zs[i], valid[i], h, R)
             out.append(nll)
         if reflect:
             means, covs = jax.vmap(ground_prior.apply_ground_prior)(means, covs)
