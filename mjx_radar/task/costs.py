@@ -69,7 +69,7 @@ class CostTerm(NamedTuple):
 
 
 def information(h: Horizon, task, params) -> jax.Array:
-    info = information_of(getattr(task, "kind", "all"))  # one kind: only its branch
+    info = information_of(task.kind)  # one kind: only its branch
     if info is not None:
         return -(_pfim if info == "pfim" else _sfim)(h, task, params)
     return -jax.lax.cond(
