@@ -26,6 +26,7 @@ import numpy as np
 
 from mjx_radar.env.streams import trial_streams
 from mjx_radar.scenario.schema import Scenario
+from mjx_radar.world.components import Ground
 
 CANDIDATES = 512
 
@@ -84,16 +85,9 @@ def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array,
 
 
 def _ground(scenario: Scenario, xy):
-    """``(z, steep)`` of radars at ``xy [..., 2]``: 0 and False on flat ground; on
-    terrain the ground height plus the antenna height, and grade beyond the limit."""
-    if scenario.terrain is None:
-        return jnp.zeros(xy.shape[:-1], xy.dtype), jnp.zeros(xy.shape[:-1], bool)
-    from mjx_radar.world import terrain
-
-    t = scenario.terrain
-    grid = terrain.terrain_grid(t)
-    z = terrain.height(grid, xy) + t.antenna_height
-    return z, terrain.slope(grid, xy) > terrain.max_grade(t)
+    """``(z, steep)`` of radars at ``xy [..., 2]`` on the scenario's ground
+    (:meth:`~mjx_radar.world.components.Ground.placement_height`)."""
+    return Ground(scenario.terrain).placement_height(xy)
 
 
 def initial_conditions(scenario: Scenario, params, streams) -> Init:

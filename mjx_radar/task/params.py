@@ -25,6 +25,7 @@ from mjx_radar.estimation.sensor import detection, measurement
 from mjx_radar.io.checks import is_host, is_runtime
 from mjx_radar.scenario.schema import DetectionConfig, Scenario
 from mjx_radar.task.method import Method, MethodFlags
+from mjx_radar.world.components import Ground
 from mjx_radar.world.moving import MovingParams, moving_params
 
 if TYPE_CHECKING:  # annotations only (imported lazily where used)
@@ -75,10 +76,7 @@ def task_params(scenario: Scenario, method: Method, seed: int | None = None) -> 
         x0, tables, timing = scenario.target_init, scenario.target_motion, scenario.timing
         target_init = np.array(target_motion.initial_states(x0, tables, timing.dt_filter), float)
         motion = target_motion.motion_params(x0, tables, timing, scenario.sigma_w2, dtype)
-    if scenario.terrain is not None and scenario.terrain.targets_agl:  # z above the ground
-        from mjx_radar.io.terrain_file import height_np
-
-        target_init[:, 2] += height_np(scenario.terrain, target_init[:, :2])
+    target_init = Ground(scenario.terrain).targets_above(target_init)  # z above the ground
     return TaskParams(
         method=method.flags(),
         noise=measurement.noise_params(scenario, dtype=dtype),

@@ -60,6 +60,24 @@ class Ground:
             return radar
         return terrain.on_ground(self.grid, radar, self.config.antenna_height)
 
+    def placement_height(self, xy: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """``(z, steep)`` of radars at ``xy [..., 2]``: 0 and False on flat ground; on
+        terrain the ground height plus the antenna height, and grade beyond the limit."""
+        if self.config is None:
+            return jnp.zeros(xy.shape[:-1], xy.dtype), jnp.zeros(xy.shape[:-1], bool)
+        z = terrain.height(self.grid, xy) + self.config.antenna_height
+        return z, terrain.slope(self.grid, xy) > terrain.max_grade(self.config)
+
+    def targets_above(self, xyz):
+        """Drone starts ``[M, >= 3]`` (numpy) with z raised by the ground's height under
+        them when the terrain's ``targets_agl`` (unchanged otherwise)."""
+        if self.config is None or not self.config.targets_agl:
+            return xyz
+        from mjx_radar.io.terrain_file import height_np
+
+        xyz[:, 2] += height_np(self.config, xyz[:, :2])
+        return xyz
+
     def occluding(self, occ: occlusion.Occluders | None) -> occlusion.Occluders | None:
         """``occ`` with the ground masking lines of sight too (``occ`` itself when flat)."""
         return occ if self.config is None else occlusion.with_terrain(occ, self.grid)
