@@ -63,8 +63,8 @@ def check_scenario(s: Scenario) -> None:
     _check_geometry(s)
     _check_detection(s)
     _check_imm(s)
+    schema_tracker.check(s)  # first: the managed table's own refusal names its associators
     _check_tracker(s)
-    schema_tracker.check(s)
     tracker_roles.check(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
         raise ScenarioError(
