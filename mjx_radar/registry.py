@@ -225,6 +225,8 @@ PLANNERS = Registry(
         "cmaes": "mjx_radar.planners.evolution:CMAESPlanner",
         "sep-cmaes": "mjx_radar.planners.evolution:SepCMAESPlanner",
         "policy": "mjx_radar.learning.policy:PolicyPlanner",  # policy:DIR (docs/learning.md)
+        # the same policy with the keep-out shield at deployment (learning/shield.py)
+        "shielded-policy": "mjx_radar.learning.policy:ShieldedPolicyPlanner",
     },
 )
 #: trackers by name (:mod:`mjx_radar.env.filter_ops`): ``[filter] tracker``

@@ -260,6 +260,50 @@ def test_shield_by_hand(env):
     np.testing.assert_allclose(out[0], [-0.5 * amax, 0.3])
 
 
+def test_shield_at_deployment_only(env, tmp_path):
+    """``shielded-policy:DIR`` runs an unshielded set policy (a hand-written checkpoint)
+    with the keep-out shield on its controls: its control is ``shield(policy's)`` and
+    brakes radar 0, which closes on a drone just beyond R2T, at the limit;
+    ``policy:DIR`` of the same folder leaves the policy's control alone."""
+    import json
+
+    import pytest
+
+    pytest.importorskip("flax")
+    from mjx_radar.learning.distill_ckpt import _save_leaves
+    from mjx_radar.learning.set_net import init_params
+    from mjx_radar.learning.shield import shield
+    from mjx_radar.registry import PLANNERS
+
+    (tmp_path / "checkpoints/000001").mkdir(parents=True)
+    _save_leaves(tmp_path / "checkpoints/000001/params.npz", init_params(8, jax.random.PRNGKey(3)))
+    meta = {
+        "network": "set",
+        "algo": "bc",
+        "scenarios": ["tiny"],
+        "checkpoint": "checkpoints/000001",
+    }
+    meta["config"] = {"hidden": 8, "features": "v1", "shield": False}
+    (tmp_path / "policy.json").write_text(json.dumps(meta))
+    plain = PLANNERS.get(f"policy:{tmp_path}")(env)
+    safe = PLANNERS.get(f"shielded-policy:{tmp_path}")(env)
+    assert (plain.shielded, safe.shielded) == (False, True)
+    o = _obs(env, np.random.default_rng(4), radar_xy=np.array([[0.0, 0.0], [3000.0, 3000.0]]))
+    rs = np.asarray(o.radar_state).copy()
+    rs[:, 3:] = [[0.0, 20.0, 0.0], [0.0, 0.0, 0.0]]  # radar 0 heads +x at 20 m/s
+    mean = np.zeros((env.n_targets, 6), np.float32)
+    mean[:, 1] = 5000.0
+    mean[0] = [float(env.params.r2t) + 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # just beyond R2T
+    o = o._replace(radar_state=jnp.asarray(rs), mean=jnp.asarray(mean.reshape(-1)))
+    u_plain = np.asarray(jax.jit(lambda o: plain.plan(None, o, None)[0])(o))
+    u_safe = np.asarray(jax.jit(lambda o: safe.plan(None, o, None)[0])(o))
+    want = np.asarray(jax.jit(lambda o, u: shield(env, o, u))(o, jnp.asarray(u_plain)))
+    np.testing.assert_array_equal(u_safe, want)
+    amax = float(env.action_bounds[1][0, 0])
+    assert abs(u_plain[0, 0] + amax) > 1e-3 * amax  # the policy alone would not brake so
+    np.testing.assert_allclose(u_safe[0], [-amax, u_plain[0, 1]], rtol=1e-6)
+
+
 def test_ppo_config_bad_input_is_one_scenario_error():
     """Python callers get the CLI's one-line ScenarioError, never a TypeError."""
     from mjx_radar.io.checks import ScenarioError

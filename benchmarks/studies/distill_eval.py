@@ -2,6 +2,7 @@
 
     python benchmarks/studies/distill_eval.py --policy DIR --scenarios paper_3r4t,paper_6r3t \
         [--trials 500] [--work runs/distill/eval] [--json F] [--result-id ID] [--label TEXT]
+        [--deploy-shield]
 
 For each scenario, ``keepout_stats`` (``simulate`` with common random numbers: trial i is
 the same world for both planners) of ``mppi`` and ``policy:DIR``: the median over trials
@@ -46,16 +47,34 @@ def _cached(path: Path, fn):
     return value
 
 
-def evaluate(policy: str, scenarios: list[str], trials: int, work: Path, repeats: int = 5):
-    """The table's rows (``COLUMNS``), each figure cached in ``work``."""
+TITLES = {
+    "mppi": "DDR-SFIM MPPI",
+    "policy": "distilled policy",
+    "shielded": "distilled policy, shield at deployment",
+}
+
+
+def evaluate(
+    policy: str,
+    scenarios: list[str],
+    trials: int,
+    work: Path,
+    repeats: int = 5,
+    deploy_shield: bool = False,
+):
+    """The table's rows (``COLUMNS``), each figure cached in ``work``; with
+    ``deploy_shield`` also ``shielded-policy:DIR`` (the keep-out shield on the policy's
+    controls at evaluation only)."""
     from bench_env import bench_planner
     from keepout_stats import keepout_stats
 
-    name = f"policy:{policy}"
+    planners = [("mppi", "mppi"), ("policy", f"policy:{policy}")]
+    if deploy_shield:
+        planners.append(("shielded", f"shielded-policy:{policy}"))
     rows = []
     for sc in scenarios:
         stats, calls = {}, {}
-        for label, planner in (("mppi", "mppi"), ("policy", name)):
+        for label, planner in planners:
             stats[label] = _cached(
                 work / f"{sc}_{label}_keepout_{trials}.json",
                 lambda sc=sc, p=planner: keepout_stats(sc, p, trials),
@@ -65,7 +84,8 @@ def evaluate(policy: str, scenarios: list[str], trials: int, work: Path, repeats
                 lambda sc=sc, p=planner: bench_planner(sc, p, trials, repeats),
             )
         ref = stats["mppi"]["median_rmse"]
-        for label, title in (("mppi", "DDR-SFIM MPPI"), ("policy", "distilled policy")):
+        for label, _ in planners:
+            title = TITLES[label]
             s, ms = stats[label], calls[label]["ms_per_call"]
             ratio = calls["mppi"]["ms_per_call"] / ms
             rows.append(
@@ -94,6 +114,11 @@ def main(argv=None) -> int:
     p.add_argument("--result-id", default=None, help="its id (default: the file's name)")
     p.add_argument("--label", default="", help="a note on the training, for the result")
     p.add_argument("--command", default=None, help="the command to record in the result")
+    p.add_argument(
+        "--deploy-shield",
+        action="store_true",
+        help="also evaluate shielded-policy:DIR (the shield at evaluation only)",
+    )
     args = p.parse_args(argv)
     if args.trials < 1:
         print(f"error: --trials = {args.trials}: must be >= 1", file=sys.stderr)
@@ -101,7 +126,14 @@ def main(argv=None) -> int:
     from mjx_radar.io.checks import ScenarioError
 
     try:
-        rows = evaluate(args.policy, args.scenarios.split(","), args.trials, Path(args.work))
+        rows = evaluate(
+            args.policy,
+            args.scenarios.split(","),
+            args.trials,
+            Path(args.work),
+            args.repeats,
+            args.deploy_shield,
+        )
     except ScenarioError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -16,7 +16,8 @@
 # SHIELD (1: the keep-out shield on the policy's controls, in training and in policy:DIR),
 # TRAIN (scenarios distilled on), EVAL (scenarios evaluated on), TUNE (PPO's scenario),
 # FEATURES (v1, or v2: keep-out and ground / line-of-sight set features), KEEPOUT_WEIGHT
-# (the cloning loss's keep-out hinge, 0: off), COMMAND (the result file's command line).
+# (the cloning loss's keep-out hinge, 0: off), COMMAND (the result file's command line),
+# DEPLOY_SHIELD (1: also evaluate shielded-policy:DIR, the shield at evaluation only).
 # BC_STEPS and DAGGER_STEPS default to 6 and 20 iterations of NUM_ENVS trials x 150
 # periods x the TRAIN scenarios. The keep-out and terrain run (paper_3r4t, paper_6r3t and
 # hills_4r4t, one call; 4 + 8 iterations of the three scenarios):
@@ -97,8 +98,10 @@ if [ "$PPO_STEPS" -gt "$DAGGER_STEPS" ] && [ "$(stage_steps ppo)" -lt "$PPO_STEP
   [ "$(stage_steps ppo)" -ge "$PPO_STEPS" ] || { echo "distill_policy: ppo not done, run again"; save_out; exit 0; }
 fi
 enough 120
+DEPLOY=""
+if [ "${DEPLOY_SHIELD:-0}" = 1 ]; then DEPLOY="--deploy-shield"; fi
 timeout "$(($(left) - 10))" python3 benchmarks/studies/distill_eval.py --policy "$POLICY" \
-  --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" \
+  --scenarios "$EVAL" --trials "$TRIALS" --work "$RUN/eval" --json "$RESULT" $DEPLOY \
   --label "Trained on $TRAIN: bc to $BC_STEPS, dagger to $DAGGER_STEPS labelled steps, ppo to $PPO_STEPS, shield ${SHIELD:-0}$EXTRA; curve: $RUN/policy/curve.csv." \
   --command "${COMMAND:-bash benchmarks/studies/distill_policy.sh}" || {
   echo "distill_policy: evaluation cut short, run the same command again to go on"

@@ -7,7 +7,8 @@ deterministically (the mode of its action distribution)::
 
     a = tanh(μ_θ(normalise(features(obs))))          a ∈ [-1, 1]^{2N}
     u = action_to_control(env, a)                     [N, 2] within the radars' limits
-    u = shield(env, obs, u)                           if trained with the shield
+    u = shield(env, obs, u)                           if trained with the shield, or
+                                                      run as ``shielded-policy:DIR``
 
 One control call is one small MLP evaluation: no rollouts, no objective. The
 parameters are read on the host when the planner is made and enter the compiled
@@ -113,6 +114,16 @@ class PolicyPlanner(Planner):
                 h.update(f.relative_to(path).as_posix().encode())
                 h.update(f.read_bytes())
         return h.hexdigest()[:16]
+
+
+class ShieldedPolicyPlanner(PolicyPlanner):
+    """``shielded-policy:DIR``: the policy of ``DIR`` with the keep-out shield
+    (:func:`~mjx_radar.learning.shield.shield`) on its controls, whether or not it was
+    trained with it (a safety layer added at deployment only)."""
+
+    def __init__(self, env, argument: str):
+        super().__init__(env, argument)
+        self.shielded = True
 
 
 def load_policy(checkpoint, state: dict):
