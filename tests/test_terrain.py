@@ -314,15 +314,15 @@ def test_planner_rollouts_and_terms_know_the_terrain():
 
 def test_placement_stands_on_gentle_ground():
     """Random placement on hills_4r4t: z = ground + antenna, no start on a steep flank."""
-    from mjx_radar.env.placement import place_radars
+    from mjx_radar.env.placement import place_radars, shape_layout
     from mjx_radar.env.streams import trial_streams
     from mjx_radar.task.method import METHODS
     from mjx_radar.task.params import shape_key, task_params
 
     s = load_scenario(HILLS)
-    shape, params = shape_key(s), task_params(s, METHODS["stationary"])
+    layout, params = shape_layout(shape_key(s)), task_params(s, METHODS["stationary"])
     place = jax.jit(
-        jax.vmap(lambda t: place_radars(shape, params, trial_streams(params.seed, t).placement))
+        jax.vmap(lambda t: place_radars(layout, params, trial_streams(params.seed, t).placement))
     )
     states, ok = (np.asarray(a) for a in place(jnp.arange(32)))
     assert ok.all()
