@@ -76,7 +76,10 @@ class Ground:
     def too_steep(self, xy: jax.Array, nxt: jax.Array) -> jax.Array:
         """``[N]`` whether radars moving from ``xy [N, 2]`` to ``nxt [N, 2]`` end on
         ground steeper than the limit *and* steeper than where they stand (the truth
-        plant's slope stop, :func:`mjx_radar.physics.terrain_follow.slope_stop`)."""
+        plant's slope stop, :func:`mjx_radar.physics.terrain_follow.slope_stop`); never
+        on flat ground."""
+        if self.config is None:
+            return jnp.zeros(xy.shape[:-1], bool)
         s_now, s_next = terrain.slope(self.grid, xy), terrain.slope(self.grid, nxt)
         return (s_next > terrain.max_grade(self.config)) & (s_next > s_now)
 
