@@ -34,7 +34,7 @@ import numpy as np
 
 from mjx_radar import precision
 from mjx_radar.control import mppi
-from mjx_radar.env.placement import initial_conditions
+from mjx_radar.env.placement import initial_conditions, layout_of
 from mjx_radar.env.streams import trial_streams
 from mjx_radar.physics import plant as plant_module
 from mjx_radar.physics import rollout as physics
@@ -47,7 +47,7 @@ from mjx_radar.task.task import build
 def bench(s, method: str, calls: int, batch: int = 0) -> float:
     n = s.n_radars
     task, params = build(s, method)
-    init = initial_conditions(task.scenario, params, trial_streams(params.seed, 0))
+    init = initial_conditions(layout_of(task), params, trial_streams(params.seed, 0))
     plan = make_planner(task)
 
     def one(radar_state, mean, cov, u, key):

@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_radar.control import mppi
-from mjx_radar.env.placement import initial_conditions
+from mjx_radar.env.placement import initial_conditions, layout_of
 from mjx_radar.env.streams import trial_streams
 from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task.planner import make_planner
@@ -29,7 +29,7 @@ def bench(s, calls: int, method: str = "ddr-sfim") -> tuple[float, float]:
     """(compile + first call, median call) seconds of one jitted MPPI control call."""
     n = s.n_radars
     task, params = build(s, method)
-    init = initial_conditions(task.scenario, params, trial_streams(params.seed, 0))
+    init = initial_conditions(layout_of(task), params, trial_streams(params.seed, 0))
     plan = make_planner(task)
 
     @jax.jit

@@ -128,7 +128,7 @@ def plan_quality(scenario, method: str, trials: int) -> float:
 
     def one(t):
         st = trial_streams(params.seed, t)
-        init = placement.initial_conditions(task.scenario, params, st)
+        init = placement.initial_conditions(placement.layout_of(task), params, st)
         res, _ = plan(init.radar_state, init.mean, init.cov, u0, st.planner, params)
         ctx = objective.plan_context(task, init.radar_state, init.mean, init.cov)
         return cost_fn(res.mean, ctx, params)[0]

@@ -11,7 +11,7 @@ import argparse
 import jax
 from bench_timing import median_seconds  # scripts/, on the path when run
 
-from mjx_radar.env.placement import initial_conditions
+from mjx_radar.env.placement import initial_conditions, layout_of
 from mjx_radar.env.streams import trial_streams
 from mjx_radar.scenario.reader import load_scenario
 from mjx_radar.task import objective
@@ -26,7 +26,7 @@ def main() -> None:
     args = ap.parse_args()
     s = load_scenario(args.scenario)
     task, params = build(s, args.method)
-    init = initial_conditions(task.scenario, params, trial_streams(params.seed, 0))
+    init = initial_conditions(layout_of(task), params, trial_streams(params.seed, 0))
     ctx = objective.plan_context(task, init.radar_state, init.mean, init.cov)
     cost = objective.make_objective(task)
     h, n, samples = s.mpc.horizon, s.n_radars, s.mppi.samples

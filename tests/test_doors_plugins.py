@@ -116,7 +116,7 @@ def test_a_cost_terms_own_exception_lists_the_horizons_fields(cleanup):
     mjx_radar.register_cost_term("door_cost", door_cost)
     env = radar_env.make("smoke", steps=8)
     state = env.reset(env.trial_key(0, 0))
-    u = jnp.zeros((env.scenario.mpc.horizon, 2 * env.n_radars))
+    u = jnp.zeros((env.task.mpc.horizon, 2 * env.n_radars))
     with pytest.raises(PluginError) as err:
         jax.eval_shape(env.objective(state.obs), u)
     line = str(err.value)
@@ -191,6 +191,6 @@ def test_a_cost_terms_shape_and_arguments_are_checked(cleanup):
     mjx_radar.register_cost_term("door_cost", lambda h, task, params: h.radar[..., 0])
     env = radar_env.make("smoke", steps=8)
     obs = env.reset(env.trial_key(0, 0)).obs
-    u = jnp.zeros((env.scenario.mpc.horizon, 2 * env.n_radars))
+    u = jnp.zeros((env.task.mpc.horizon, 2 * env.n_radars))
     with pytest.raises(PluginError, match=r"returned shape \[8, 2\]; expected \[8\] \(one cost"):
         jax.eval_shape(env.objective(obs), u)

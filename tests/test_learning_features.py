@@ -50,17 +50,17 @@ def test_features_against_numpy(env):
     f = np.asarray(jax.jit(lambda o: F.features(env, o))(obs), np.float64)
     n, m = env.n_radars, env.n_targets
     assert f.shape == (F.feature_size(n, m),) and np.all(np.isfinite(f))
-    sc, big_l = env.scenario, float(env.params.placement_half_width)
+    lim, big_l = env.task.fleet.limits, float(env.params.placement_half_width)
     rs, mean, cov = (np.asarray(x, np.float64) for x in (obs.radar_state, obs.mean, obs.cov))
     i = 0
     radar = f[i : i + 7 * n].reshape(n, 7)
     i += 7 * n
     np.testing.assert_allclose(radar[:, :3], rs[:, :3] / big_l, atol=1e-6)
     np.testing.assert_allclose(radar[:, 3], np.cos(rs[:, 3]), atol=1e-6)
-    np.testing.assert_allclose(radar[:, 6], rs[:, 5] / sc.limits.omega, atol=1e-6)
+    np.testing.assert_allclose(radar[:, 6], rs[:, 5] / lim.omega, atol=1e-6)
     est = f[i : i + 6 * m].reshape(m, 6)
     i += 6 * m
-    np.testing.assert_allclose(est[:, 3:], mean.reshape(m, 6)[:, 3:] / sc.limits.speed, atol=1e-6)
+    np.testing.assert_allclose(est[:, 3:], mean.reshape(m, 6)[:, 3:] / lim.speed, atol=1e-6)
     pairs = f[i : i + 3 * n * m].reshape(n, m, 3)
     i += 3 * n * m
     d = mean.reshape(m, 6)[None, :, :2] - rs[:, None, :2]
@@ -221,7 +221,7 @@ def test_shield_by_hand(env):
     rng = np.random.default_rng(2)
     r2t = float(env.params.r2t)
     amax = float(env.action_bounds[1][0, 0])
-    dt = float(env.scenario.timing.dt_control)
+    dt = float(env.task.timing.dt_control)
     far = [0.0, 5000.0, 0.0, 0.0, 0.0, 0.0]
     shielded = jax.jit(lambda o, u: shield(env, o, u))
 
@@ -241,7 +241,7 @@ def test_shield_by_hand(env):
 
     # ahead and closing: the drone sits 2 m inside R2T of where the radar would stop
     v = 20.0
-    v1 = min(v + 0.5 * amax * dt, float(env.scenario.limits.speed))
+    v1 = min(v + 0.5 * amax * dt, float(env.task.fleet.limits.speed))
     stop = 0.5 * (v + v1) * dt + v1 * v1 / (2 * amax)
     ahead = r2t + stop - 2.0
     out = case(v, [ahead, 0.0, 0.0, 0.0, 0.0, 0.0])

@@ -82,10 +82,10 @@ def test_v2_pair_features_against_finite_differences(paper):
         q = mean[:, :3] + t * mean[:, 3:]
         return np.linalg.norm(q[None] - p[:, None], axis=-1)
 
-    h, sc = 1e-3, env.scenario
-    rate = (d3(h) - d3(-h)) / (2 * h) / sc.limits.speed
+    h, task = 1e-3, env.task
+    rate = (d3(h) - d3(-h)) / (2 * h) / task.fleet.limits.speed
     np.testing.assert_allclose(np.asarray(x.pair[..., 6]), rate, rtol=1e-4, atol=1e-5)
-    tau = sc.mpc.horizon * sc.timing.dt_control
+    tau = task.mpc.horizon * task.timing.dt_control
     ahead = d3(tau) / float(env.params.r2t) - 1
     np.testing.assert_allclose(np.asarray(x.pair[..., 7]), ahead, rtol=1e-5, atol=1e-5)
     d = np.where(weight[None] > 0, d3(0.0), np.inf)
@@ -104,7 +104,7 @@ def test_v2_ground_features_against_a_line_of_sight_march():
     from mjx_radar.io.terrain_file import height_np
 
     env = make("hills_4r4t")
-    t = env.scenario.terrain
+    t = env.task.world.ground.config
     xy = np.array([[151.3, 3.7], [-347.1, 117.9], [253.3, -61.1], [-97.7, -296.3]])
     z = height_np(t, xy) + t.antenna_height
     radar = np.column_stack([xy, z, np.zeros((4, 3))])

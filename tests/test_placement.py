@@ -38,7 +38,8 @@ def _scenario(**over):
 @functools.partial(jax.jit, static_argnums=0)
 def _place_batch(shape, params, trials):
     def one(t):
-        return placement.place_radars(shape, params, trial_streams(params.seed, t).placement)
+        layout = placement.shape_layout(shape)
+        return placement.place_radars(layout, params, trial_streams(params.seed, t).placement)
 
     return jax.vmap(one)(trials)
 
@@ -125,12 +126,12 @@ def test_initial_estimate_error_has_covariance_p0():
     # (0.8 m^2), the mean sqrt(p0/n) (0.11 m): bounds at 4 standard errors.
     n, p0 = 4000, 50.0
     s = _scenario(targets=RAW["targets"][:1], p0=p0)
-    shape, params = shape_key(s), task_params(s, METHODS["ddr-sfim"])
+    layout, params = placement.shape_layout(shape_key(s)), task_params(s, METHODS["ddr-sfim"])
 
     @jax.jit  # one program for both p0 (the parameters are runtime numbers)
     def batch(prm):
         def one(t):
-            return placement.initial_conditions(shape, prm, trial_streams(params.seed, t))
+            return placement.initial_conditions(layout, prm, trial_streams(params.seed, t))
 
         return jax.vmap(one)(jnp.arange(n))
 
@@ -153,12 +154,12 @@ def test_initial_estimate_error_has_covariance_p0():
 
 def test_common_random_numbers_across_methods():
     s = _scenario()
-    shape = shape_key(s)
+    layout = placement.shape_layout(shape_key(s))
     states = {m: _place(s, m, trials=8)[0] for m in METHODS}
     for m in METHODS:
         np.testing.assert_array_equal(states[m], states["stationary"])
     # one program for every method (the parameters are runtime numbers), not op by op
-    mean = jax.jit(lambda p: placement.initial_conditions(shape, p, trial_streams(s.seed, 2)).mean)
+    mean = jax.jit(lambda p: placement.initial_conditions(layout, p, trial_streams(s.seed, 2)).mean)
     means = {m: np.asarray(mean(task_params(s, METHODS[m]))) for m in METHODS}
     for m in METHODS:
         np.testing.assert_array_equal(means[m], means["stationary"])
@@ -200,9 +201,9 @@ def test_each_radar_takes_its_first_admissible_candidate():
     def eqns(radars):
         big = _scenario(n_radars=radars, placement_half_width=3000.0)
         key = trial_streams(7, 0).placement
-        jaxpr = jax.make_jaxpr(lambda p: placement.place_radars(shape_key(big), p, key))(
-            task_params(big, METHODS["stationary"], None)
-        )
+        jaxpr = jax.make_jaxpr(
+            lambda p: placement.place_radars(placement.shape_layout(shape_key(big)), p, key)
+        )(task_params(big, METHODS["stationary"], None))
         return len(jaxpr.eqns)
 
     assert eqns(32) == eqns(6)

@@ -152,7 +152,7 @@ def test_make_task_is_cached_per_shape():
     t2, _ = build(numbers, "ccr-pfim")
     assert t1 is t2 is make_task(shape_key(s))
     t3, _ = build(_scenario(mpc={"horizon": 5}))
-    assert t3 is not t1 and t3.scenario.mpc.horizon == 5
+    assert t3 is not t1 and t3.mpc.horizon == 5
 
 
 # -- cost terms ---------------------------------------------------------------------------

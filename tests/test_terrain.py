@@ -192,6 +192,27 @@ def test_slope_beyond_the_limit_stops_the_plant(tmp_path):
     assert float(physics.radar_state(p, data)[0, 0]) < 99.0
 
 
+def test_ground_component_answers_the_plant(tmp_path):
+    """``Ground.too_steep`` against the closed form of a flat-then-45-degree surface
+    (grade 0 for x < 100, 1 beyond; the limit tan 25 deg = 0.47): a step onto the flank
+    is stopped, a step along it (not steeper) or off it is not; flat ground stops
+    nothing and has no antenna offset; on terrain ``on_ground`` is h + antenna."""
+    from mjx_radar.world.components import Ground
+
+    xs = np.linspace(-500, 500, 11)
+    h = np.tile(np.maximum(xs - 100.0, 0.0), (11, 1))
+    t = _terrain_file(tmp_path, h, extent_x=1000.0, extent_y=1000.0, max_slope_deg=25.0)
+    g, flat = Ground(t), Ground()
+    xy = jnp.array([[50.0, 0.0], [95.0, 0.0], [150.0, 0.0], [105.0, 0.0]])
+    nxt = jnp.array([[60.0, 0.0], [105.0, 0.0], [160.0, 0.0], [95.0, 0.0]])
+    np.testing.assert_array_equal(np.asarray(g.too_steep(xy, nxt)), [False, True, False, False])
+    np.testing.assert_array_equal(np.asarray(flat.too_steep(xy, nxt)), [False] * 4)
+    assert flat.antenna_height == 0.0 and g.antenna_height == t.antenna_height
+    radar = jnp.array([[150.0, 30.0, 0.0, 0.0, 0.0, 0.0]])
+    assert float(g.on_ground(radar)[0, 2]) == pytest.approx(50.0 + t.antenna_height, abs=1e-4)
+    assert flat.on_ground(radar) is radar
+
+
 def test_slope_cost_closed_form(tmp_path):
     """terrain_slope = alpha_slope * sum_n relu(grade - tan(max_slope))."""
     from mjx_radar.task import costs
@@ -314,15 +335,15 @@ def test_planner_rollouts_and_terms_know_the_terrain():
 
 def test_placement_stands_on_gentle_ground():
     """Random placement on hills_4r4t: z = ground + antenna, no start on a steep flank."""
-    from mjx_radar.env.placement import place_radars
+    from mjx_radar.env.placement import place_radars, shape_layout
     from mjx_radar.env.streams import trial_streams
     from mjx_radar.task.method import METHODS
     from mjx_radar.task.params import shape_key, task_params
 
     s = load_scenario(HILLS)
-    shape, params = shape_key(s), task_params(s, METHODS["stationary"])
+    layout, params = shape_layout(shape_key(s)), task_params(s, METHODS["stationary"])
     place = jax.jit(
-        jax.vmap(lambda t: place_radars(shape, params, trial_streams(params.seed, t).placement))
+        jax.vmap(lambda t: place_radars(layout, params, trial_streams(params.seed, t).placement))
     )
     states, ok = (np.asarray(a) for a in place(jnp.arange(32)))
     assert ok.all()

@@ -77,7 +77,7 @@ def fixed_association_filters(task, params, truth, radars, x0, seed):
         tr, ra, k = inp
         z = model.sample(jax.random.fold_in(key, k), ra, tr[:, :3], noise)  # [N, M, dim]
         d2 = jnp.sum((tr[None, :, :3] - ra[:, None]) ** 2, -1)
-        pd_ = detection.pair_probability(task.scenario.detection.model, params.detection, d2)
+        pd_ = detection.pair_probability(task.detection.model, params.detection, d2)
         seen = jax.random.uniform(jax.random.fold_in(key, -1 - k), pd_.shape) < pd_
         x, P = x @ A.T, A @ P @ A.T + Q
 

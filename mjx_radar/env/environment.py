@@ -66,9 +66,6 @@ class RadarEnv:
     """
 
     def __init__(self, task, params, steps: int | None = None):
-        #: the scenario shape: for plug-ins and the floors above (the environment reads
-        #: the task's tables and world)
-        self.scenario = task.scenario
         self.task, self.params, t = task, params, task.timing
         self.every = t.control_every
         steps = t.steps if steps is None else steps
@@ -87,6 +84,7 @@ class RadarEnv:
         self.observation_size = 6 * n + 6 * m + 21 * m + m + n * m
         lower, upper = control_box(task.fleet)
         self.action_bounds = (lower.reshape(n, 2), upper.reshape(n, 2))
+        self._layout = placement.layout_of(task)  # N, M, the ground, fixed starts
 
     @staticmethod
     def trial_key(seed, trial) -> jax.Array:
@@ -158,7 +156,7 @@ class RadarEnv:
 
     def _reset(self, key) -> State:
         params, m = self.params, self.n_targets
-        init = placement.initial_conditions(self.scenario, params, streams_of(key))
+        init = placement.initial_conditions(self._layout, params, streams_of(key))
         loop = LoopState(
             data=physics.init_data(self.task.truth, init.radar_state, init.target_state),
             mean=init.mean,

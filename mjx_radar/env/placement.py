@@ -31,6 +31,37 @@ from mjx_radar.world.components import Ground
 CANDIDATES = 512
 
 
+class Layout(NamedTuple):
+    """The static parts of a trial's start: typed slices of the task (:func:`layout_of`)
+    or of a scenario shape (:func:`shape_layout`).
+
+    Attributes:
+        n_radars, n_targets: N and M.
+        ground: the :class:`~mjx_radar.world.components.Ground` the radars stand on.
+        fixed: whether the scenario fixes the radars' starts (``radars = [...]``; their
+            numbers are ``params.radar_init``).
+    """
+
+    n_radars: int
+    n_targets: int
+    ground: Ground
+    fixed: bool
+
+
+def layout_of(task) -> Layout:
+    """The :class:`Layout` of a :class:`~mjx_radar.task.task.RadarTask` (its fleet,
+    targets and ground)."""
+    fleet = task.fleet
+    return Layout(fleet.n_radars, task.n_targets, task.world.ground, fleet.fixed_starts)
+
+
+@functools.lru_cache(maxsize=32)
+def shape_layout(shape: Scenario) -> Layout:
+    """The :class:`Layout` of a scenario shape (the placement check, before any task;
+    cached, so one shape has one layout: a ``jit`` static)."""
+    return Layout(shape.n_radars, shape.n_targets, Ground(shape.terrain), bool(shape.radar_init))
+
+
 class Init(NamedTuple):
     radar_state: jax.Array  # [N, 6]
     target_state: jax.Array  # [M, 6]
@@ -39,22 +70,22 @@ class Init(NamedTuple):
     ok: jax.Array  # [] bool
 
 
-def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array, jax.Array]:
+def place_radars(layout: Layout, params, key: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Rejection-samples radar states.
 
     Args:
-        scenario: the scenario shape (``radar_init`` non-empty: fixed starts).
+        layout: the trial's :class:`Layout` (N, the ground, fixed starts or not).
         params: :class:`~mjx_radar.task.params.TaskParams` (box, keep-outs, starts).
         key: the trial's placement stream.
 
     Returns:
         ``([N, 6] radar states, ok)``.
     """
-    n, w = scenario.n_radars, params.placement_half_width
+    n, w = layout.n_radars, params.placement_half_width
     targets = params.target_init[:, :3]
     k_xy, k_th = jax.random.split(key)
     cand = jax.random.uniform(k_xy, (n, CANDIDATES, 2), minval=-w, maxval=w)
-    ground, steep = _ground(scenario, cand)
+    ground, steep = layout.ground.placement_height(cand)
     cand3 = jnp.concatenate([cand, ground[..., None]], axis=-1)
     d_rt = jnp.linalg.norm(cand3[:, :, None] - targets[None, None], axis=-1).min(-1)
     earlier = jnp.arange(n)
@@ -72,9 +103,10 @@ def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array,
     placed, all_ok = jax.lax.fori_loop(0, n, place, (jnp.zeros((n, 3)), jnp.array(True)))
     theta = jax.random.uniform(k_th, (n,), minval=-jnp.pi, maxval=jnp.pi)
     theta = jnp.where(theta == -jnp.pi, jnp.pi, theta)  # (-pi, pi]
-    if scenario.radar_init:  # fixed start given by the scenario file
+    if layout.fixed:  # fixed start given by the scenario file
         fixed = params.radar_init
-        placed = jnp.concatenate([fixed[:, :2], _ground(scenario, fixed[:, :2])[0][:, None]], -1)
+        z = layout.ground.placement_height(fixed[:, :2])[0]
+        placed = jnp.concatenate([fixed[:, :2], z[:, None]], -1)
         theta = fixed[:, 2]
         d_rt = jnp.linalg.norm(placed[:, None] - targets[None], axis=-1)
         d_rr = jnp.linalg.norm(placed[:, None] - placed[None], axis=-1) + 1e9 * jnp.eye(n)
@@ -84,17 +116,12 @@ def place_radars(scenario: Scenario, params, key: jax.Array) -> tuple[jax.Array,
     return states, all_ok
 
 
-def _ground(scenario: Scenario, xy):
-    """``(z, steep)`` of radars at ``xy [..., 2]`` on the scenario's ground
-    (:meth:`~mjx_radar.world.components.Ground.placement_height`)."""
-    return Ground(scenario.terrain).placement_height(xy)
-
-
-def initial_conditions(scenario: Scenario, params, streams) -> Init:
-    """Radar placement, true target states and the consistent initial estimate."""
-    radars, ok = place_radars(scenario, params, streams.placement)
+def initial_conditions(layout: Layout, params, streams) -> Init:
+    """Radar placement, true target states and the consistent initial estimate of the
+    trial of ``streams`` (``layout``: :func:`layout_of` the task)."""
+    radars, ok = place_radars(layout, params, streams.placement)
     targets = params.target_init
-    dim = 6 * scenario.n_targets
+    dim = 6 * layout.n_targets
     cov = params.p0 * jnp.eye(dim)
     err = jnp.sqrt(params.p0) * jax.random.normal(streams.estimate, (dim,))
     return Init(radars, targets, targets.reshape(-1) + err, cov, ok)
@@ -149,7 +176,9 @@ def placeable_program(shape: Scenario):
     per process: the numbers (``params``) are arguments, so every scenario of the shape
     and every seed reuse one traced program (it was traced anew on every run)."""
 
+    layout = shape_layout(shape)
+
     def ok(params, t):
-        return place_radars(shape, params, trial_streams(params.seed, t).placement)[1]
+        return place_radars(layout, params, trial_streams(params.seed, t).placement)[1]
 
     return jax.jit(jax.vmap(ok, in_axes=(None, 0)))

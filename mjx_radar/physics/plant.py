@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 
 import jax
 import jax.numpy as jnp
@@ -37,7 +36,7 @@ from mjx_radar.physics.model_checks import constant_mass_matrix, zero_bias
 from mjx_radar.physics.scene import SceneIndex, build_scene
 from mjx_radar.physics.terrain_follow import slope_stop
 from mjx_radar.scenario.schema import RadarLimits
-from mjx_radar.world import terrain as ground
+from mjx_radar.world.components import Ground
 from mjx_radar.world.obstacles import contact_envelope
 
 mjx = mjx_module.load()
@@ -60,6 +59,9 @@ class Plant:
         fused: that step as one fused expression built from the compiled model
             (:mod:`~mjx_radar.physics.fused_step`, checked against ``mj_step`` when
             built), or None (MJX's stages, :func:`staged_step.contact_free_step`).
+        ground: the :class:`~mjx_radar.world.components.Ground` the radars stand on
+            (empty: flat ground z = 0; on terrain z is its height plus the antenna
+            height and steep ground stops a radar).
     """
 
     mj_model: mujoco.MjModel
@@ -68,9 +70,7 @@ class Plant:
     dt: float
     limits: RadarLimits
     fast: bool = False
-    terrain: object = None  # world.terrain.TerrainGrid, or None (flat ground z = 0)
-    antenna: float = 0.0  # antenna height above the ground on terrain [m]
-    max_grade: float = math.inf  # steepest grade a radar drives onto
+    ground: Ground = Ground()
     moving: tuple = ()  # moving obstacles' shapes (mocap bodies, physics.moving_bodies)
     fused: object = None  # physics.fused_step.FusedModel of a fast scene, or None
 
@@ -113,11 +113,6 @@ def make_plant(
     contact_free = bool(mj_model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     fast = contact_free and constant_mass_matrix(mj_model) and zero_bias(mj_model)
     fused = fused_step.build(mj_model, index) if fast and FUSED_STEP else None
-    if terrain is None:
-        return Plant(
-            mj_model, model, index, float(dt), limits, fast, moving=tuple(moving), fused=fused
-        )
-    grid, grade = ground.terrain_grid(terrain), ground.max_grade(terrain)
     return Plant(
         mj_model,
         model,
@@ -125,9 +120,8 @@ def make_plant(
         float(dt),
         limits,
         fast,
-        grid,
-        float(terrain.antenna_height),
-        grade,
+        Ground(terrain),
+        moving=tuple(moving),
         fused=fused,
     )
 
@@ -209,7 +203,7 @@ def radar_state(plant: Plant, data) -> jax.Array:
     """[N, 6] radar states ``[x, y, z, theta, v, omega]`` read from MJX data (z = 0, or
     on terrain the ground height at (x, y) plus the antenna height)."""
     out = planar_state(data.qpos[plant.index.radar_qpos], data.act[plant.index.radar_act])
-    return out if plant.terrain is None else ground.on_ground(plant.terrain, out, plant.antenna)
+    return plant.ground.on_ground(out)
 
 
 def planar_state(q: jax.Array, va: jax.Array) -> jax.Array:
@@ -262,7 +256,7 @@ def step(
     """
     idx, dt = plant.index, plant.dt
     u = clip_controls(plant, radar_u)
-    if plant.terrain is not None:
+    if plant.ground.present:  # the ground's slope stop (none on flat ground)
         data, u = slope_stop(plant, data, u)
     rc = radar_ctrl(plant, data.act[idx.radar_act], u)  # [N, 5]; rc[:, 2]: mean speed
     ctrl = data.ctrl.at[idx.radar_ctrl].set(rc.astype(data.ctrl.dtype))

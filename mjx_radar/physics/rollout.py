@@ -27,7 +27,7 @@ from mjx_radar.physics.plant import (
     step,
 )
 from mjx_radar.scenario.schema import Scenario
-from mjx_radar.world import terrain as ground
+from mjx_radar.world.components import Ground
 
 ROLLOUT_UNROLL: int = 1
 """Rollout steps per loop iteration of :func:`radar_rollout` (``lax.scan``'s ``unroll``).
@@ -50,7 +50,7 @@ def radar_rollout(plant: Plant, state: jax.Array, controls: jax.Array) -> jax.Ar
         [H, N, 6] radar states after each step.
     """
     unroll = max(1, min(int(ROLLOUT_UNROLL), controls.shape[0]))
-    if plant.fused is not None and plant.n_drones == 0 and plant.terrain is None:
+    if plant.fused is not None and plant.n_drones == 0 and not plant.ground.present:
         return _fused_rollout(plant, state, controls, unroll)
     if plant.n_radars == 1 and state.shape[0] != 1:
         if plant.index.obstacle_geoms.size:
@@ -103,8 +103,7 @@ def rollout_radars(scenario: Scenario, radar_state: jax.Array, controls: jax.Arr
     check_finite("controls", controls)
     check_finite("radar_state", radar_state)
     out = _jit_radar_rollout(plant, jnp.asarray(radar_state), jnp.asarray(controls))
-    t = scenario.terrain  # z on the ground (the planner's lookup; terrain-free: z = 0)
-    return out if t is None else ground.on_ground(ground.terrain_grid(t), out, t.antenna_height)
+    return Ground(scenario.terrain).on_ground(out)  # the planner's lookup (flat: z = 0)
 
 
 _jit_radar_rollout = jax.jit(radar_rollout, static_argnums=0)

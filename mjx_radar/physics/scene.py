@@ -49,6 +49,7 @@ from mjx_radar.physics.scene_world import (  # noqa: F401 (re-exported)
     add_terrain,
 )
 from mjx_radar.scenario.schema import Obstacle
+from mjx_radar.world.components import Ground
 
 RADAR_ACTUATORS = ("speed", "turn", "drive", "lateral", "steer")
 SOLVER_ITERATIONS = 4  # Newton iterations (one or two contacts per radar converge fast)
@@ -117,7 +118,7 @@ def build_scene(
         The compiled ``MjModel`` (servo gains set) and its :class:`SceneIndex`.
     """
     spec = _spec(n_radars, n_drones, dt, bool(obstacles or moving))
-    add_ground(spec, terrain)
+    add_ground(spec, Ground(terrain))
     spec.worldbody.add_light(
         pos=[0, 0, 500], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
     )

@@ -12,13 +12,17 @@ import mujoco
 import numpy as np
 
 from mjx_radar.scenario.schema import Obstacle
+from mjx_radar.world.components import Ground
 
 CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 
 
-def add_ground(spec: mujoco.MjSpec, terrain) -> None:
-    """The flat ``ground`` plane (no contacts), or the ``terrain`` (:func:`add_terrain`)."""
-    if terrain is None:
+def add_ground(spec: mujoco.MjSpec, ground: Ground) -> None:
+    """The ``ground``'s terrain (:func:`add_terrain`), or the flat ``ground`` plane (no
+    contacts) when the component is empty."""
+    if ground.present:
+        add_terrain(spec, ground.config)
+    else:
         spec.worldbody.add_geom(
             name="ground",
             type=mujoco.mjtGeom.mjGEOM_PLANE,
@@ -27,8 +31,6 @@ def add_ground(spec: mujoco.MjSpec, terrain) -> None:
             contype=0,
             conaffinity=0,
         )
-    else:
-        add_terrain(spec, terrain)
 
 
 def add_obstacle(spec: mujoco.MjSpec, i: int, obs: Obstacle) -> None:

@@ -7,7 +7,7 @@ step, which forfeits the contact-free fast step (contacts cost ~100x, MJX-NOTES)
 makes z depend on the solver's penetration. So the radar's MJX model stays planar and
 
 * its z is the bilinear ground height at (x, y) plus the antenna height
-  (:func:`mjx_radar.world.terrain.on_ground`, read by ``plant.radar_state``): the same
+  (:meth:`mjx_radar.world.components.Ground.on_ground`, read by ``plant.radar_state``): the same
   lookup as the planner's rollouts and the line-of-sight test;
 * :func:`slope_stop`: a step that would end (at the speed it commands, along the
   current heading) on ground steeper than ``terrain.max_slope_deg`` *and* steeper than
@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from mjx_radar.world.terrain import slope
-
 
 def slope_stop(plant, data, u):
     """``(data, u)`` with the radars that would drive onto too steep ground stopped.
 
     Args:
-        plant: a truth :class:`~mjx_radar.physics.plant.Plant` with ``terrain``.
+        plant: a truth :class:`~mjx_radar.physics.plant.Plant` on terrain (its
+            ``ground`` says which steps are too steep,
+            :meth:`~mjx_radar.world.components.Ground.too_steep`).
         data: MJX data before the step.
         u: ``[N, 2]`` clipped controls ``[a, alpha]``.
     """
@@ -34,7 +34,6 @@ def slope_stop(plant, data, u):
     q, v = data.qpos[idx.radar_qpos], data.act[idx.radar_act[:, 0]]
     step = dt * (v + 0.5 * dt * u[:, 0])
     nxt = q[:, :2] + step[:, None] * jnp.stack([jnp.cos(q[:, 2]), jnp.sin(q[:, 2])], -1)
-    s_now, s_next = slope(plant.terrain, q[:, :2]), slope(plant.terrain, nxt)
-    stop = (s_next > plant.max_grade) & (s_next > s_now)
+    stop = plant.ground.too_steep(q[:, :2], nxt)
     act = data.act.at[idx.radar_act[:, 0]].set(jnp.where(stop, 0.0, v).astype(data.act.dtype))
     return data.replace(act=act), u.at[:, 0].set(jnp.where(stop, 0.0, u[:, 0]))

@@ -33,11 +33,15 @@ class Fleet:
         bounds: a mixed fleet's per-radar ``(|a| [N], |alpha| [N])`` bounds, 0 for its
             fixed sites (``[[radar_override]]``, :func:`mjx_radar.scenario.fleet.control_bounds`),
             or None (every radar has ``limits``).
+        fixed_starts: whether the scenario fixes where the radars start (``radars =
+            [...]``; the numbers are the runtime ``params.radar_init``), else they are
+            placed at random (:mod:`mjx_radar.env.placement`).
     """
 
     n_radars: int
     limits: RadarLimits
     bounds: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    fixed_starts: bool = False
 
 
 def control_box(fleet: Fleet) -> tuple[jax.Array, jax.Array]:

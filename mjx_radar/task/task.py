@@ -7,9 +7,9 @@ world's components built once (:class:`~mjx_radar.world.components.World`: groun
 static and moving obstacles, lines of sight), the truth and planner plants, the
 planner's rollout backend, the measurement model, the cost terms and the CV matrices of
 the filter and planning clocks. Everything numeric that users vary is in
-:class:`mjx_radar.task.params.TaskParams`. The floors from ``env/`` down read these
-parts, never ``task.scenario``: that is kept for the floors above and for plug-ins
-(registered cost terms, trackers and planners).
+:class:`mjx_radar.task.params.TaskParams`. The task does not carry the scenario: the
+floors from ``env/`` down and the plug-ins (registered cost terms, trackers and
+planners) read these parts.
 """
 
 from __future__ import annotations
@@ -46,8 +46,6 @@ class RadarTask:
     """Static parts of a scenario (hashable by identity: a ``jit`` static).
 
     Attributes:
-        scenario: the scenario shape (runtime numbers blanked), for plug-ins and the
-            floors above the environment.
         n_targets: M; fleet: the radars (:class:`~mjx_radar.task.planner.Fleet`).
         timing, mpc, mppi, filter, tracker, detection, planner: the scenario's tables.
         world: the :class:`~mjx_radar.world.components.World` (ground, obstacles,
@@ -66,7 +64,6 @@ class RadarTask:
             information only) or ``"none"`` (no planner: stationary radars).
     """
 
-    scenario: Scenario
     n_targets: int
     fleet: Fleet
     timing: Timing
@@ -163,9 +160,8 @@ def _make_task(shape: Scenario, registry: tuple) -> RadarTask:
 
         bounds = tuple(tuple(b) for b in control_bounds(shape))
     return RadarTask(
-        scenario=shape,
         n_targets=m,
-        fleet=Fleet(shape.n_radars, shape.limits, bounds),
+        fleet=Fleet(shape.n_radars, shape.limits, bounds, bool(shape.radar_init)),
         timing=t,
         mpc=shape.mpc,
         mppi=shape.mppi,

@@ -108,11 +108,11 @@ def set_state(model, data, index, tr: Trial, k: int) -> None:
 
     data.qpos[index.radar_qpos.reshape(-1)] = tr.radar[k][:, [0, 1, 3]].reshape(-1)
     data.qpos[index.drone_qpos.reshape(-1)] = tr.target[k, :, :3].reshape(-1)
-    terrain = tr.scene.ground.config
-    if terrain is not None:  # body origin on the ground: z minus the antenna height
+    ground = tr.scene.ground
+    if ground.present:  # the radars' z joints: body origin on the ground (z - antenna)
         for i in range(tr.radar.shape[1]):
             adr = model.jnt_qposadr[model.joint(f"radar{i}/z").id]
-            data.qpos[adr] = tr.radar[k, i, 2] - terrain.antenna_height
+            data.qpos[adr] = tr.radar[k, i, 2] - ground.antenna_height
     if tr.scene.moving.present:  # the vehicles at the step's time (k + 1) dt
         from mjx_radar.physics.moving_bodies import mocap_ids, mocap_pose
         from mjx_radar.world.moving import moving_params, pose

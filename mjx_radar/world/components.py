@@ -54,6 +54,11 @@ class Ground:
         """Whether the objective has the ``terrain_slope`` term (``alpha_slope > 0``)."""
         return self.present and self.config.alpha_slope > 0
 
+    @property
+    def antenna_height(self) -> float:
+        """The antenna's height above the ground [m] (0 on flat ground)."""
+        return 0.0 if self.config is None else float(self.config.antenna_height)
+
     def on_ground(self, radar: jax.Array) -> jax.Array:
         """Radar states ``[..., 6]`` with z on the ground plus the antenna (unchanged when flat)."""
         if self.config is None:
@@ -67,6 +72,16 @@ class Ground:
             return jnp.zeros(xy.shape[:-1], xy.dtype), jnp.zeros(xy.shape[:-1], bool)
         z = terrain.height(self.grid, xy) + self.config.antenna_height
         return z, terrain.slope(self.grid, xy) > terrain.max_grade(self.config)
+
+    def too_steep(self, xy: jax.Array, nxt: jax.Array) -> jax.Array:
+        """``[N]`` whether radars moving from ``xy [N, 2]`` to ``nxt [N, 2]`` end on
+        ground steeper than the limit *and* steeper than where they stand (the truth
+        plant's slope stop, :func:`mjx_radar.physics.terrain_follow.slope_stop`); never
+        on flat ground."""
+        if self.config is None:
+            return jnp.zeros(xy.shape[:-1], bool)
+        s_now, s_next = terrain.slope(self.grid, xy), terrain.slope(self.grid, nxt)
+        return (s_next > terrain.max_grade(self.config)) & (s_next > s_now)
 
     def targets_above(self, xyz):
         """Drone starts ``[M, >= 3]`` (numpy) with z raised by the ground's height under
