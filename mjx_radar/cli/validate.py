@@ -6,6 +6,7 @@ import argparse
 
 from mjx_radar.cli.args import check_placement
 from mjx_radar.scenario.reader import load_scenario
+from mjx_radar.world.components import Ground
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -29,9 +30,9 @@ def world(s) -> list[str]:
     out = [f"{len(s.obstacles)} obstacles"] if s.obstacles else []
     if s.moving_obstacles:
         out.append(f"{len(s.moving_obstacles)} moving obstacles")
-    if s.terrain is not None:
-        t = s.terrain
-        out.append(f"terrain {t.extent_x:g} x {t.extent_y:g} m ({t.path.rsplit('/', 1)[-1]})")
+    ground = Ground(s.terrain)
+    if ground.present:
+        out.append(ground.summary)
     fixed = sum(not ov.mobile for ov in s.radar_override)
     if fixed:
         out.append(f"{fixed} fixed radar sites")

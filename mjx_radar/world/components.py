@@ -55,6 +55,14 @@ class Ground:
         return self.present and self.config.alpha_slope > 0
 
     @property
+    def summary(self) -> str | None:
+        """A few words on the ground for reports (``mjx-radar validate``), None when flat."""
+        if self.config is None:
+            return None
+        t = self.config
+        return f"terrain {t.extent_x:g} x {t.extent_y:g} m ({t.path.rsplit('/', 1)[-1]})"
+
+    @property
     def antenna_height(self) -> float:
         """The antenna's height above the ground [m] (0 on flat ground)."""
         return 0.0 if self.config is None else float(self.config.antenna_height)
