@@ -26,7 +26,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_radar.estimation.data_association.assignment import hungarian
+from mjx_radar.estimation.data_association.assignment import BIG, hungarian
 
 __all__ = ["align", "mixture"]
 
@@ -47,7 +47,7 @@ def align(means, covs, logw):
 
     def order(pos):  # [M, 3] -> [M] int32: the target of h aligned to each of ref's
         cost = jnp.sum((ref[:, None, :] - pos[None, :, :]) ** 2, -1)  # [M (ref), M (h)]
-        return hungarian(cost)
+        return hungarian(jnp.where(jnp.isfinite(cost), cost, BIG))  # a stale slot: finite
 
     idx = jax.vmap(order)(means[:, :, :3])  # [K, M]
     take = jax.vmap(lambda a, i: a[i])
