@@ -9,10 +9,11 @@ position the planner sees (the mixture) and the heaviest hypothesis's (what the 
 score)::
 
     python benchmarks/studies/mht_weights.py [--trials 4] [--periods 30] [--method ddr-sfim]
-        [--result ID]
+        [--every 1] [--result ID]
 
-Prints one line per period; ``--result ID`` writes ``benchmarks/results/ID.json`` with
-the median over trials of each (and the largest shift of any trial).
+Prints one line per period (with ``--every N`` the first and every N-th); ``--result ID``
+writes ``benchmarks/results/ID.json`` with the median over trials of each (and the largest
+shift of any trial).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ COLUMNS = [
 ]
 
 
-def measure(trials: int, periods: int, method: str) -> list[list]:
+def measure(trials: int, periods: int, method: str, every: int = 1) -> list[list]:
     """One row per control period (module doc)."""
     import jax
     import jax.numpy as jnp
@@ -67,8 +68,9 @@ def measure(trials: int, periods: int, method: str) -> list[list]:
         shift = np.abs(diff.reshape(trials, -1, 6)[..., :3]).max((1, 2))  # [T]
         row = [j, round(j * task.timing.dt_control, 3), np.median(w.max(-1))]
         row += [np.median(1.0 / np.sum(w**2, -1)), np.median(shift), shift.max()]
-        rows.append([*row[:2], *(float(f"{v:.3g}") for v in row[2:])])
-        print(*rows[-1], flush=True)
+        if j == 1 or j % every == 0:
+            rows.append([*row[:2], *(float(f"{v:.3g}") for v in row[2:])])
+            print(*rows[-1], flush=True)
     return rows
 
 
@@ -77,10 +79,11 @@ def main(argv=None) -> int:
     p.add_argument("--trials", type=int, default=4)
     p.add_argument("--periods", type=int, default=30)
     p.add_argument("--method", default="ddr-sfim")
+    p.add_argument("--every", type=int, default=1, help="keep the first and every N-th period")
     p.add_argument("--result", default=None, help="also write benchmarks/results/ID.json")
     args = p.parse_args(argv)
     print(*COLUMNS, sep=" | ")
-    rows = measure(args.trials, args.periods, args.method)
+    rows = measure(args.trials, args.periods, args.method, args.every)
     if args.result:
         import jax
 
