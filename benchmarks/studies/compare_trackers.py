@@ -22,6 +22,8 @@ for every variant) of the given methods. The variants are the scenario with
                (branch_scans = 1), then JPDA within each hypothesis
     mht-jpda-16, mht-jpda-256   mht-jpda with K = 16 (merge_screen = 4), K = 256
     mht-jpda-b4   mht-jpda branching over the first 4 scans (branch_scans = 4)
+    mht-jpda-mix  mht-jpda with the planner planning for the moment-matched mixture of
+               the hypotheses (plan_on = "mixture"; the metrics score the heaviest's)
 
 Prints one line per variant and method as each study finishes, and rewrites
 ``DIR/trackers.csv`` (trials, lost trials, unmatched trials, the median over trials of the
@@ -70,6 +72,15 @@ VARIANTS = {
     "mht-jpda-16": {"tracker": {"association": "mht", "branch_scans": 1}},
     "mht-jpda-b4": {
         "tracker": {"association": "mht", "hypotheses": 64, "merge_screen": 2, "branch_scans": 4}
+    },
+    "mht-jpda-mix": {
+        "tracker": {
+            "association": "mht",
+            "hypotheses": 64,
+            "merge_screen": 2,
+            "branch_scans": 1,
+            "plan_on": "mixture",
+        }
     },
     "mht-jpda-256": {
         "tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2, "branch_scans": 1}

@@ -210,9 +210,11 @@ class RadarEnv:
         t = j * self.every * self.task.timing.dt_filter
         if self._table is not None:
             return self._observe_table(loop, j, t, bad)
-        pm, pc = loop.mean, loop.cov
+        pm, pc, modes = loop.mean, loop.cov, loop.modes
         if not self.task.mpc.aligned:  # the paper code's one-filter-step lead of the targets
-            pm, pc = self._tracker.predict(loop.mean, loop.cov, loop.modes)[:2]
+            pm, pc, modes = self._tracker.predict(loop.mean, loop.cov, loop.modes)
+        if self._tracker.plan_view is not None:  # e.g. the MHT's mixture (the metrics: pm)
+            pm, pc = self._tracker.plan_view(pm, pc, modes)
         weight = presence.plan_params(self.params, t).target_weight
         if weight is None:
             weight = jnp.ones(self.n_targets, pm.dtype)

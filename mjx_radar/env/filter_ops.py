@@ -51,6 +51,10 @@ class FilterOps(NamedTuple):
       ``tracks(modes) -> (mean [K, 6], cov [K, 6, 6], weight [K], exist [K])``: its K
       track slots, the planner's weight of each and whether it is a confirmed track.
       The planner, the reward and the records then use these instead of the joint one.
+    * ``plan_view``: None (the planner plans from the joint estimate), or
+      ``plan_view(mean, cov, modes) -> (mean, cov)``: the joint estimate the planner sees
+      instead (the MHT's mixture of its hypotheses, ``[tracker] plan_on``); the metrics
+      and the reward keep the tracker's own.
 
     ``cov`` is P, or its factor S with ``filter.form = "sqrt"``.
     """
@@ -60,6 +64,7 @@ class FilterOps(NamedTuple):
     begin: Callable
     init: Callable = lambda mean, cov: ()  # noqa: E731
     tracks: Callable | None = None
+    plan_view: Callable | None = None
 
 
 def keep(ok_pred, ok, post, pred, prev):

@@ -9,7 +9,10 @@ hypothesis and joint event over each target's ``candidates`` best returns, prune
 the K heaviest (:func:`mjx_radar.estimation.data_association.mht.update_bank`). The joint estimate
 the
 loop carries (``mean [6M]``, ``cov [6M, 6M]``: metrics, lost-track detector, planner)
-is the heaviest hypothesis's bank, so the planner plans for the best hypothesis. The
+is the heaviest hypothesis's bank, so the planner plans for the best hypothesis; with
+``plan_on = "mixture"`` the planner sees the moment-matched mixture of the hypotheses
+instead (:mod:`~mjx_radar.estimation.data_association.mht_mixture`, ``FilterOps.plan_view``),
+while the metrics keep the heaviest's. The
 filter's Pd of a pair is the model's at each hypothesis's predicted range (0 where the
 line of sight is blocked), as in the PDA and JPDA banks. With ``branch_scans = B > 0`` only
 the first B scans branch (``begin`` sets the state's scan counter from the loop's step);
@@ -24,7 +27,7 @@ import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
 from mjx_radar.errors import ScenarioError
-from mjx_radar.estimation.data_association import mht
+from mjx_radar.estimation.data_association import mht, mht_mixture
 from mjx_radar.estimation.filters import filter_bank, ground_prior
 from mjx_radar.estimation.sensor import clutter, detection
 from mjx_radar.physics import target_motion
@@ -95,4 +98,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     def init(mean, cov):
         return mht.init(*filter_bank.joint_to_bank(mean, cov), t.hypotheses)
 
-    return FilterOps(predict, update, begin, init)
+    def mixture(mean, cov, modes):  # what the planner sees with plan_on = "mixture"
+        return filter_bank.bank_to_joint(*mht_mixture.mixture(modes.means, modes.covs, modes.logw))
+
+    view = mixture if t.plan_on == "mixture" else None
+    return FilterOps(predict, update, begin, init, plan_view=view)

@@ -41,9 +41,8 @@ class TrackerConfig:
     ``lbp_iterations`` sweeps, over every measurement) or "multisensor" (every radar's
     scan at once: a target's hypothesis is a tuple of one return or a miss per radar over
     its ``candidates`` best per radar, scored with the stacked innovation; the ``tuples``
-    best per target enter the joint events). ``jpda_star``: JPDA* (Blom &
-    Bloem), which keeps only the most probable of joint events that are permutations of
-    each other, against track coalescence. Used only with clutter
+    best per target enter the joint events). ``jpda_star``: JPDA* (Blom & Bloem), which
+    keeps only the most probable of permuted joint events (no coalescence). Used only with clutter
     (``[detection] clutter_density > 0``); without clutter the returns are labelled.
     The managed track table (``management = "managed"``) takes "pda" or "gnn" (the best
     joint assignment of its slots, docs/track_management.md) with or without clutter.
@@ -125,6 +124,14 @@ class TrackerConfig:
                 "mht: scans in which the hypotheses branch (0: every scan); later scans "
                 "give each hypothesis JPDA's soft update, weighted by its likelihood"
             ),
+        ),
+    )
+    plan_on: str = field(
+        default="best",
+        metadata=choice(
+            "best",
+            "mixture",
+            doc="mht: the planner's estimate: the heaviest hypothesis or the mixture",
         ),
     )
     management: str = field(

@@ -42,6 +42,7 @@ _ASSOCIATION_FIELDS = {
     "merge_screen": ("mht",),
     "merge_labels": ("mht",),
     "branch_scans": ("mht",),
+    "plan_on": ("mht",),
 }
 #: ``[tracker]`` options of the managed track table (initiator, deleter, table)
 _MANAGED_FIELDS = (
