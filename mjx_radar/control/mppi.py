@@ -168,8 +168,14 @@ def optimize(
         b_new = jnp.full((h * d,), jnp.sqrt(rho * mu), dtype)
         return (m_new, f_new, b_new, u, costs, w, aux), None
 
-    # Placeholders for the per-iteration outputs, so that cost_fn is compiled once.
-    aux_shape = jax.eval_shape(batched_cost, jax.ShapeDtypeStruct((n, h, d), dtype))[1]
+    # Placeholders for the per-iteration outputs, so that cost_fn is compiled once. The
+    # probe's samples have the type of the step's (batched like the key and the mean:
+    # inside shard_map, the same varying axes), so a jitted cost_fn traced here is reused
+    # by the step, not traced a second time (its trace is discarded with the probe's).
+    probe = lambda: batched_cost(  # noqa: E731
+        batched_like(jnp.zeros((n, h, d), dtype), (jax.random.split(key), mean, std))
+    )
+    aux_shape = jax.eval_shape(probe)[1]
     aux0 = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux_shape)
     init = (
         mean.reshape(h * d),
