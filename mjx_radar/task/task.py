@@ -92,17 +92,7 @@ class RadarTask:
 
 
 def _rollout_backend(scenario: Scenario, ground: Ground) -> Callable:
-    """``(state[N,6], u[H,N,2]) -> [H,N,6]``, each control held for ``mpc.substeps`` steps.
-
-    Jitted: a study's program plans with the SFIM and the PFIM objective (tasks that
-    differ only in their kind share this function), and both trace, batch and lower the
-    rollout once; XLA inlines the calls (the same optimised program).
-    """
-    return jax.jit(_rollout_fn(scenario, ground))
-
-
-def _rollout_fn(scenario: Scenario, ground: Ground) -> Callable:
-    """The rollout of :func:`_rollout_backend`, not jitted."""
+    """``(state[N,6], u[H,N,2]) -> [H,N,6]``, each control held for ``mpc.substeps`` steps."""
     k, limits = scenario.mpc.substeps, scenario.limits
     dt = scenario.timing.dt_control / k
     if scenario.mpc.rollout == "mjx":
