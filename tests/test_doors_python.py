@@ -52,3 +52,14 @@ def test_callsites_collapse_to_their_callee():
     assert "#loc3 = loc(#loc1)" in out and "#loc4 = loc(#loc1)" in out
     assert "%0 = op loc(#loc1)" in out
     assert locations.collapse("#loc1 = loc(unknown)\n") == "#loc1 = loc(unknown)\n"
+
+
+def test_function_calls_lose_their_location():
+    """A call's location would become a parent frame of every operation XLA inlines."""
+    text = (
+        '#loc1 = loc("a.py":1:1)\n    %3 = call @f(%2) : (tensor<f32>) -> tensor<f32> loc(#loc1)\n'
+        "    %4:2 = func.call @g(%3) : (tensor<f32>) -> (tensor<f32>, tensor<f32>) loc(#loc1)\n"
+        "    %5 = stablehlo.add %3, %3 : tensor<f32> loc(#loc1)\n"
+    )
+    out = locations.collapse(text)
+    assert out.count("loc(unknown)") == 2 and "stablehlo.add %3, %3 : tensor<f32> loc(#loc1)" in out

@@ -167,3 +167,18 @@ def test_entry_form_matches_array_form(n, kind):
 
 def L_entries(ls, A):
     return ls.psd_cholesky_entries(ls.entries(jnp.asarray(A)))
+
+
+def test_factorisations_traced_once_per_shape():
+    """psd_cholesky / psd_solve / psd_inv are jitted: called twice on the same shapes in
+    one program, both calls share one traced jaxpr (traced, batched and lowered once)."""
+
+    def two_solves(a, b):
+        return linalg.psd_solve(a, b), linalg.psd_solve(a + 1.0, b), linalg.psd_inv(a)
+
+    closed = jax.make_jaxpr(two_solves)(jnp.eye(4), jnp.ones((4, 2)))
+    calls = [e.params["jaxpr"] for e in closed.jaxpr.eqns if "jaxpr" in e.params]
+    assert len(calls) == 3 and calls[0] is calls[1] and calls[2] is not calls[0]
+    x = jnp.array([[4.0, 1.0], [1.0, 3.0]])
+    # still the solve: the relative jitter delta = 10 eps scale (1.2e-6 x 4) bounds the error
+    np.testing.assert_allclose(linalg.psd_inv(x) @ x, np.eye(2), atol=1e-5)

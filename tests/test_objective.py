@@ -176,3 +176,38 @@ def test_one_objective_per_task_traced_once():
         radar, mean, jnp.eye(6), jnp.zeros((3, 2)), jax.random.PRNGKey(0)
     )
     assert len(traced) == 1  # MPPI's three calls (aux shape, samples, plan): one trace
+
+
+def test_objective_traced_once_inside_shard_map():
+    """Inside a program's ``shard_map`` the iteration's samples vary over the trial axis
+    (they come from the split warm start): MPPI's aux-shape probe has their type, so the
+    objective is traced once there too (the probe typed as a plain array traced it a
+    second time in every closed-loop program)."""
+    from jax.sharding import Mesh, PartitionSpec
+
+    from mjx_radar.task.planner import make_planner
+
+    raw = HOVER | {"mpc": {"horizon": 3, "rollout": "analytic"}, "mppi": {"samples": 16}}
+    task, params = build(scenario_from_dict(raw), "ddr-sfim", 0)
+    traced = []
+    term = task.terms[0]
+
+    def counted(hz, task_, params_):
+        traced.append(1)
+        return term.fn(hz, task_, params_)
+
+    plan = make_planner(
+        dataclasses.replace(task, terms=(term._replace(fn=counted), *task.terms[1:]))
+    )
+    radar = jnp.array([[400.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    mean = jnp.array([0.0, 0.0, 50.0, 0.0, 0.0, 0.0])
+
+    def per_device(u_plan):  # [1, H, 2]: this device's trial
+        key = jax.random.PRNGKey(0)
+        return plan(radar, mean, jnp.eye(6), u_plan[0], key, params)[0].mean[None]
+
+    mesh = Mesh(jax.devices()[:1], ("trial",))
+    split = PartitionSpec("trial")
+    program = jax.shard_map(per_device, mesh=mesh, in_specs=split, out_specs=split, check_vma=False)
+    jax.jit(program).lower(jnp.zeros((1, 3, 2)))
+    assert len(traced) == 1  # the probe, the samples and the plan: one trace

@@ -106,6 +106,22 @@ def _estimator(cfg: MPPIConfig):
     return ESTIMATORS[cfg.shrinkage]
 
 
+def _aux_placeholder(batched_cost, shape, dtype, ref):
+    """Zeros shaped like ``batched_cost``'s aux output for samples ``u[shape]``.
+
+    The probe's samples have the type of MPPI's step's (batched like the key, the mean
+    and the std ``ref``: inside ``shard_map``, the same varying axes), so a jitted cost
+    traced here is reused by the step rather than traced a second time; the probe's own
+    trace is discarded (``jax.eval_shape``).
+    """
+    key, *rest = ref
+    probe = lambda: batched_cost(  # noqa: E731
+        batched_like(jnp.zeros(shape, dtype), (jax.random.split(key), *rest))
+    )
+    aux_shape = jax.eval_shape(probe)[1]
+    return jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux_shape)
+
+
 def optimize(
     cost_fn: CostFn,
     mean: Array,
@@ -169,8 +185,7 @@ def optimize(
         return (m_new, f_new, b_new, u, costs, w, aux), None
 
     # Placeholders for the per-iteration outputs, so that cost_fn is compiled once.
-    aux_shape = jax.eval_shape(batched_cost, jax.ShapeDtypeStruct((n, h, d), dtype))[1]
-    aux0 = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux_shape)
+    aux0 = _aux_placeholder(batched_cost, (n, h, d), dtype, (key, mean, std))
     init = (
         mean.reshape(h * d),
         jnp.zeros((h * d, n), dtype),

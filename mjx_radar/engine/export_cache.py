@@ -19,12 +19,16 @@ SPLIT, WHOLE = PartitionSpec("trial"), PartitionSpec()
 
 def export(init, step, init_args, step_args):
     """Both programs traced once into :class:`jax.export.Exported` form (None if impossible)."""
+    both = (export_one(init, init_args), export_one(step, step_args))
+    return None if None in both else both
+
+
+def export_one(program, args):
+    """One jitted program traced into :class:`jax.export.Exported` form (None if impossible)."""
     from mjx_radar.engine.locations import flatten
 
     try:
-        return tuple(
-            flatten(jax.export.export(f)(*a)) for f, a in ((init, init_args), (step, step_args))
-        )
+        return flatten(jax.export.export(program)(*args))
     except Exception:  # noqa: BLE001 -- an unexportable program still runs, traced directly
         return None
 

@@ -1,9 +1,11 @@
 """Tracing a shape's two closed-loop programs (:mod:`mjx_radar.engine.programs`).
 
-:func:`flat_programs` wraps :func:`mjx_radar.loop.closed_loop.init_carry` and
+:func:`init_program` and :func:`step_program` wrap
+:func:`mjx_radar.loop.closed_loop.init_carry` and
 :func:`~mjx_radar.loop.closed_loop.advance` into the flat (arrays only), vmapped,
 shard_mapped and jitted ``init`` and ``step``; :func:`trace` traces them for one batch
-and mesh into :mod:`jax.export` form (or lowers them where they cannot be exported).
+and mesh into :mod:`jax.export` form (or lowers them where they cannot be exported),
+``init`` first: its trace gives the loop state's shapes that ``step`` takes.
 Imported only when a program is traced: a warm start (export cache) imports no MJX.
 
 A device that runs one trial (``mjx-radar run``'s default, a study's ``--chunk 1``) gets
@@ -33,7 +35,44 @@ from mjx_radar.rundir import results
 from mjx_radar.task.task import make_task
 
 
-def flat_programs(
+def init_program(
+    task, mesh: Mesh, n_params: int, params_tree, planner="mppi", single=False, seen=None
+):
+    """The flat, shard_mapped, jitted ``init`` (traced when lowered or exported).
+
+    It returns the non-empty per-trial loop-state leaves and the placement flag. Empty
+    leaves (size 0, e.g. MJX's contact arrays of a contact-free plant) never cross the
+    program boundary (:func:`step_program` rebuilds them). ``seen``, a list, gets the
+    per-trial loop state's shapes (``jax.ShapeDtypeStruct`` leaves) each time ``init`` is
+    traced: :func:`step_program` needs them, and tracing the loop's start a second time
+    for its shapes alone (``jax.eval_shape``) cost a tenth of a study program's tracing.
+    """
+
+    def init_flat(trial, *p):
+        params = jax.tree.unflatten(params_tree, p)
+        carry, ok = closed_loop.init_carry(task, params, trial, planner)
+        if seen is not None:
+            seen.append(jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), carry))
+        return (*[x for x in jax.tree.leaves(carry) if x.size > 0], ok)
+
+    if single:  # the loop itself: no vmap of size one (module docstring)
+
+        def init_device(trial, *p):
+            return tuple(x[None] for x in init_flat(trial[0], *p))
+
+    else:
+        init_device = jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params)
+    init = jax.shard_map(
+        init_device,
+        mesh=mesh,
+        in_specs=(SPLIT,) + (WHOLE,) * n_params,
+        out_specs=SPLIT,
+        check_vma=False,
+    )
+    return jax.jit(init)
+
+
+def step_program(
     task,
     periods: int,
     full: bool,
@@ -45,24 +84,17 @@ def flat_programs(
     masks: bool = False,
     single: bool = False,
 ):
-    """The flat, shard_mapped, jitted ``init`` and ``step`` (traced when lowered).
+    """The flat, shard_mapped, jitted ``step`` (traced when lowered or exported).
 
     ``c_shapes`` are the per-trial loop-state leaves (``jax.ShapeDtypeStruct``). Empty
-    leaves (size 0, e.g. MJX's contact arrays of a contact-free plant) never cross the
-    program boundary: they are rebuilt inside (sharding zero-size arrays over several
-    GPUs crashed XLA's compiler). ``single``: each device runs one trial, and the
-    per-device programs are the unbatched loop with a leading axis of one (module
-    docstring); else a ``vmap`` over the device's trials.
+    leaves never cross the program boundary: they are rebuilt inside (sharding
+    zero-size arrays over several GPUs crashed XLA's compiler). ``single``: each device
+    runs one trial, and the per-device program is the unbatched loop with a leading
+    axis of one (module docstring); else a ``vmap`` over the device's trials.
     """
     carry_tree = jax.tree.structure(c_shapes)
     shapes = jax.tree.leaves(c_shapes)
     live = [x.size > 0 for x in shapes]
-
-    def init_flat(trial, *p):
-        params = jax.tree.unflatten(params_tree, p)
-        carry, ok = closed_loop.init_carry(task, params, trial, planner)
-        leaves = jax.tree.leaves(carry)
-        return (*[x for x, keep in zip(leaves, live, strict=True) if keep], ok)
 
     def step_flat(*rest):
         params = jax.tree.unflatten(params_tree, rest[:n_params])
@@ -87,23 +119,12 @@ def flat_programs(
     n_carry = sum(live)
     if single:  # the loop itself: no vmap of size one (module docstring)
 
-        def init_device(trial, *p):
-            return tuple(x[None] for x in init_flat(trial[0], *p))
-
         def step_device(*rest):
             carry = [x[0] for x in rest[n_params:]]
             return tuple(x[None] for x in step_flat(*rest[:n_params], *carry))
 
     else:
-        init_device = jax.vmap(init_flat, in_axes=(0,) + (None,) * n_params)
         step_device = jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry)
-    init = jax.shard_map(
-        init_device,
-        mesh=mesh,
-        in_specs=(SPLIT,) + (WHOLE,) * n_params,
-        out_specs=SPLIT,
-        check_vma=False,
-    )
     step = jax.shard_map(
         step_device,
         mesh=mesh,
@@ -112,7 +133,16 @@ def flat_programs(
         check_vma=False,
     )
     donate = tuple(range(n_params, n_params + n_carry))
-    return jax.jit(init), jax.jit(step, donate_argnums=donate)
+    return jax.jit(step, donate_argnums=donate)
+
+
+def flat_programs(task, periods, full, mesh, n_params, tree, c_shapes, planner="mppi", **kw):
+    """``(init, step)``: :func:`init_program` and :func:`step_program` (``c_shapes``:
+    the per-trial loop-state leaves, ``jax.ShapeDtypeStruct``; ``kw``: ``masks``,
+    ``single``)."""
+    init = init_program(task, mesh, n_params, tree, planner, kw.get("single", False))
+    step = step_program(task, periods, full, mesh, n_params, tree, c_shapes, planner, **kw)
+    return init, step
 
 
 def short_locations():
@@ -141,25 +171,26 @@ def trace(shape, kind, planner, params, batch, periods, full, mesh, masks, trial
 
 def _trace(shape, kind, planner, params, batch, periods, full, mesh, masks, trials, p_specs):
     task = make_task(shape, kind)
+    tree = jax.tree.structure(params)
+    single = batch // mesh.size == 1  # one trial per device
+    seen = []  # the loop state's shapes, from init's trace (init_program)
+    init = init_program(task, mesh, len(p_specs), tree, planner, single, seen)
+    exportable = os.environ.get("MJX_RADAR_EXPORT", "1") != "0"  # 0: skip jax.export
+    e_init = export_cache.export_one(init, (trials, *p_specs)) if exportable else None
+    init_l = None if e_init is not None else init.lower(trials, *p_specs)
+    carry_shapes = seen[-1]
     trial_sh = NamedSharding(mesh, SPLIT)
-    carry_shapes = jax.eval_shape(
-        lambda t, p: closed_loop.init_carry(task, p, t, planner)[0],
-        jax.ShapeDtypeStruct((), jnp.int32),
-        params,
-    )
     c_specs = [
         jax.ShapeDtypeStruct((batch, *x.shape), x.dtype, sharding=trial_sh)
         for x in jax.tree.leaves(carry_shapes)
         if x.size > 0
     ]
-    tree = jax.tree.structure(params)
-    single = batch // mesh.size == 1  # one trial per device
-    init, step = flat_programs(
+    step = step_program(
         task, periods, full, mesh, len(p_specs), tree, carry_shapes, planner, masks, single
     )
-    if os.environ.get("MJX_RADAR_EXPORT", "1") != "0":  # 0: skip jax.export (debugging)
-        exported = export_cache.export(init, step, (trials, *p_specs), (*p_specs, *c_specs))
-        if exported is not None:
-            return None, None, exported
+    e_step = export_cache.export_one(step, (*p_specs, *c_specs)) if e_init is not None else None
+    if e_step is not None:
+        return None, None, (e_init, e_step)
     # not exportable: compile the traced programs directly
-    return init.lower(trials, *p_specs), step.lower(*p_specs, *c_specs), None
+    init_l = init_l if init_l is not None else init.lower(trials, *p_specs)
+    return init_l, step.lower(*p_specs, *c_specs), None

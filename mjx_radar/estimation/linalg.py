@@ -261,3 +261,13 @@ def _logdet3(A):
     A = symmetrize(A)
     a = [[A[..., i, j] for j in range(3)] for i in range(3)]
     return linalg_small.logdet_sym3(a[0][0], a[1][0], a[2][0], a[1][1], a[2][1], a[2][2])
+
+
+# One trace per program and matrix shape: the filter and the planner factor matrices of
+# the same shapes several times per step (the CKF's covariance in predict and update,
+# the PFIM's blocks). A jitted function's trace, its batching under vmap and its
+# lowering are reused at every call with the same input types, and XLA inlines the
+# calls before it optimises (the same program, the same numbers).
+psd_cholesky = jax.jit(psd_cholesky)
+psd_solve = jax.jit(psd_solve)
+psd_inv = jax.jit(psd_inv)

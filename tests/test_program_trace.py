@@ -1,0 +1,40 @@
+"""Tracing a shape's programs (engine/program_trace.py): the loop's start traced once."""
+
+import jax
+import jax.numpy as jnp
+from jax.sharding import NamedSharding
+
+from mjx_radar.engine import program_trace, programs
+from mjx_radar.engine.export_cache import SPLIT, WHOLE
+from mjx_radar.engine.run_spec import run_spec
+from mjx_radar.loop import closed_loop
+from mjx_radar.task.method import parse_method
+
+
+def test_init_traced_once_and_step_takes_its_shapes(tiny, monkeypatch):
+    """``init``'s own trace gives the loop state's shapes that ``step`` takes: the loop's
+    start is traced once per program (a ``jax.eval_shape`` of it first traced it twice),
+    and ``step``'s carry inputs are ``init``'s outputs, leaf for leaf."""
+    calls = []
+    real = closed_loop.init_carry
+
+    def counted(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(closed_loop, "init_carry", counted)
+    spec = run_spec(tiny)
+    mesh = programs.device_mesh(jax.devices()[:1])
+    params = spec.params(parse_method("stationary"))
+    whole, split = NamedSharding(mesh, WHOLE), NamedSharding(mesh, SPLIT)
+    p_specs = [
+        jax.ShapeDtypeStruct(jnp.shape(x), jnp.result_type(x), sharding=whole)
+        for x in jax.tree.leaves(params)
+    ]
+    trials = jax.ShapeDtypeStruct((2,), jnp.int32, sharding=split)
+    args = (spec.shape, "none", "mppi", params, 2, 1, False, mesh, False, trials, p_specs)
+    _, _, (e_init, e_step) = program_trace.trace(*args)
+    assert len(calls) == 1
+    carry_out = [(a.shape, a.dtype) for a in e_init.out_avals[:-1]]  # (*carry, ok)
+    carry_in = [(a.shape, a.dtype) for a in e_step.in_avals[len(p_specs) :]]
+    assert carry_in == carry_out and all(s[0] == 2 for s, _ in carry_in)
