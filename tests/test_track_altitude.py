@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_are
 
-from mjx_radar.estimation.tracks import altitude
+from mjx_radar.env import managed
+from mjx_radar.estimation.tracks import altitude, track_table
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.scenario.reader import load_scenario
+from mjx_radar.task.task import build
 
 
 def _random_spd(rng, n):
@@ -80,3 +82,29 @@ def test_height_std_is_validated_and_managed_only():
         sc.replace(tracker={"management": "managed", "height_std": -1.0})
     with pytest.raises(ScenarioError, match="height_std"):  # read only by the managed table
         sc.replace(tracker={"height_std": 50.0})
+
+
+def test_managed_tracker_applies_it_after_the_prediction():
+    """``[tracker] height_std`` reaches the managed tracker: a live slot's predicted
+    height is pulled to birth_height by the scalar update; empty slots and the default
+    (off) are untouched."""
+    sc = load_scenario("raid_4r8t").replace(
+        filter={"structure": "per-target", "ground_prior": True},
+        tracker={"management": "managed", "max_tracks": 3, "height_std": 40.0},
+    )
+    task, params = build(sc, "stationary")
+    ops = managed.managed_tracker(task, params)
+    table = track_table.empty(3, 4, jnp.float32, float(params.p0))
+    table = track_table.insert(
+        table,
+        jnp.asarray([[0.0, 500.0, 200.0, 0.0, -20.0, 0.0]] * 3, jnp.float32),
+        jnp.broadcast_to(jnp.eye(6, dtype=jnp.float32) * 400.0, (3, 6, 6)),
+        jnp.asarray([True, False, False]),
+    )
+    _, _, out = ops.predict(None, None, table)
+    off = build(sc.replace(tracker={"height_std": 0.0}), "stationary")
+    _, _, ref = managed.managed_tracker(*off).predict(None, None, table)
+    pzz = float(ref.cov[0, 2, 2])  # the CV prediction alone
+    expect = float(ref.mean[0, 2]) + pzz / (pzz + 40.0**2) * (60.0 - float(ref.mean[0, 2]))
+    assert abs(float(out.mean[0, 2]) - expect) < 1e-3 and float(ref.mean[0, 2]) == 200.0
+    np.testing.assert_array_equal(np.asarray(out.mean[1:]), np.asarray(ref.mean[1:]))

@@ -148,6 +148,24 @@ def report_offsets(rec: dict, c: float) -> None:
     print(f"  track height quantiles 10/50/90 % {np.percentile(o[:, 2], [10, 50, 90]).round(1)}")
 
 
+def report_gospa(rec: dict, c: float) -> None:
+    """Prints the run's mean GOSPA and its parts (``run_raid_managed.gospa``: α = 2, p = 2)."""
+    from run_raid_managed import gospa
+
+    keys = ("truth", "present", "pos", "exist")
+    t_n, steps = rec["present"].shape[:2]
+    g = np.array(
+        [gospa(*(rec[k][t, i] for k in keys), c) for t in range(t_n) for i in range(steps)]
+    ).reshape(t_n, steps, 4)
+    matched = rec["present"].sum(-1) - g[..., 2]
+    loc = np.sqrt(g[..., 1].sum() / max(matched.sum(), 1))
+    print(f"GOSPA per trial {g[..., 0].mean(1).round(2)}")
+    print(
+        f"GOSPA {g[..., 0].mean():.2f} m, loc. RMS {loc:.2f} m, missed/step "
+        f"{g[..., 2].mean():.3f}, false/step {g[..., 3].mean():.3f}"
+    )
+
+
 def _line(names, values) -> str:
     return ", ".join(f"{n} {v:.3f}" for n, v in zip(names, values, strict=True))
 
@@ -204,6 +222,7 @@ def main(argv=None) -> int:
         np.savez_compressed(f, **rec)
     report(rec, a.cutoff, 0.025)
     report_offsets(rec, a.cutoff)
+    report_gospa(rec, a.cutoff)
     return 0
 
 
