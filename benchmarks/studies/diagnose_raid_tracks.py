@@ -21,7 +21,9 @@ A **false** track is a confirmed track without a match:
 * ``drifted``: matched before, its drone still present, now farther than c from all;
 * ``left``: matched before, its last drone has left.
 
-Ghosts are split further by ``near_xy`` (within c of a present drone horizontally: the
+Missed drones below ``−c/2`` (under the radars' plane) are counted apart, with those
+whose mirror image ``(x, y, −z)`` has a track (what range-only radars on the ground
+see of them). Ghosts are split further by ``near_xy`` (within c of a present drone horizontally: the
 height of a trilateration, e.g. the radars' mirror) and their lifetimes are listed::
 
     python benchmarks/studies/diagnose_raid_tracks.py --out /tmp/d --trials 2 --steps 1600 \
@@ -148,6 +150,28 @@ def report_offsets(rec: dict, c: float) -> None:
     print(f"  track height quantiles 10/50/90 % {np.percentile(o[:, 2], [10, 50, 90]).round(1)}")
 
 
+def report_mirror(rec: dict, c: float) -> None:
+    """Prints the missed drones flying below ``−c/2`` (under the radars' plane), and those
+    with a confirmed track within c of their mirror image ``(x, y, −z)``: range-only
+    radars on the ground cannot tell the two apart (the ground prior keeps the upper)."""
+    t_n, steps, m = rec["present"].shape
+    under = mirror = 0
+    for t in range(t_n):
+        tr, pr, pos, ex = (rec[k][t] for k in ("truth", "present", "pos", "exist"))
+        for k in range(steps):
+            got = matches(tr[k], pr[k], pos[k], ex[k], c)
+            low = pr[k] & ~np.isin(np.arange(m), got) & (tr[k][:, 2] < -c / 2)
+            under += low.sum()
+            image = tr[k][low] * np.array([1.0, 1.0, -1.0])
+            d = np.linalg.norm(image[:, None] - pos[k][ex[k]][None], axis=-1)
+            mirror += int(np.sum(np.any(d < c, axis=1))) if d.size else 0
+    n = t_n * steps
+    print(
+        f"missed drones below -{c / 2:.0f} m: {under / n:.3f} a step, with a track at "
+        f"their mirror image: {mirror / n:.3f}"
+    )
+
+
 def report_gospa(rec: dict, c: float) -> None:
     """Prints the run's mean GOSPA and its parts (``run_raid_managed.gospa``: α = 2, p = 2)."""
     from run_raid_managed import gospa
@@ -222,6 +246,7 @@ def main(argv=None) -> int:
         np.savez_compressed(f, **rec)
     report(rec, a.cutoff, 0.025)
     report_offsets(rec, a.cutoff)
+    report_mirror(rec, a.cutoff)
     report_gospa(rec, a.cutoff)
     return 0
 
