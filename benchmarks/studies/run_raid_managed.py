@@ -103,6 +103,9 @@ def run_chunk(sc, method, seed, trials, steps, cutoff):
         "false": out[3],
         "confirmed": exist.sum(-1),
         "present": present.sum(-1),
+        # drones below the radars' plane by more than c/2: the mirror image above (all a
+        # range-only fleet on the ground can tell) is more than c away (docs/track_management.md)
+        "below": (present & (truth[..., 2] < -cutoff / 2)).sum(-1),
         "rmse_pos": res["rmse_pos"],
         "lost": res["lost"],
         "sim_s": np.asarray(res["sim_s"]),
@@ -135,6 +138,7 @@ def summarise(out: Path, dt: float, cases) -> dict:
             "loc_rms": float(loc_rms),
             "missed_mean": float(d["missed"].mean()),
             "false_mean": float(d["false"].mean()),
+            "below_mean": float(d["below"].mean()) if "below" in d else None,
             "gospa_per_s": by_s(d["gospa"]).round(2).tolist(),
             "confirmed_per_s": by_s(d["confirmed"]).round(2).tolist(),
             "present_per_s": by_s(d["present"]).round(2).tolist(),
@@ -152,6 +156,7 @@ def summarise(out: Path, dt: float, cases) -> dict:
         print(f"{key}: confirmed per second {s['confirmed_per_s']}")
         print(f"{' ' * len(key)}  present per second   {s['present_per_s']}")
         print(f"{' ' * len(key)}  GOSPA per second     {s['gospa_per_s']}")
+        print(f"{' ' * len(key)}  drones below -c/2 per step {s['below_mean']}")
     return summary
 
 

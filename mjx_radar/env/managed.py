@@ -6,7 +6,8 @@ state (``modes``) is a :class:`~mjx_radar.estimation.tracks.track_table.TrackTab
 is indexed like the truth), nor the presence of the drones, nor the order of the
 returns (each radar's buffer is sorted by range). Per scan:
 
-1. predict every live slot (CV, the filter's process noise);
+1. predict every live slot (CV, the filter's process noise; with ``height_std > 0`` the
+   altitude pseudo-measurement of :mod:`~mjx_radar.estimation.tracks.altitude`);
 2. associate the scans to the live slots (the per-track PDA associator by default,
    ``association = "gnn"`` the joint GNN assignment,
    :mod:`~mjx_radar.estimation.tracks.track_update`; any associator of that signature drops in
@@ -28,7 +29,13 @@ import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
 from mjx_radar.estimation.sensor import clutter
-from mjx_radar.estimation.tracks import multiscan_birth, track_birth, track_table, track_update
+from mjx_radar.estimation.tracks import (
+    altitude,
+    multiscan_birth,
+    track_birth,
+    track_table,
+    track_update,
+)
 
 __all__ = ["managed_tracker", "truth_view", "CUTOFF_M", "DENSITY_FLOOR"]
 
@@ -80,10 +87,11 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
         a = a6.astype(table.mean.dtype)
         m = table.mean @ a.T
         p = jnp.einsum("ij,kjl,ml->kim", a, table.cov, a) + q6.astype(table.cov.dtype)
-        table = table._replace(
-            mean=jnp.where(on[:, None], m, table.mean),
-            cov=jnp.where(on[:, None, None], p, table.cov),
-        )
+        m = jnp.where(on[:, None], m, table.mean)
+        p = jnp.where(on[:, None, None], p, table.cov)
+        if cfg.height_std > 0:  # the altitude pseudo-measurement (off by default)
+            m, p = altitude.height_update(m, p, on, cfg.birth_height, cfg.height_std**2)
+        table = table._replace(mean=m, cov=p)
         return mean, cov, ((table, modes[1]) if multi else table)
 
     def update(mean, cov, modes, z, radar_pos, scan, los=None):

@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 
 from mjx_radar.io.checks import ScenarioError
-from mjx_radar.scenario import schema_tracker, tracker_roles
+from mjx_radar.scenario import tracker_checks, tracker_roles
 from mjx_radar.scenario.schema import Scenario
 from mjx_radar.scenario.schema_tracker import MAX_EVENTS, MAX_STAR_WORK, MAX_TUPLES
 
@@ -63,7 +63,7 @@ def check_scenario(s: Scenario) -> None:
     _check_geometry(s)
     _check_detection(s)
     _check_imm(s)
-    schema_tracker.check(s)  # first: the managed table's own refusal names its associators
+    tracker_checks.check(s)  # first: the managed table's own refusal names its associators
     _check_tracker(s)
     tracker_roles.check(s)
     if s.mppi.samples * (1 - s.mppi.elite_threshold) < 1 and s.mppi.weighting == "ce":
@@ -273,7 +273,7 @@ def _check_tracker(s: Scenario) -> None:
             f'tracker.marginals = "lbp" (jpda)'
         )
     if t.association == "mht":
-        schema_tracker.check_mht(t, m)
+        tracker_checks.check_mht(t, m)
     if t.jpda_star and (t.association != "jpda" or t.marginals != "exact"):
         raise ScenarioError(
             f'tracker.jpda_star = true: needs tracker.association = "jpda" and '

@@ -10,15 +10,14 @@ docs/track_management.md: tracks are born from returns no track explains, confir
 M-of-N, deleted after missed scans or when their position covariance grows past a bound,
 and the planner plans for the confirmed ones. Every field is static (part of the
 compiled shape). Cross-field rules: association's in :mod:`mjx_radar.scenario.plausibility`,
-management's in :func:`check`.
+management's and the MHT's in :mod:`mjx_radar.scenario.tracker_checks`.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
-from mjx_radar.io.checks import ScenarioError, choice, flag, rule
+from mjx_radar.io.checks import choice, flag, rule
 from mjx_radar.registry import ASSOCIATORS
 
 MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
@@ -224,6 +223,19 @@ class TrackerConfig:
             ),
         ),
     )
+    height_std: float = field(
+        default=0.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e5,
+            unit="m",
+            doc=(
+                "managed: std of a per-scan pseudo-measurement of each track's height at "
+                "birth_height (0: off)"
+            ),
+        ),
+    )
     tentative_weight: float = field(
         default=0.0,
         metadata=rule(
@@ -240,60 +252,3 @@ class TrackerConfig:
 
 #: the earlier name of the table's class (track management)
 TrackManagementConfig = TrackerConfig
-
-
-def check_mht(t: TrackerConfig, m: int) -> None:
-    """The MHT's limits (``association = "mht"``, M targets): its children per radar and
-    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; label-free merging
-    (M! target orders) for M <= 6."""
-    children = t.hypotheses * (t.candidates + 1) ** m
-    if children > MAX_CHILDREN:
-        raise ScenarioError(
-            f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
-            f"{children} children per radar and scan exceed {MAX_CHILDREN}; "
-            f"lower it or tracker.candidates"
-        )
-    if t.merge_labels and m > 6:
-        raise ScenarioError(
-            f"tracker.merge_labels = true: compares M! = {math.factorial(m)} target orders "
-            f"for M = {m} targets; at most 6 targets (set it false)"
-        )
-
-
-def check(s) -> None:
-    """Cross-field rules of ``[tracker]`` (a no-op unless ``management = "managed"``)."""
-    t = s.tracker
-    if t.management != "managed" and s.filter.tracker != "managed":
-        return
-    if (
-        t.association not in ("pda", "gnn")
-        and t.association.lower() not in ASSOCIATORS.registered()
-    ):
-        raise ScenarioError(
-            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn" '
-            f"or a registered associator ({t.association} drives the per-target bank only)"
-        )
-    if t.confirm_m > t.confirm_n:
-        raise ScenarioError(
-            f"tracker.confirm_m = {t.confirm_m}: must be <= tracker.confirm_n = {t.confirm_n}"
-        )
-    for name in ("hit_radars", "birth_radars"):
-        v = getattr(t, name)
-        if v > s.n_radars:
-            raise ScenarioError(f"tracker.{name} = {v}: must be <= n_radars = {s.n_radars}")
-    dim = 2 if s.measurement.model == "range-azimuth" else 1
-    if dim == 1 and s.n_radars < 3:
-        raise ScenarioError(
-            f'tracker.management = "managed": range-only births need n_radars >= 3 '
-            f"(multilateration), got {s.n_radars}"
-        )
-    f = s.filter
-    if f.structure != "per-target" or f.form != "covariance" or f.motion != "cv":
-        raise ScenarioError(
-            'tracker.management = "managed": needs filter.structure = "per-target", '
-            f'form = "covariance", motion = "cv" (got "{f.structure}", "{f.form}", "{f.motion}")'
-        )
-    if f.tracker not in ("auto", "managed"):
-        raise ScenarioError(
-            f'tracker.management = "managed": filter.tracker must be "auto", got "{f.tracker}"'
-        )

@@ -59,6 +59,7 @@ _MANAGED_FIELDS = (
     "birth_speed_std",
     "birth_scans",
     "tentative_weight",
+    "height_std",
 )
 #: ``[filter]`` options of the IMM form
 _IMM_FIELDS = ("imm_turn_rate", "imm_switch_prob")

@@ -1,0 +1,72 @@
+"""Cross-field rules of the ``[tracker]`` table (docs/track_management.md, docs/tracking.md).
+
+:func:`check`: the managed table's needs (its associators, M-of-N, radars, the filter);
+:func:`check_mht`: the MHT's size limits. Called by :mod:`mjx_radar.scenario.plausibility`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mjx_radar.io.checks import ScenarioError
+from mjx_radar.registry import ASSOCIATORS
+from mjx_radar.scenario.schema_tracker import MAX_CHILDREN, TrackerConfig
+
+__all__ = ["check", "check_mht"]
+
+
+def check_mht(t: TrackerConfig, m: int) -> None:
+    """The MHT's limits (``association = "mht"``, M targets): its children per radar and
+    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; label-free merging
+    (M! target orders) for M <= 6."""
+    children = t.hypotheses * (t.candidates + 1) ** m
+    if children > MAX_CHILDREN:
+        raise ScenarioError(
+            f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
+            f"{children} children per radar and scan exceed {MAX_CHILDREN}; "
+            f"lower it or tracker.candidates"
+        )
+    if t.merge_labels and m > 6:
+        raise ScenarioError(
+            f"tracker.merge_labels = true: compares M! = {math.factorial(m)} target orders "
+            f"for M = {m} targets; at most 6 targets (set it false)"
+        )
+
+
+def check(s) -> None:
+    """Cross-field rules of ``[tracker]`` (a no-op unless ``management = "managed"``)."""
+    t = s.tracker
+    if t.management != "managed" and s.filter.tracker != "managed":
+        return
+    if (
+        t.association not in ("pda", "gnn")
+        and t.association.lower() not in ASSOCIATORS.registered()
+    ):
+        raise ScenarioError(
+            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn" '
+            f"or a registered associator ({t.association} drives the per-target bank only)"
+        )
+    if t.confirm_m > t.confirm_n:
+        raise ScenarioError(
+            f"tracker.confirm_m = {t.confirm_m}: must be <= tracker.confirm_n = {t.confirm_n}"
+        )
+    for name in ("hit_radars", "birth_radars"):
+        v = getattr(t, name)
+        if v > s.n_radars:
+            raise ScenarioError(f"tracker.{name} = {v}: must be <= n_radars = {s.n_radars}")
+    dim = 2 if s.measurement.model == "range-azimuth" else 1
+    if dim == 1 and s.n_radars < 3:
+        raise ScenarioError(
+            f'tracker.management = "managed": range-only births need n_radars >= 3 '
+            f"(multilateration), got {s.n_radars}"
+        )
+    f = s.filter
+    if f.structure != "per-target" or f.form != "covariance" or f.motion != "cv":
+        raise ScenarioError(
+            'tracker.management = "managed": needs filter.structure = "per-target", '
+            f'form = "covariance", motion = "cv" (got "{f.structure}", "{f.form}", "{f.motion}")'
+        )
+    if f.tracker not in ("auto", "managed"):
+        raise ScenarioError(
+            f'tracker.management = "managed": filter.tracker must be "auto", got "{f.tracker}"'
+        )
