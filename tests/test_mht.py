@@ -172,11 +172,14 @@ def test_one_hypothesis_is_the_sequential_gnn_bank():
         valid = jnp.ones(zs.shape[:2], bool)
         tail = (jnp.float64(0.02), jnp.float64(chi2.ppf(PG, 1)), jnp.float64(PG))
         args = (jnp.asarray(zs), valid, jnp.asarray(radars), model, noise, True)
-        x, P = jpda.update_bank(
-            jnp.asarray(means), jnp.asarray(covs), *args, pd, *tail, jpda.rule("gnn", 4)
-        )
-        hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), 1)
-        hyp = mht.update_bank(hyp, *args, lambda pos: pd[:, None, :], *tail, 4)
+        x, P = jax.jit(  # jitted, both (eagerly, each small op compiles on its own)
+            lambda m, c: jpda.update_bank(m, c, *args, pd, *tail, jpda.rule("gnn", 4))
+        )(jnp.asarray(means), jnp.asarray(covs))
+        hyp = jax.jit(
+            lambda m, c: mht.update_bank(
+                mht.init(m, c, 1), *args, lambda pos: pd[:, None, :], *tail, 4
+            )
+        )(jnp.asarray(means), jnp.asarray(covs))
     np.testing.assert_allclose(hyp.means[0], x, rtol=0, atol=1e-12)
     np.testing.assert_allclose(hyp.covs[0], P, rtol=0, atol=1e-12)
     assert np.abs(np.asarray(x) - means).max() > 0.1
