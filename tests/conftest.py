@@ -111,6 +111,26 @@ def session_cache() -> Path:
 
 
 @pytest.fixture
+def run_example(session_cache):
+    """``run_example(name, out) -> stdout``: ``examples/<name>.py --small --out out`` in a
+    subprocess on the CPU, with the session's compilation cache; fails on a non-zero exit
+    (tests/test_examples.py, tests/test_examples_plugins.py)."""
+    repo = Path(__file__).resolve().parent.parent
+
+    def run(name: str, out: Path) -> str:
+        env = {**os.environ, "JAX_PLATFORMS": "cpu", "MJX_RADAR_CACHE_DIR": str(session_cache),
+               "MPLBACKEND": "Agg", "PYTHONPATH": str(repo)}  # fmt: skip
+        proc = subprocess.run(
+            [sys.executable, str(repo / "examples" / f"{name}.py"), "--small", "--out", str(out)],
+            capture_output=True, text=True, cwd=out.parent, env=env, timeout=900,
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        return proc.stdout
+
+    return run
+
+
+@pytest.fixture
 def sigkill_once_written():
     """``kill(proc, path, timeout_s)``: SIGKILL a running study as soon as ``path`` (its
     first chunk file) exists; fails if the process ends first or the timeout passes."""

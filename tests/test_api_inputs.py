@@ -219,16 +219,19 @@ def test_cli_run_refusal_leaves_no_out(tmp_path, capsys):
     assert "no target is present" in lines[0] and "Traceback" not in "".join(lines)
 
 
-def test_radars_that_cannot_be_placed_are_refused_in_one_line(tmp_path, smoke):
+def test_radars_that_cannot_be_placed_are_refused_in_one_line(tmp_path, tiny):
     """``simulate`` and ``run_study`` refuse a box too small for the radars' spacing as
-    the user's error (``engine.placement_cache``), before anything is written."""
-    cramped = smoke.replace(placement_half_width=20.0)
+    the user's error (``engine.placement_cache``), before anything is written. On
+    ``tiny`` (smoke's radars and box; the cheapest program) with stationary radars: the
+    check does not depend on the method, and with ``chunk=1`` both calls start the same
+    program (one trial per call: not the study's default 50-trial batch)."""
+    cramped = tiny.replace(placement_half_width=20.0)
     with pytest.raises(InputError, match=r"placement_half_width") as err:
-        mjx_radar.simulate(cramped, trials=1, steps=8, progress=False)
+        mjx_radar.simulate(cramped, "stationary", trials=1, steps=8, progress=False)
     assert "\n" not in str(err.value)
     out = tmp_path / "study"
     with pytest.raises(InputError, match=r"placement_half_width"):
-        mjx_radar.run_study(cramped, methods=["stationary"], trials=1, steps=8, out=out)
+        mjx_radar.run_study(cramped, methods=["stationary"], trials=1, steps=8, out=out, chunk=1)
     assert not out.exists()
     # the programs started before the check compile on (the box is a runtime number: a
     # corrected scenario loads them); they finish here, not inside the next test

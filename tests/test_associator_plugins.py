@@ -79,7 +79,8 @@ def test_an_associator_without_clutter_or_a_table_is_refused(cleanup):
 
 
 def _update(s):
-    """The composed tracker's update of one cluttered scan (eager)."""
+    """The composed tracker's update of one cluttered scan (one jitted call: eagerly,
+    each of its small ops compiles on its own)."""
     task, params = build(s, "stationary")
     ops = trackers.make(task, params)
     n, m, cap = task.fleet.n_radars, task.n_targets, s.detection.max_false_alarms
@@ -94,7 +95,7 @@ def _update(s):
     zs = jnp.concatenate([z, jnp.full((n, cap, z.shape[-1]), 5e3, z.dtype)], axis=1)
     valid = jnp.arange(m + cap)[None, :].repeat(n, 0) < m
     sc = scan.Scan(None, jnp.int32(n * m), jnp.int32(n * m), jnp.int32(0), zs, valid)
-    return ops.update(mean, cov, (), z, radar, sc, None), mean
+    return jax.jit(ops.update)(mean, cov, (), z, radar, sc, None), mean
 
 
 def test_a_factory_or_associate_that_breaks_the_contract_is_one_line(clutter, cleanup):

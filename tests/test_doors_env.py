@@ -22,7 +22,7 @@ def env():
 
 @pytest.fixture(scope="module")
 def state(env):
-    return env.reset(env.trial_key(0, 0))
+    return jax.jit(env.reset)(env.trial_key(0, 0))  # one program (eagerly: op by op)
 
 
 @pytest.mark.parametrize(

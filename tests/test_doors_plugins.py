@@ -115,10 +115,10 @@ def test_a_cost_terms_own_exception_lists_the_horizons_fields(cleanup):
 
     mjx_radar.register_cost_term("door_cost", door_cost)
     env = radar_env.make("smoke", steps=8)
-    state = env.reset(env.trial_key(0, 0))
+    obs = jax.eval_shape(env.reset, env.trial_key(0, 0)).obs  # shapes only: nothing compiles
     u = jnp.zeros((env.task.mpc.horizon, 2 * env.n_radars))
     with pytest.raises(PluginError) as err:
-        jax.eval_shape(env.objective(state.obs), u)
+        jax.eval_shape(lambda obs, u: env.objective(obs)(u), obs, u)
     line = str(err.value)
     assert line.startswith("cost term 'door_cost': door_cost() raised AttributeError")
     assert "it has: controls, radar, target_points, info0" in line and "\n" not in line

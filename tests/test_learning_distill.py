@@ -6,6 +6,7 @@ uninterrupted one, PPO fine-tuning from the clone and ``policy:DIR`` on other fl
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 
 import jax
@@ -26,7 +27,8 @@ from mjx_radar.learning.set_net import SetNet, init_params  # noqa: E402
 CLONE = DistillConfig(num_envs=4, buffer_size=400, batch_size=64, updates=150, hidden=32)
 
 
-def _random_obs(key, n, m) -> SetObs:
+@functools.partial(jax.jit, static_argnums=(1, 2))  # jitted here and below: eagerly, each
+def _random_obs(key, n, m) -> SetObs:  # small op compiles on its own (hundreds)
     k = jax.random.split(key, 3)
     return SetObs(
         jax.random.normal(k[0], (n, 7)),
@@ -45,10 +47,11 @@ def test_set_net_is_permutation_equivariant():
     x = _random_obs(jax.random.PRNGKey(3), 3, 4)
     pr, pt = np.array([2, 0, 1]), np.array([3, 1, 0, 2])
     xp = SetObs(x.radar[pr], x.target[pt], x.pair[pr][:, pt], x.radar_mask, x.target_mask)
-    out, outp = SetNet(16).apply(params, x), SetNet(16).apply(params, xp)
+    apply, apply_v = jax.jit(SetNet(16).apply), jax.jit(SetNet(16, True).apply)
+    out, outp = apply(params, x), apply(params, xp)
     assert out.shape == (3, 2)
     np.testing.assert_allclose(np.asarray(outp), np.asarray(out)[pr], rtol=1e-5, atol=1e-6)
-    v, vp = SetNet(16, True).apply(vparams, x), SetNet(16, True).apply(vparams, xp)
+    v, vp = apply_v(vparams, x), apply_v(vparams, xp)
     np.testing.assert_allclose(float(vp), float(v), rtol=1e-5, atol=1e-6)
 
 
@@ -56,13 +59,13 @@ def test_set_net_any_fleet_and_padding():
     """One set of parameters runs 2, 3 and 6 radars; rows padded with mask 0 change
     no real row's output; flatten / unflatten are inverse."""
     params = init_params(16, jax.random.PRNGKey(1))
-    net = SetNet(16)
+    apply = jax.jit(SetNet(16).apply)
     for n, m in ((2, 2), (3, 4), (6, 3)):
-        assert net.apply(params, _random_obs(jax.random.PRNGKey(n), n, m)).shape == (n, 2)
+        assert apply(params, _random_obs(jax.random.PRNGKey(n), n, m)).shape == (n, 2)
     x = _random_obs(jax.random.PRNGKey(5), 3, 4)
     padded = pad(x, 5, 6)
     np.testing.assert_allclose(
-        np.asarray(net.apply(params, padded))[:3], np.asarray(net.apply(params, x)), atol=1e-6
+        np.asarray(apply(params, padded))[:3], np.asarray(apply(params, x)), atol=1e-6
     )
     back = unflatten(flatten(x), 3, 4)
     for a, b in zip(back, x, strict=True):

@@ -35,6 +35,12 @@ def _obs(env, radar, mean, weight=None):
     )
 
 
+def _features(env, obs, version):
+    """:func:`set_features` of ``obs`` as one jitted program (eagerly, each of its small
+    ops compiles on its own: hundreds of compilations)."""
+    return jax.jit(lambda: set_features(env, obs, version))()
+
+
 @pytest.fixture(scope="module")
 def paper():
     from mjx_radar.env import make
@@ -69,8 +75,8 @@ def test_v2_pair_features_against_finite_differences(paper):
     rng = np.random.default_rng(0)
     radar, mean = _radars_and_drones(rng)
     weight = np.array([1.0, 1.0, 0.0, 1.0])
-    x = set_features(env, _obs(env, radar, mean, weight), "v2")
-    x1 = set_features(env, _obs(env, radar, mean, weight), "v1")
+    x = _features(env, _obs(env, radar, mean, weight), "v2")
+    x1 = _features(env, _obs(env, radar, mean, weight), "v1")
     assert x.pair.shape == (3, 4, SIZES["v2"][2]) and x.radar.shape == (3, SIZES["v2"][0])
     np.testing.assert_array_equal(np.asarray(x.pair[..., :6]), np.asarray(x1.pair))
 
@@ -112,7 +118,7 @@ def test_v2_ground_features_against_a_line_of_sight_march():
         [[400.0, 0.0, 115.0], [420.0, 150.0, 120.0], [380.0, -120.0, 60.0], [100.0, -200.0, 300.0]]
     )
     mean = np.column_stack([mean, np.zeros((4, 3))])
-    x = set_features(env, _obs(env, radar, mean), "v2")
+    x = _features(env, _obs(env, radar, mean), "v2")
     s = np.linspace(0.0, 1.0, 4001)[1:-1]
     pts = radar[:, None, None, :3] + s[:, None] * (
         mean[None, :, None, :3] - radar[:, None, None, :3]
@@ -139,12 +145,13 @@ def test_v2_features_and_network_are_permutation_equivariant(paper):
     rng = np.random.default_rng(1)
     radar, mean = _radars_and_drones(rng)
     pr, pt = np.array([2, 0, 1]), np.array([3, 1, 0, 2])
-    x = set_features(env, _obs(env, radar, mean), "v2")
-    xp = set_features(env, _obs(env, radar[pr], mean[pt]), "v2")
+    x = _features(env, _obs(env, radar, mean), "v2")
+    xp = _features(env, _obs(env, radar[pr], mean[pt]), "v2")
     np.testing.assert_allclose(np.asarray(xp.radar), np.asarray(x.radar)[pr], atol=1e-5)
     np.testing.assert_allclose(np.asarray(xp.pair), np.asarray(x.pair)[pr][:, pt], atol=1e-5)
     params = init_params(16, jax.random.PRNGKey(1), False, "v2")
-    out, outp = SetNet(16).apply(params, x), SetNet(16).apply(params, xp)
+    apply = jax.jit(SetNet(16).apply)
+    out, outp = apply(params, x), apply(params, xp)
     np.testing.assert_allclose(np.asarray(outp), np.asarray(out)[pr], rtol=1e-4, atol=1e-5)
 
 
@@ -157,6 +164,7 @@ def test_keepout_hinge_closed_form():
     from mjx_radar.learning.distill import HINGE_PERIODS, Scales, keepout_hinge
 
     assert HINGE_PERIODS == 3
+    hinge = jax.jit(keepout_hinge)  # eagerly, each small op compiles on its own
     s = Scales(400.0, 50.0, jnp.array([35.0]), 0.1, 125.0)
     radar = jnp.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
     target = jnp.zeros((1, 28)).at[0, 0].set(125.0 / 400.0).at[0, 27].set(1.0)
@@ -164,13 +172,13 @@ def test_keepout_hinge_closed_form():
     a = lambda acc: jnp.array([[acc, 0.0]])  # noqa: E731
     move = 0.5 * 35.0 * 0.3**2
     want = (move / 125.0) ** 2
-    np.testing.assert_allclose(float(keepout_hinge(a(1.0), x, s)), want, rtol=1e-3)
-    assert float(keepout_hinge(a(-1.0), x, s)) == 0.0
+    np.testing.assert_allclose(float(hinge(a(1.0), x, s)), want, rtol=1e-3)
+    assert float(hinge(a(-1.0), x, s)) == 0.0
     away = x._replace(target=target.at[0, 3].set(10.0 / 50.0))
-    assert float(keepout_hinge(a(1.0), away, s)) == 0.0
+    assert float(hinge(a(1.0), away, s)) == 0.0
     gone = x._replace(target=target.at[0, 27].set(0.0))
-    assert float(keepout_hinge(a(1.0), gone, s)) == 0.0
-    grad = jax.grad(lambda u: keepout_hinge(a(u), x, s))(0.5)
+    assert float(hinge(a(1.0), gone, s)) == 0.0
+    grad = jax.grad(lambda u: hinge(a(u), x, s))(0.5)
     assert float(grad) > 0  # accelerating towards the drone costs more
     two = SetObs(
         jnp.concatenate([radar, radar]),
@@ -180,7 +188,7 @@ def test_keepout_hinge_closed_form():
         jnp.ones(1),
     )
     s2 = s._replace(accel=jnp.array([35.0, 35.0]))
-    both = keepout_hinge(jnp.array([[1.0, 0.0], [1.0, 0.0]]), two, s2)
+    both = hinge(jnp.array([[1.0, 0.0], [1.0, 0.0]]), two, s2)
     np.testing.assert_allclose(float(both), want, rtol=1e-3)
 
 

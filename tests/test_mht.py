@@ -38,9 +38,9 @@ def _a6():
 Q6 = np.diag([0.01, 0.01, 0.01, 0.2, 0.2, 0.2])
 
 
-def _pd(pos):
+def _pd(pos, xp=np):
     """P_D of a target at ``pos [..., 3]``: depends on the (predicted) position."""
-    return 0.55 + 0.4 * np.tanh(pos[..., 0] / 4.0) ** 2
+    return 0.55 + 0.4 * xp.tanh(pos[..., 0] / 4.0) ** 2
 
 
 def _problem():
@@ -102,19 +102,27 @@ def _brute(means, covs, scans):
 
 
 def _mht(means, covs, scans, k):
-    with jax.enable_x64(True):
-        hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), k)
+    """The MHT over the two scans, one jitted program (eagerly, each of its small ops
+    compiles on its own: hundreds of compilations)."""
+
+    def run(means, covs, scans):
+        hyp = mht.init(means, covs, k)
         a6, q6 = jnp.asarray(_a6()), jnp.asarray(Q6)
         for s in range(2):
             hyp = mht.predict(hyp, a6, q6)
             for i in range(2):
-                z = jnp.asarray(scans[s][i])[:, None]
+                z = scans[s][i][:, None]
                 hrow = jnp.asarray(np.concatenate([HS[i], np.zeros(3)]))
-                pd = jnp.asarray(_pd(np.asarray(hyp.means[..., :3])))
+                pd = _pd(hyp.means[..., :3], jnp)
                 hyp, _ = mht.radar_update(
                     hyp, z, jnp.ones(z.shape[0], bool), lambda x, hrow=hrow: (hrow @ x)[None],
                     jnp.eye(1) * R, pd, LAM, 1e12, PG, z.shape[0],
                 )  # fmt: skip
+        return hyp
+
+    with jax.enable_x64(True):
+        zs = [[jnp.asarray(z) for z in per] for per in scans]
+        hyp = jax.jit(run)(jnp.asarray(means), jnp.asarray(covs), zs)
         return jax.tree_util.tree_map(np.asarray, hyp)
 
 
@@ -164,11 +172,14 @@ def test_one_hypothesis_is_the_sequential_gnn_bank():
         valid = jnp.ones(zs.shape[:2], bool)
         tail = (jnp.float64(0.02), jnp.float64(chi2.ppf(PG, 1)), jnp.float64(PG))
         args = (jnp.asarray(zs), valid, jnp.asarray(radars), model, noise, True)
-        x, P = jpda.update_bank(
-            jnp.asarray(means), jnp.asarray(covs), *args, pd, *tail, jpda.rule("gnn", 4)
-        )
-        hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), 1)
-        hyp = mht.update_bank(hyp, *args, lambda pos: pd[:, None, :], *tail, 4)
+        x, P = jax.jit(  # jitted, both (eagerly, each small op compiles on its own)
+            lambda m, c: jpda.update_bank(m, c, *args, pd, *tail, jpda.rule("gnn", 4))
+        )(jnp.asarray(means), jnp.asarray(covs))
+        hyp = jax.jit(
+            lambda m, c: mht.update_bank(
+                mht.init(m, c, 1), *args, lambda pos: pd[:, None, :], *tail, 4
+            )
+        )(jnp.asarray(means), jnp.asarray(covs))
     np.testing.assert_allclose(hyp.means[0], x, rtol=0, atol=1e-12)
     np.testing.assert_allclose(hyp.covs[0], P, rtol=0, atol=1e-12)
     assert np.abs(np.asarray(x) - means).max() > 0.1

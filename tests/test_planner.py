@@ -160,16 +160,19 @@ def test_plan_context_points_are_at_the_radars_instant():
     mean, cov = jnp.asarray(x, jnp.float32), 1e-6 * jnp.eye(6)
     radar = jnp.zeros((1, 6))
     dt_c, dt_f = s.timing.dt_control, s.timing.dt_filter
-    ctx = objective.plan_context(task, radar, mean, cov)
-    pts = np.asarray(ctx.target_points)[:, :, 0]  # [H, P, 6]
+    context = jax.jit(lambda m, c: objective.plan_context(task, radar, m, c).target_points)
+    pts = np.asarray(context(mean, cov))[:, :, 0]  # [H, P, 6] (jitted: eagerly, each small op
+    # compiles on its own)
     for j in range(s.mpc.horizon):  # step j of the horizon: the radar after control j+1
         want = x[:3] + (j + 1) * dt_c * x[3:]
         np.testing.assert_allclose(pts[j].mean(0)[:3], want, rtol=0, atol=1e-4)
         np.testing.assert_allclose(pts[j][:, :3], np.broadcast_to(want, (12, 3)), atol=3e-3)
     # The legacy order (mpc.aligned = false, the paper code): one filter prediction first,
     # as closed_loop.advance does, leads the radars by v * dt_filter (0.5 m here).
-    pm, pc = ckf.predict(mean, cov, lambda v: task.a_filter @ v, process_noise(task, params))
-    lead = np.asarray(objective.plan_context(task, radar, pm, pc).target_points)[0, :, 0]
+    pm, pc = jax.jit(
+        lambda m, c: ckf.predict(m, c, lambda v: task.a_filter @ v, process_noise(task, params))
+    )(mean, cov)
+    lead = np.asarray(context(pm, pc))[0, :, 0]
     np.testing.assert_allclose(lead.mean(0)[:3] - pts[0].mean(0)[:3], dt_f * x[3:], atol=1e-4)
 
 

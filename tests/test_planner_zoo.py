@@ -157,16 +157,15 @@ def test_lbfgs_reaches_the_optimum_and_the_box(inside):
         np.testing.assert_allclose(res.mean, jnp.clip(target, LOWER, UPPER), atol=1e-4)
 
 
-def test_planner_table_sets_the_gradient_steps():
-    """``[planner] gradient_steps`` reaches the grad planner: the plan changes with it."""
+def test_planner_table_sets_the_gradient_steps(tiny):
+    """``[planner] gradient_steps`` reaches the grad planner: the plan changes with it
+    (on ``tiny``: analytic rollouts, whose gradient compiles far faster than MJX's)."""
     from mjx_radar.env import make
     from mjx_radar.planners import base
-    from mjx_radar.scenario.reader import load_scenario
 
-    s = load_scenario("smoke")
     actions = []
     for steps in (1, 12):
-        env = make(s.replace(planner={"gradient_steps": steps}), "ddr-sfim")
+        env = make(tiny.replace(planner={"gradient_steps": steps}), "ddr-sfim")
         planner = base.make("grad", env)
         assert planner.settings.gradient_steps == steps
         state = jax.jit(env.reset)(env.trial_key(0, 0))  # one program, not op by op
