@@ -270,6 +270,7 @@ def test_shield_at_deployment_only(env, tmp_path):
     import pytest
 
     pytest.importorskip("flax")
+    from mjx_radar.io.checks import ScenarioError
     from mjx_radar.learning.distill_ckpt import _save_leaves
     from mjx_radar.learning.set_net import init_params
     from mjx_radar.learning.shield import shield
@@ -288,6 +289,8 @@ def test_shield_at_deployment_only(env, tmp_path):
     plain = PLANNERS.get(f"policy:{tmp_path}")(env)
     safe = PLANNERS.get(f"shielded-policy:{tmp_path}")(env)
     assert (plain.shielded, safe.shielded) == (False, True)
+    with pytest.raises(ScenarioError, match=r"^planner shielded-policy:/nope: no such folder"):
+        PLANNERS.get("shielded-policy:/nope")(env)
     o = _obs(env, np.random.default_rng(4), radar_xy=np.array([[0.0, 0.0], [3000.0, 3000.0]]))
     rs = np.asarray(o.radar_state).copy()
     rs[:, 3:] = [[0.0, 20.0, 0.0], [0.0, 0.0, 0.0]]  # radar 0 heads +x at 20 m/s

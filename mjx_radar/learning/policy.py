@@ -40,10 +40,10 @@ KEYS = ("checkpoint", "n_radars", "n_targets", "observation_size", "action_size"
 SET_KEYS = ("checkpoint", "network", "algo", "scenarios", "config")
 
 
-def _policy_dir(argument: str) -> tuple[Path, dict]:
-    """The folder and ``policy.json`` of ``policy:DIR``, checked (one line otherwise)."""
+def _policy_dir(argument: str, name: str = "policy") -> tuple[Path, dict]:
+    """The folder and ``policy.json`` of ``NAME:DIR``, checked (one line otherwise)."""
     path = Path(argument).expanduser().resolve()  # orbax reads absolute paths only
-    where = f"planner policy:{argument}"
+    where = f"planner {name}:{argument}"
     if not path.is_dir():
         raise ScenarioError(f"{where}: no such folder (train_policy.py --out DIR writes one)")
     meta = path / "policy.json"
@@ -73,10 +73,11 @@ class PolicyPlanner(Planner):
 
     takes_argument = True
     argument_name = "DIR"  # "give policy:DIR"
+    registry_name = "policy"  # what error lines call it
 
     def __init__(self, env, argument: str):
         super().__init__(env)
-        path, state = _policy_dir(argument)
+        path, state = _policy_dir(argument, self.registry_name)
         self.source, self.state = str(path), state
         if state.get("network") == "set":  # any fleet size (learning.set_net)
             self.shielded = bool(state["config"].get("shield", False))
@@ -85,11 +86,14 @@ class PolicyPlanner(Planner):
         n, m = env.n_radars, env.n_targets
         if (state["n_radars"], state["n_targets"]) != (n, m):
             raise ScenarioError(
-                f"planner policy:{argument}: trained for {state['n_radars']} radars and "
-                f"{state['n_targets']} targets ({state.get('scenario', '?')}), not {n} and {m}"
+                f"planner {self.registry_name}:{argument}: trained for {state['n_radars']} "
+                f"radars and {state['n_targets']} targets ({state.get('scenario', '?')}), "
+                f"not {n} and {m}"
             )
         if state["observation_size"] != feature_size(n, m):
-            raise ScenarioError(f"planner policy:{argument}: features of another version")
+            raise ScenarioError(
+                f"planner {self.registry_name}:{argument}: features of another version"
+            )
         self.shielded = bool(state["config"].get("shield", False))  # as trained
         self._policy = load_policy(path / state["checkpoint"], state)
 
@@ -103,11 +107,11 @@ class PolicyPlanner(Planner):
             u = shield(self.env, obs, u)
         return u.astype(obs.mean.dtype), carry
 
-    @staticmethod
-    def argument_digest(argument: str) -> str:
+    @classmethod
+    def argument_digest(cls, argument: str) -> str:
         """A digest of ``DIR/policy.json`` and the files of its latest checkpoint (a
         distillation's ``state.npz``, its buffers and optimiser, left out)."""
-        path, state = _policy_dir(argument)
+        path, state = _policy_dir(argument, cls.registry_name)
         h = hashlib.sha256((path / "policy.json").read_bytes())
         for f in sorted((path / state["checkpoint"]).rglob("*")):
             if f.is_file() and f.name != "state.npz":  # a distillation's buffers: not the policy
@@ -120,6 +124,8 @@ class ShieldedPolicyPlanner(PolicyPlanner):
     """``shielded-policy:DIR``: the policy of ``DIR`` with the keep-out shield
     (:func:`~mjx_radar.learning.shield.shield`) on its controls, whether or not it was
     trained with it (a safety layer added at deployment only)."""
+
+    registry_name = "shielded-policy"
 
     def __init__(self, env, argument: str):
         super().__init__(env, argument)
