@@ -32,7 +32,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent / "studies"))
 
-from compare_trackers import VARIANTS, variant  # noqa: E402
+from compare_trackers import VARIANTS, known_variant, variant  # noqa: E402
 
 import mjx_radar  # noqa: E402
 
@@ -92,7 +92,7 @@ def main(argv=None) -> int:
     ap.add_argument("--result", default=None, help="write benchmarks/results/ID.json")
     a = ap.parse_args(argv)
     variants = [v for v in a.variants.split(",") if v]
-    unknown = [v for v in variants if v not in VARIANTS]
+    unknown = [v for v in variants if not known_variant(v)]
     if unknown:
         ap.error(f"--variants: unknown {unknown}; known: {', '.join(VARIANTS)}")
     if "known" in variants:  # first: the other rows are timed against it

@@ -272,6 +272,7 @@ COST_TERMS = Registry(
             "moving_obstacle",
             "terrain_slope",
             "control_effort",
+            "association",
         )
     },
 )

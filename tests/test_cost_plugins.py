@@ -22,6 +22,7 @@ BUILT_IN = (
     "moving_obstacle",
     "terrain_slope",
     "control_effort",
+    "association",
 )
 
 

@@ -38,3 +38,17 @@ def test_init_traced_once_and_step_takes_its_shapes(tiny, monkeypatch):
     carry_out = [(a.shape, a.dtype) for a in e_init.out_avals[:-1]]  # (*carry, ok)
     carry_in = [(a.shape, a.dtype) for a in e_step.in_avals[len(p_specs) :]]
     assert carry_in == carry_out and all(s[0] == 2 for s, _ in carry_in)
+
+
+def test_the_period_index_is_the_one_shared_leaf(tiny):
+    """The step program hands the loop's control-period index to the vmapped loop unbatched
+    (a batch's trials advance together), so a ``lax.cond`` on it stays a branch; it is the
+    only leaf so handed: every other leaf is per trial."""
+    from mjx_radar.task.task import build
+
+    task, params = build(tiny)
+    carry, _ = jax.eval_shape(lambda: closed_loop.init_carry(task, params, 0))
+    shared = program_trace._shared_leaves(carry)
+    flat, _ = jax.tree_util.tree_flatten_with_path(carry)
+    names = [jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared) if s]
+    assert names == [".state.info['period']"]

@@ -20,8 +20,14 @@ for every variant) of the given methods. The variants are the scenario with
     mht-16-labels, mht-64-labels   mht with K = 16, 64 and label-free merging
     mht-jpda   mht with K = 64 (merge_screen = 2) branching over the first scan only
                (branch_scans = 1), then JPDA within each hypothesis
-    mht-jpda-16, mht-jpda-256   mht-jpda with K = 16 (merge_screen = 4), K = 256
+    mht-jpda-16, mht-jpda-256, mht-jpda-1024   mht-jpda with K = 16 (merge_screen = 4),
+               K = 256, K = 1024
+    mht-jpda-1024-b2   mht-jpda-1024 branching over the first 2 scans
+    jpda-p0, mht-jpda-p0, jpda-star-p0, gnn-p0, mht-p0   from a good start (p0 = 1 m^2, not the
+               scenario's): what the tracking after the start loses
     mht-jpda-b4   mht-jpda branching over the first 4 scans (branch_scans = 4)
+    NAME-assocA   variant NAME with the planner's association term weighted A
+               ([mpc] alpha_assoc = A; e.g. mht-jpda-assoc10)
     mht-jpda-mix  mht-jpda with the planner planning for the moment-matched mixture of
                the hypotheses (plan_on = "mixture"; the metrics score the heaviest's)
 
@@ -85,12 +91,37 @@ VARIANTS = {
     "mht-jpda-256": {
         "tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2, "branch_scans": 1}
     },
+    "mht-jpda-1024": {
+        "tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 2, "branch_scans": 1}
+    },
+    "jpda-p0": {"p0": 1.0, "tracker": {"association": "jpda"}},
+    "jpda-star-p0": {"p0": 1.0, "tracker": {"association": "jpda", "jpda_star": True}},
+    "gnn-p0": {"p0": 1.0, "tracker": {"association": "gnn"}},
+    "mht-p0": {"p0": 1.0, "tracker": {"association": "mht"}},
+    "mht-jpda-1024-b2": {
+        "tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 2, "branch_scans": 2}
+    },
+    "mht-jpda-p0": {
+        "p0": 1.0,
+        "tracker": {"association": "mht", "hypotheses": 64, "merge_screen": 2, "branch_scans": 1},
+    },
 }
 
 
 def variant(scenario, name: str):
-    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`)."""
-    return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **VARIANTS[name])
+    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`); ``NAME-assocA``:
+    variant NAME with the planner's association term weighted A (``[mpc] alpha_assoc``)."""
+    base, _, weight = name.partition("-assoc")
+    edits = dict(VARIANTS[base])
+    if weight:
+        edits["mpc"] = {"alpha_assoc": float(weight)}
+    return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **edits)
+
+
+def known_variant(name: str) -> bool:
+    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-assocA``."""
+    base, _, weight = name.partition("-assoc")
+    return base in VARIANTS and (not weight or weight.replace(".", "", 1).isdigit())
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:
@@ -140,7 +171,7 @@ def main(argv=None) -> int:
     p.add_argument("--prefix", type=int, default=None, help="also the first N steps' figures")
     p.add_argument("--result", default=None, help="also write benchmarks/results/ID.json")
     args = p.parse_args(argv)
-    unknown = set(args.variants.split(",")) - set(VARIANTS)
+    unknown = {v for v in args.variants.split(",") if not known_variant(v)}
     if unknown:
         p.error(f"--variants: unknown {sorted(unknown)}; one of {', '.join(VARIANTS)}")
     frames = []

@@ -124,7 +124,14 @@ def step_program(
             return tuple(x[None] for x in step_flat(*rest[:n_params], *carry))
 
     else:
-        step_device = jax.vmap(step_flat, in_axes=(None,) * n_params + (0,) * n_carry)
+        shared = [s for s, keep in zip(_shared_leaves(c_shapes), live, strict=True) if keep]
+        axes = (None,) * n_params + tuple(None if s else 0 for s in shared)
+        batched = jax.vmap(step_flat, in_axes=axes)
+
+        def step_device(*rest):  # a shared leaf: the first trial's value, unbatched
+            given = [x[0] if s else x for x, s in zip(rest[n_params:], shared, strict=True)]
+            return batched(*rest[:n_params], *given)
+
     step = jax.shard_map(
         step_device,
         mesh=mesh,
@@ -134,6 +141,20 @@ def step_program(
     )
     donate = tuple(range(n_params, n_params + n_carry))
     return jax.jit(step, donate_argnums=donate)
+
+
+def _shared_leaves(c_shapes) -> list[bool]:
+    """Per loop-state leaf: whether every trial of a batch holds the same value -- the
+    control period's index (``state.info["period"]``: a batch's trials advance together).
+
+    The step program hands it to the vmapped loop unbatched, so what depends on the
+    period alone stays unbatched: a ``lax.cond`` on it (the MHT's branching scans,
+    :func:`mjx_radar.estimation.data_association.mht.update_bank`) stays a branch instead
+    of a ``select`` that computes both sides for every trial at every step. The values
+    are the same either way."""
+    flat, _ = jax.tree_util.tree_flatten_with_path(c_shapes)
+    last = [path[-1] if path else None for path, _ in flat]
+    return [isinstance(k, jax.tree_util.DictKey) and k.key == "period" for k in last]
 
 
 def flat_programs(task, periods, full, mesh, n_params, tree, c_shapes, planner="mppi", **kw):

@@ -108,6 +108,27 @@ class MPCConfig:
             "(alpha/alpha_max)^2 summed over radars (0: term off)",
         ),
     )
+    alpha_assoc: float = field(
+        default=0.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e9,
+            doc="weight of drone pairs whose ranges coincide at a radar, "
+            "exp(-(r_i - r_j)^2 / (2 assoc_scale^2)) summed over radars and pairs (0: term off)",
+        ),
+    )
+    assoc_scale: float = field(
+        default=5.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e3,
+            lo_open=True,
+            doc="range separation below which two drones' returns at a radar are confusable",
+            unit="m",
+        ),
+    )
     alpha_obs: float = field(
         default=1000.0,
         metadata=rule(

@@ -20,7 +20,11 @@ t+1 and E_p the mean over the CKF cubature points of the target states at that t
   step's time ``t_plan + (t + 1) dt_control`` (:func:`mjx_radar.world.moving.keep_out_cost`);
 * ``terrain_slope`` (scenes with terrain, ``terrain.alpha_slope > 0``):
   ``α_slope Σ_n relu(|∇h(p_n(t))| − tan(max_slope_deg))`` (keep-out of steep ground);
-* ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``.
+* ``control_effort`` (``mpc.alpha_effort > 0``): ``α_u Σ_n (a/a_max)² + (α/α_max)²``;
+* ``association`` (``mpc.alpha_assoc > 0``): ``α_a E_p[Σ_n Σ_{i<j} exp(−(r_ni − r_nj)² /
+  (2 s²))]``, r_ni the range from radar n to target i and s = ``mpc.assoc_scale``: the
+  expected number of target pairs whose returns a radar cannot tell apart (a range-only
+  radar swaps such returns between two tracks; docs/tracking.md).
 
 Adding a term: write ``def my_term(h: Horizon, task, params) -> [H]`` here and list it
 in :func:`builtin_terms` and :data:`mjx_radar.registry.COST_TERMS` (docs/extending.md), or
@@ -185,6 +189,25 @@ def control_effort(h: Horizon, task, params) -> jax.Array:
     return task.mpc.alpha_effort * jnp.sum(scaled**2, axis=(-1, -2))
 
 
+def association(h: Horizon, task, params) -> jax.Array:
+    """``[H]`` ``α_a E_p[Σ_n Σ_{i<j} w_i w_j exp(−(r_ni − r_nj)² / (2 s²))]``: the target
+    pairs whose ranges coincide at a radar within ``s`` (``w``: presence weights, 1 when
+    unset). A pair's returns at that radar are then exchangeable, and a range-only
+    tracker may swap them between the two tracks."""
+    pos = h.radar[:, None, :, None, :3]  # [H, 1, N, 1, 3]
+    tgt = h.target_points[:, :, None, :, :3]  # [H, P, 1, M, 3]
+    rng = jnp.sqrt(jnp.sum((tgt - pos) ** 2, axis=-1))  # [H, P, N, M]
+    m = rng.shape[-1]
+    iu, ju = np.triu_indices(m, k=1)  # static pairs
+    gap = rng[..., iu] - rng[..., ju]  # [H, P, N, pairs]
+    s = task.mpc.assoc_scale
+    near = jnp.exp(-0.5 * (gap / s) ** 2)
+    if params.target_weight is not None:
+        w = params.target_weight.astype(near.dtype)
+        near = near * (w[iu] * w[ju])
+    return task.mpc.alpha_assoc * jnp.mean(jnp.sum(near, axis=(-1, -2)), axis=-1)
+
+
 def builtin_terms(world, mpc) -> tuple[CostTerm, ...]:
     """The built-in terms of an objective, in reporting order: the information and the
     keep-outs, then each world component's term where it is present and weighted
@@ -202,6 +225,8 @@ def builtin_terms(world, mpc) -> tuple[CostTerm, ...]:
         terms.append(CostTerm("terrain_slope", terrain_slope))
     if mpc.alpha_effort > 0:
         terms.append(CostTerm("control_effort", control_effort))
+    if mpc.alpha_assoc > 0:
+        terms.append(CostTerm("association", association))
     return tuple(terms)
 
 
