@@ -50,5 +50,5 @@ def test_the_period_index_is_the_one_shared_leaf(tiny):
     carry, _ = jax.eval_shape(lambda: closed_loop.init_carry(task, params, 0))
     shared = program_trace._shared_leaves(carry)
     flat, _ = jax.tree_util.tree_flatten_with_path(carry)
-    names = [jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared) if s]
+    names = [jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared, strict=True) if s]
     assert names == [".state.info['period']"]

@@ -75,8 +75,9 @@ def swap_row(target, mean, radar, first: int) -> list:
 
 
 def main(argv=None) -> int:
-    import mjx_radar
     from compare_trackers import known_variant, variant
+
+    import mjx_radar
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--variant", default="jpda-p0")

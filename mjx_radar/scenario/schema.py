@@ -14,7 +14,7 @@ from mjx_radar.scenario.names import accept_toml_names
 from mjx_radar.scenario.schema_detection import DetectionConfig
 from mjx_radar.scenario.schema_filter import FilterConfig
 from mjx_radar.scenario.schema_metrics import MetricsConfig
-from mjx_radar.scenario.schema_planner import PlannerConfig
+from mjx_radar.scenario.schema_planner import MPPIConfig, PlannerConfig
 from mjx_radar.scenario.schema_sensing import MeasurementConfig, RadarEquation
 from mjx_radar.scenario.schema_terrain import Terrain
 from mjx_radar.scenario.schema_tracker import TrackerConfig
@@ -167,33 +167,6 @@ class MPCConfig:
             doc="Euler sub-steps per control step in the planner's rollouts "
             "(the plant integrates at dt_filter: substeps = dt_control/dt_filter matches it)",
         ),
-    )
-
-
-@dataclass(frozen=True)
-class MPPIConfig:
-    """MPPI with adaptive importance sampling (SPEC §7). Task-agnostic."""
-
-    samples: int = field(
-        default=200, metadata=rule(int, 2, 1_000_000, doc="rollouts per iteration")
-    )
-    iterations: int = field(
-        default=5, metadata=rule(int, 1, 1000, doc="adaptive importance-sampling iterations")
-    )
-    std_accel: float = field(
-        default=25.0, metadata=positive("initial proposal std of a", "m/s^2", hi=1e4)
-    )
-    std_alpha_deg: float = field(
-        default=45.0, metadata=positive("initial proposal std of alpha", "deg/s^2", hi=1e5)
-    )
-    weighting: str = field(default="ce", metadata=choice("ce", "softmax", doc="sample weighting"))
-    elite_threshold: float = field(
-        default=0.9, metadata=positive("ce: elites are costs <= (1 - thr) quantile", hi=1.0)
-    )
-    temperature: float = field(default=0.1, metadata=positive("softmax temperature", hi=1e6))
-    shrinkage: str = field(
-        default="ledoit-wolf",
-        metadata=choice("ledoit-wolf", "oas", "none", doc="covariance shrinkage"),
     )
 
 

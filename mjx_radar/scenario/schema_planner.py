@@ -1,6 +1,7 @@
 """The ``[planner]`` table of a scenario: the settings of the planner zoo (docs/planners.md).
 
-Part of :mod:`mjx_radar.scenario.schema` (re-exported there as ``config.PlannerConfig``).
+Part of :mod:`mjx_radar.scenario.schema` (re-exported there as ``config.PlannerConfig``),
+with the ``[mppi]`` table (:class:`MPPIConfig`, the paper's planner).
 Which planner runs is the method's (``"ddr-sfim+cem"``, ``--planner``, ``simulate(...,
 planner=)``); this table holds each built-in planner's own settings. The compute budget
 is common to all: ``mppi.samples x mppi.iterations`` rollouts per control call for the
@@ -15,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mjx_radar.io.checks import choice, rule
+from mjx_radar.scenario.schema_world import positive
 
 
 @dataclass(frozen=True)
@@ -62,4 +64,31 @@ class PlannerConfig:
         metadata=rule(
             float, 0.0, 100.0, lo_open=True, doc="cmaes, sep-cmaes: initial step, x proposal std"
         ),
+    )
+
+
+@dataclass(frozen=True)
+class MPPIConfig:
+    """MPPI with adaptive importance sampling (SPEC §7). Task-agnostic."""
+
+    samples: int = field(
+        default=200, metadata=rule(int, 2, 1_000_000, doc="rollouts per iteration")
+    )
+    iterations: int = field(
+        default=5, metadata=rule(int, 1, 1000, doc="adaptive importance-sampling iterations")
+    )
+    std_accel: float = field(
+        default=25.0, metadata=positive("initial proposal std of a", "m/s^2", hi=1e4)
+    )
+    std_alpha_deg: float = field(
+        default=45.0, metadata=positive("initial proposal std of alpha", "deg/s^2", hi=1e5)
+    )
+    weighting: str = field(default="ce", metadata=choice("ce", "softmax", doc="sample weighting"))
+    elite_threshold: float = field(
+        default=0.9, metadata=positive("ce: elites are costs <= (1 - thr) quantile", hi=1.0)
+    )
+    temperature: float = field(default=0.1, metadata=positive("softmax temperature", hi=1e6))
+    shrinkage: str = field(
+        default="ledoit-wolf",
+        metadata=choice("ledoit-wolf", "oas", "none", doc="covariance shrinkage"),
     )
