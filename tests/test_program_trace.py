@@ -51,4 +51,4 @@ def test_the_period_index_is_the_one_shared_leaf(tiny):
     shared = program_trace._shared_leaves(carry)
     flat, _ = jax.tree_util.tree_flatten_with_path(carry)
     names = [jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared, strict=True) if s]
-    assert names == [".state.info['period']"]
+    assert names == [program_trace.PERIOD] == [".state.info['period']"]

@@ -143,6 +143,11 @@ def step_program(
     return jax.jit(step, donate_argnums=donate)
 
 
+#: the loop state's control-period index (``LoopCarry.state.info["period"]``); a leaf of the
+#: planner's own carry with that key is per trial
+PERIOD = ".state.info['period']"
+
+
 def _shared_leaves(c_shapes) -> list[bool]:
     """Per loop-state leaf: whether every trial of a batch holds the same value -- the
     control period's index (``state.info["period"]``: a batch's trials advance together).
@@ -153,8 +158,7 @@ def _shared_leaves(c_shapes) -> list[bool]:
     of a ``select`` that computes both sides for every trial at every step. The values
     are the same either way."""
     flat, _ = jax.tree_util.tree_flatten_with_path(c_shapes)
-    last = [path[-1] if path else None for path, _ in flat]
-    return [isinstance(k, jax.tree_util.DictKey) and k.key == "period" for k in last]
+    return [jax.tree_util.keystr(path) == PERIOD for path, _ in flat]
 
 
 def flat_programs(task, periods, full, mesh, n_params, tree, c_shapes, planner="mppi", **kw):
