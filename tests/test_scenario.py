@@ -28,6 +28,8 @@ BUNDLED = [
     "forest_4r4t",
     "clutter_3r4t",
     "clutter_spread_3r4t",
+    "clutter_apart_3r4t",
+    "clutter_az_3r4t",
 ]
 
 

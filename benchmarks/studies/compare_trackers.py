@@ -20,12 +20,14 @@ for every variant) of the given methods. The variants are the scenario with
     mht-16-labels, mht-64-labels   mht with K = 16, 64 and label-free merging
     mht-jpda   mht with K = 64 (merge_screen = 2) branching over the first scan only
                (branch_scans = 1), then JPDA within each hypothesis
-    mht-jpda-16, mht-jpda-256, mht-jpda-1024   mht-jpda with K = 16 (merge_screen = 4),
-               K = 256, K = 1024
+    mht-jpda-16, mht-jpda-256, mht-jpda-512, mht-jpda-1024   mht-jpda with K = 16
+               (merge_screen = 4), K = 256, K = 512, K = 1024
     mht-jpda-1024-b2   mht-jpda-1024 branching over the first 2 scans
     jpda-p0, mht-jpda-p0, jpda-star-p0, gnn-p0, mht-p0   from a good start (p0 = 1 m^2, not the
                scenario's): what the tracking after the start loses
     mht-jpda-b4   mht-jpda branching over the first 4 scans (branch_scans = 4)
+    NAME-gateN    variant NAME with the validation gate's probability 1 - 10^-N
+               ([detection] gate_probability; e.g. mht-jpda-gate6: 0.999999)
     NAME-assocA   variant NAME with the planner's association term weighted A
                ([mpc] alpha_assoc = A; e.g. mht-jpda-assoc10)
     mht-jpda-mix  mht-jpda with the planner planning for the moment-matched mixture of
@@ -91,6 +93,9 @@ VARIANTS = {
     "mht-jpda-256": {
         "tracker": {"association": "mht", "hypotheses": 256, "merge_screen": 2, "branch_scans": 1}
     },
+    "mht-jpda-512": {
+        "tracker": {"association": "mht", "hypotheses": 512, "merge_screen": 2, "branch_scans": 1}
+    },
     "mht-jpda-1024": {
         "tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 2, "branch_scans": 1}
     },
@@ -108,20 +113,36 @@ VARIANTS = {
 }
 
 
+def _parts(name: str) -> tuple[str, str, str]:
+    """``NAME[-gateN][-assocA]`` -> ``(NAME, N, A)`` (empty strings where absent)."""
+    rest, _, weight = name.partition("-assoc")
+    base, _, gate = rest.partition("-gate")
+    return base, gate, weight
+
+
 def variant(scenario, name: str):
-    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`); ``NAME-assocA``:
-    variant NAME with the planner's association term weighted A (``[mpc] alpha_assoc``)."""
-    base, _, weight = name.partition("-assoc")
+    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`); ``NAME-gateN``:
+    variant NAME with the validation gate's probability ``1 − 10^−N``
+    (``[detection] gate_probability``); ``NAME-assocA``: with the planner's association term
+    weighted A (``[mpc] alpha_assoc``); both may be given, in that order."""
+    base, gate, weight = _parts(name)
     edits = dict(VARIANTS[base])
+    if gate:
+        edits["detection"] = {
+            **edits.get("detection", {}),
+            "gate_probability": 1 - 10 ** -int(gate),
+        }
     if weight:
         edits["mpc"] = {"alpha_assoc": float(weight)}
     return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **edits)
 
 
 def known_variant(name: str) -> bool:
-    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-assocA``."""
-    base, _, weight = name.partition("-assoc")
-    return base in VARIANTS and (not weight or weight.replace(".", "", 1).isdigit())
+    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-gateN`` and
+    ``-assocA``."""
+    base, gate, weight = _parts(name)
+    ok_gate = not gate or (gate.isdigit() and 1 <= int(gate) <= 12)
+    return base in VARIANTS and ok_gate and (not weight or weight.replace(".", "", 1).isdigit())
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:
