@@ -113,11 +113,11 @@ VARIANTS = {
 }
 
 
-def _parts(name: str) -> tuple[str, str, str]:
-    """``NAME[-gateN][-assocA]`` -> ``(NAME, N, A)`` (empty strings where absent)."""
-    rest, _, weight = name.partition("-assoc")
-    base, _, gate = rest.partition("-gate")
-    return base, gate, weight
+def _parts(name: str) -> tuple[str, str | None, str | None]:
+    """``NAME[-gateN][-assocA]`` -> ``(NAME, N, A)`` (None where the suffix is absent)."""
+    rest, sep_a, weight = name.partition("-assoc")
+    base, sep_g, gate = rest.partition("-gate")
+    return base, (gate if sep_g else None), (weight if sep_a else None)
 
 
 def variant(scenario, name: str):
@@ -127,22 +127,21 @@ def variant(scenario, name: str):
     weighted A (``[mpc] alpha_assoc``); both may be given, in that order."""
     base, gate, weight = _parts(name)
     edits = dict(VARIANTS[base])
-    if gate:
-        edits["detection"] = {
-            **edits.get("detection", {}),
-            "gate_probability": 1 - 10 ** -int(gate),
-        }
-    if weight:
+    if gate is not None:
+        gp = 1 - 10 ** -int(gate)
+        edits["detection"] = {**edits.get("detection", {}), "gate_probability": gp}
+    if weight is not None:
         edits["mpc"] = {"alpha_assoc": float(weight)}
     return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **edits)
 
 
 def known_variant(name: str) -> bool:
-    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-gateN`` and
-    ``-assocA``."""
+    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-gateN``
+    (N in 1..6, the gate probabilities the scenario accepts) and ``-assocA``."""
     base, gate, weight = _parts(name)
-    ok_gate = not gate or (gate.isdigit() and 1 <= int(gate) <= 12)
-    return base in VARIANTS and ok_gate and (not weight or weight.replace(".", "", 1).isdigit())
+    ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
+    ok_weight = weight is None or weight.replace(".", "", 1).isdigit()
+    return base in VARIANTS and ok_gate and ok_weight
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:

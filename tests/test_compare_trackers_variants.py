@@ -1,0 +1,64 @@
+"""The variant names of benchmarks/studies/compare_trackers.py: ``NAME[-gateN][-assocA]``
+become the scenario tables they say (docs/tracking.md), and malformed names are refused."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+import mjx_radar
+
+STUDIES = Path(__file__).resolve().parents[1] / "benchmarks" / "studies"
+
+
+@pytest.fixture(scope="module")
+def ct():
+    sys.path.insert(0, str(STUDIES.parent))  # compare_trackers imports benchmarks/results.py
+    spec = importlib.util.spec_from_file_location(
+        "compare_trackers_script", STUDIES / "compare_trackers.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def clutter():
+    return mjx_radar.load_scenario("clutter_3r4t")
+
+
+def test_suffixes_set_the_gate_and_the_association_term(ct, clutter):
+    s = ct.variant(clutter, "mht-jpda-256-gate4-assoc10")
+    assert (s.tracker.association, s.tracker.hypotheses, s.tracker.branch_scans) == ("mht", 256, 1)
+    assert s.detection.gate_probability == pytest.approx(0.9999, abs=1e-15)
+    assert s.mpc.alpha_assoc == 10.0
+    assert s.name == "clutter_3r4t_mht_jpda_256_gate4_assoc10"
+    plain = ct.variant(clutter, "mht-jpda-256")
+    assert plain.detection.gate_probability == clutter.detection.gate_probability == 0.99
+    assert plain.mpc.alpha_assoc == 0.0
+
+
+def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
+    s = ct.variant(clutter, "known-gate6")  # known: the labelled scans (no clutter)
+    assert s.detection.clutter_density == 0.0
+    assert s.detection.gate_probability == pytest.approx(0.999999, abs=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("name", "known"),
+    [
+        ("mht-jpda-gate6", True),
+        ("jpda-gate4-assoc30", True),
+        ("mht-jpda-512", True),
+        ("mht-jpda-gate", False),
+        ("mht-jpda-gate7", False),  # beyond the scenario's largest gate, 0.999999
+        ("jpda-assoc", False),
+        ("mht-jpda-gatex", False),
+        ("nope-gate4", False),
+        ("jpda-assoc1x", False),
+        ("jpda-assoc10-gate4", False),  # the order is -gateN, then -assocA
+    ],
+)
+def test_known_variant(ct, name, known):
+    assert ct.known_variant(name) is known
