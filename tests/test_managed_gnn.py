@@ -63,6 +63,7 @@ def test_gnn_assignment_is_the_best_joint_event():
     same event; an empty slot and a gated-out pair are never assigned."""
     rng = np.random.default_rng(1)
     gnn = jax.jit(assignment.gnn_assignment)
+    weights = jax.jit(association.gnn_weights, static_argnums=1)  # eager: 16 s of dispatch
     batch = []
     for _ in range(30):
         k, ell = int(rng.integers(2, 5)), int(rng.integers(2, 5))
@@ -72,7 +73,7 @@ def test_gnn_assignment_is_the_best_joint_event():
         got = np.where(beta0 > 0.5, -1, np.argmax(beta, axis=1))
         np.testing.assert_array_equal(got, arg)
         assert (beta.sum(0) <= 1).all() and np.isfinite(logr[beta > 0.5]).all()
-        e0, e = association.gnn_weights(jnp.asarray(logr), ell)
+        e0, e = weights(jnp.asarray(logr), ell)
         np.testing.assert_array_equal(np.asarray(e), beta)
         np.testing.assert_array_equal(np.asarray(e0), beta0)
         batch.append((logr, beta))
@@ -111,10 +112,11 @@ def test_two_tracks_one_return_pda_shares_gnn_assigns():
     prediction), takes no return into the empty slot, and only the drone earns a hit."""
     scene, args = _scene()
     means, covs = scene[0], scene[1]
-    m_pda, _, nll_pda = track_update.pda_associator(*args, exclusive=False)(*scene)
+    m_pda, _, nll_pda = jax.jit(track_update.pda_associator(*args, exclusive=False))(*scene)
     assert np.isfinite(np.asarray(nll_pda[:2, :, 0])).all()  # both gate every drone return
     assert float(jnp.abs(m_pda[1] - means[1]).max()) > 1.0  # the ghost moved
-    m_gnn, c_gnn, nll = track_update.gnn_associator(*args)(*scene)
+    gnn = track_update.gnn_associator(*args)
+    m_gnn, c_gnn, nll = jax.jit(gnn)(*scene)  # jitted: eagerly the loops take seconds
     nll = np.asarray(nll)
     assert np.isfinite(nll[0, :, 0]).all() and not np.isfinite(nll[1:]).any()
     np.testing.assert_array_equal(np.asarray(m_gnn[1:]), np.asarray(means[1:]))
@@ -122,9 +124,8 @@ def test_two_tracks_one_return_pda_shares_gnn_assigns():
     assert float(jnp.abs(m_gnn[0, :2]).max()) < 1.0  # the drone's track stays at the truth
     table = track_table.empty(3, scene[5].shape[0], jnp.float32)
     table = track_table.insert(table, means[:2], covs[:2], jnp.array([True, True]))
-    _, hit, explained = track_update.update(
-        table, scene[3], scene[4], scene[5], track_update.gnn_associator(*args), 2
-    )
+    update = jax.jit(lambda tb, zs, valid, pos: track_update.update(tb, zs, valid, pos, gnn, 2))
+    _, hit, explained = update(table, scene[3], scene[4], scene[5])
     np.testing.assert_array_equal(np.asarray(hit), [True, False, False])
     assert bool(explained[:, 0].all()) and not bool(explained[:, 1].any())
 
