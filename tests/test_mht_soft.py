@@ -176,10 +176,12 @@ def test_one_hypothesis_branches_then_is_the_jpda_bank():
         valid = jnp.ones(zs.shape[:2], bool)
         tail = (jnp.float64(0.02), jnp.float64(chi2.ppf(PG, 1)), jnp.float64(PG))
         args = (jnp.asarray(zs), valid, jnp.asarray(radars), model, noise, True)
-        x, P = jpda.update_bank(
-            jnp.asarray(means), jnp.asarray(covs), *args, pd, *tail, jpda.rule("gnn", 4)
-        )
-        x2, P2 = jpda.update_bank(x, P, *args, pd, *tail, jpda.rule("exact", 4))
+
+        def bank(rule):  # jitted: eagerly the radar loop's dispatch takes seconds
+            return jax.jit(lambda x, p: jpda.update_bank(x, p, *args, pd, *tail, rule))
+
+        x, P = bank(jpda.rule("gnn", 4))(jnp.asarray(means), jnp.asarray(covs))
+        x2, P2 = bank(jpda.rule("exact", 4))(x, P)
         hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), 1)
         pd_fn = lambda pos: pd[:, None]  # noqa: E731
         upd = jax.jit(lambda h: mht.update_bank(h, *args, pd_fn, *tail, 4, branch=1))
