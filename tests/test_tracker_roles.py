@@ -65,13 +65,13 @@ def test_roles_of_the_options(smoke, clutter):
             "clutter_3r4t",
             {},
             {"management": "managed", "association": "mht"},
-            'tracker.association = "mht": the managed tracker takes "pda", "gnn" or a regis',
+            'tracker.association = "mht": the managed tracker takes "pda", "gnn", "jpda" or',
         ),
         (
             "clutter_3r4t",
             {},
             {"management": "managed", "association": "jpda"},
-            'tracker.association = "jpda": the managed tracker takes "pda", "gnn" or a regi',
+            'tracker.marginals = "exact": the managed tracker\'s JPDA takes "lbp"',
         ),
         (
             "raid_4r8t",

@@ -68,10 +68,14 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     p_empty = params.p0
     if associator is None:
         density = clutter.density(dp, model.dim) if task.detection.clutter else DENSITY_FLOOR
-        gnn = cfg.association == "gnn"  # the exclusive joint assignment
-        build = track_update.gnn_associator if gnn else track_update.pda_associator
         args = (model, params.noise, ccr, task.detection.model, dp, density, dp.gate)
-        associate = build(*args, dp.gate_probability, task.filter.ground_prior)
+        args = (*args, dp.gate_probability, task.filter.ground_prior)
+        if cfg.association == "gnn":  # the exclusive joint assignment
+            associate = track_update.gnn_associator(*args)
+        elif cfg.association == "jpda":  # the joint marginals (loopy BP)
+            associate = track_update.jpda_associator(*args, cfg.lbp_iterations)
+        else:
+            associate = track_update.pda_associator(*args)
     else:
         associate = associator(task, params)
 

@@ -43,8 +43,9 @@ class TrackerConfig:
     best per target enter the joint events). ``jpda_star``: JPDA* (Blom & Bloem), which
     keeps only the most probable of permuted joint events (no coalescence). Used only with clutter
     (``[detection] clutter_density > 0``); without clutter the returns are labelled.
-    The managed track table (``management = "managed"``) takes "pda" or "gnn" (the best
-    joint assignment of its slots, docs/track_management.md) with or without clutter.
+    The managed track table (``management = "managed"``) takes "pda", "gnn" (the best
+    joint assignment of its slots) or "jpda" with ``marginals = "lbp"`` (the joint
+    marginals by belief propagation; docs/track_management.md), with or without clutter.
     """
 
     association: str = field(
@@ -59,7 +60,7 @@ class TrackerConfig:
                 "association of cluttered scans: per-target PDA, joint JPDA, GNN assignment, "
                 "mht (the K best association histories across scans), or one registered "
                 "with mjx_radar.register_associator; the managed table takes pda, gnn "
-                "(its joint assignment) or a registered one"
+                "(its joint assignment), jpda (lbp marginals) or a registered one"
             ),
         ),
     )

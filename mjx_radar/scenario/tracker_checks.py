@@ -11,6 +11,7 @@ import math
 from mjx_radar.io.checks import ScenarioError
 from mjx_radar.registry import ASSOCIATORS
 from mjx_radar.scenario.schema_tracker import MAX_CHILDREN, TrackerConfig
+from mjx_radar.scenario.tracker_roles import TABLE_ASSOCIATORS
 
 __all__ = ["check", "check_mht"]
 
@@ -39,12 +40,17 @@ def check(s) -> None:
     if t.management != "managed" and s.filter.tracker != "managed":
         return
     if (
-        t.association not in ("pda", "gnn")
+        t.association not in TABLE_ASSOCIATORS
         and t.association.lower() not in ASSOCIATORS.registered()
     ):
         raise ScenarioError(
-            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn" '
-            f"or a registered associator ({t.association} drives the per-target bank only)"
+            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn", '
+            f'"jpda" or a registered associator ({t.association} drives the per-target bank only)'
+        )
+    if t.association == "jpda" and t.marginals != "lbp":
+        raise ScenarioError(
+            f'tracker.marginals = "{t.marginals}": the managed tracker\'s JPDA takes "lbp" '
+            f"(an enumeration over its max_tracks slots would be (candidates + 1)^K events)"
         )
     if t.confirm_m > t.confirm_n:
         raise ScenarioError(

@@ -6,9 +6,10 @@ A tracker is composed of roles (docs/tracking.md, "Roles"), each picked by the o
   ``"bank"`` (per-target CKFs, ``"per-target"``), ``"imm"`` (``filter.motion = "imm"``);
   ``filter.form`` (covariance or square root) applies to the first two;
 * the **associator** of unlabelled scans, ``tracker.association``: a built-in (``pda``,
-  ``jpda``, ``gnn``, ``mht``: they drive the per-target bank; ``pda`` and ``gnn`` also the managed
-  track table) or one of :func:`mjx_radar.register_associator` (it drives both). None
-  when the returns are labelled (no clutter, known drones);
+  ``jpda``, ``gnn``, ``mht``: they drive the per-target bank; ``pda``, ``gnn`` and ``jpda``
+  with ``marginals = "lbp"`` also the managed track table) or one of
+  :func:`mjx_radar.register_associator` (it drives both). None when the returns are
+  labelled (no clutter, known drones);
 * the **management**: ``"known"`` drones, or ``"managed"`` (the track table's initiator
   and deleter: births, M-of-N confirmation, deletion; docs/track_management.md).
 
@@ -30,7 +31,7 @@ from mjx_radar.registry import ASSOCIATORS, TRACKERS
 __all__ = ["Roles", "roles", "composed", "check", "TABLE_ASSOCIATORS"]
 
 #: the built-in associators that also drive the managed track table (registered ones do)
-TABLE_ASSOCIATORS = ("pda", "gnn")
+TABLE_ASSOCIATORS = ("pda", "gnn", "jpda")
 #: ``[tracker]`` options and the associators that read them (jpda's by marginals)
 _ASSOCIATION_FIELDS = {
     "marginals": ("jpda",),

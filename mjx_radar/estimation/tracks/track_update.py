@@ -9,7 +9,8 @@ empty slots). :func:`pda_associator` is the per-track PDA of
 :mod:`~mjx_radar.estimation.data_association.pda` (radar after radar, each track on its own); a
 joint
 associator with the same signature drops in: :func:`gnn_associator` (``association =
-"gnn"``) gives each return to at most one track, the best joint event per radar.
+"gnn"``) gives each return to at most one track, the best joint event per radar;
+:func:`jpda_associator` (``association = "jpda"``) shares it by the JPDA's marginals.
 
 From ``nll`` the table learns (:func:`update`), per radar i: each track's nearest
 return (its *claim*, min over l of ``nll[k, i, l]``); the track *sees* radar i when it
@@ -25,13 +26,20 @@ import jax
 import jax.numpy as jnp
 
 from mjx_radar.estimation import linalg
-from mjx_radar.estimation.data_association import assignment, association, pda
+from mjx_radar.estimation.data_association import assignment, association, lbp, pda
 from mjx_radar.estimation.filters import ckf, ground_prior
 from mjx_radar.estimation.sensor import detection
 from mjx_radar.estimation.sensor.noise import at_radar
 from mjx_radar.estimation.tracks import track_table
 
-__all__ = ["pda_associator", "gnn_associator", "update", "sorted_scans", "innovation_nll"]
+__all__ = [
+    "pda_associator",
+    "gnn_associator",
+    "jpda_associator",
+    "update",
+    "sorted_scans",
+    "innovation_nll",
+]
 
 
 def innovation_nll(mean, cov, zs, h, R, residual, gate):
@@ -142,14 +150,44 @@ def gnn_associator(model, noise, ccr, det_model, det_params, density, gate, pg, 
 
     Args: as :func:`pda_associator` (without ``exclusive``: the assignment is exclusive).
     """
+    args = (model, noise, ccr, det_model, det_params, density, gate, pg, reflect)
+    return _joint_associator(assignment.gnn_assignment, True, *args)
+
+
+def jpda_associator(
+    model, noise, ccr, det_model, det_params, density, gate, pg, reflect, iterations=20
+):
+    """The joint PDA associator of the track table (``association = "jpda"``,
+    ``marginals = "lbp"``).
+
+    As :func:`gnn_associator`, with the JPDA's association marginals ``(β_0[K], β[K, L])``
+    by loopy belief propagation over all K slots
+    (:func:`~mjx_radar.estimation.data_association.lbp.lbp_marginals`: linear in K and
+    L, exact where no two tracks share more than a chain of gated returns) and each
+    track's PDA mixture of them (:func:`pda.mixture`). ``nll`` is finite on every gated
+    pair, as the per-track PDA's, so hits and explained returns follow the gates.
+
+    Args: as :func:`pda_associator`; ``iterations``: message-passing sweeps (static).
+    """
+    args = (model, noise, ccr, det_model, det_params, density, gate, pg, reflect)
+    return _joint_associator(lambda logr: lbp.lbp_marginals(logr, iterations), False, *args)
+
+
+def _joint_associator(
+    rule, hard, model, noise, ccr, det_model, det_params, density, gate, pg, reflect
+):
+    """Radar after radar, the weights ``rule(log r [K, L]) -> (β_0, β)`` of the live
+    slots and each slot's PDA mixture; ``hard``: ``nll`` only on the pairs with β > 1/2."""
 
     def one_radar(means, covs, pd, z, ok, h, R):
         moments = jax.vmap(lambda x, P: pda.innovations(x, P, z, h, R, model.residual))
         K, S, nu, d2, logdet = moments(means, covs)
         b, seen = pda.miss_ratio(pd, density, logdet, pg)
-        beta0, beta = assignment.gnn_assignment(association.log_ratios(d2, ok, b, seen, gate))
+        logr = association.log_ratios(d2, ok, b, seen, gate)
+        beta0, beta = rule(logr)
         means, covs = jax.vmap(pda.mixture)(means, covs, K, S, nu, beta0, beta)
-        nll = jnp.where(beta > 0.5, d2 + logdet[:, None], jnp.inf)
+        paired = beta > 0.5 if hard else jnp.isfinite(logr)
+        nll = jnp.where(paired, d2 + logdet[:, None], jnp.inf)
         return means, covs, nll
 
     def associate(means, covs, on, zs, valid, radar_pos):
