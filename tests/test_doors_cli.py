@@ -83,10 +83,10 @@ def test_run_study_reads_one_string_as_one_name(tmp_path):
 
 def test_managed_tracker_refuses_an_association_it_ignores():
     s = mjx_radar.load_scenario("clutter_3r4t")
-    with pytest.raises(ScenarioError, match='tracker.association = "jpda": the managed tracker'):
+    with pytest.raises(ScenarioError, match='tracker.association = "mht": the managed tracker'):
         s.replace(
             filter={"structure": "per-target"},
-            tracker={"management": "managed", "association": "jpda"},
+            tracker={"management": "managed", "association": "mht"},
         )
 
 
