@@ -1,6 +1,8 @@
 """The track table's JPDA associator (``association = "jpda"``, ``marginals = "lbp"``)
 against the exact JPDA of the per-target bank and the per-track PDA, and its options."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -18,13 +20,18 @@ MANAGED_JPDA = {"management": "managed", "association": "jpda", "marginals": "lb
 PER_TARGET = {"structure": "per-target", "ground_prior": True}
 
 
-def _scene(ghost_x: float):
-    """raid_4r8t, managed: a drone's track A, a second track B ``ghost_x`` metres beside
-    it, an empty slot; each radar's noiseless return of the drone and one far return."""
+@functools.cache
+def _task():
     s = load_scenario("raid_4r8t").replace(
         tracker={**MANAGED_JPDA, "max_tracks": 6}, filter=PER_TARGET
     )
-    task, params = build(s, "stationary")
+    return s, *build(s, "stationary")
+
+
+def _scene(ghost_x: float):
+    """raid_4r8t, managed: a drone's track A, a second track B ``ghost_x`` metres beside
+    it, an empty slot; each radar's noiseless return of the drone and one far return."""
+    s, task, params = _task()
     n = task.fleet.n_radars
     angle = 2 * np.pi * np.arange(n) / n
     radar = jnp.asarray(np.stack([500 * np.cos(angle), 500 * np.sin(angle), 0 * angle], 1))
@@ -40,6 +47,15 @@ def _scene(ghost_x: float):
     args = (task.measurement, params.noise, params.method.ccr, task.detection.model, dp)
     args = (*args, density, dp.gate, dp.gate_probability, False)
     return (means, covs, on, zs, valid, radar), args
+
+
+@functools.cache
+def _associator(kind: str):
+    """The jitted associator of ``_task()``'s table (one compilation per kind)."""
+    _, args = _scene(12.0)
+    if kind == "jpda":
+        return jax.jit(track_update.jpda_associator(*args, iterations=50))
+    return jax.jit(track_update.pda_associator(*args, exclusive=False))
 
 
 def _exact_jpda(scene, args):
@@ -62,8 +78,7 @@ def test_shared_return_equals_the_exact_jpda():
     (A - return - B), where loopy BP's fixed point is the exact marginal, so the
     associator equals the enumerated JPDA; the empty slot keeps its prediction."""
     scene, args = _scene(12.0)
-    assoc = jax.jit(track_update.jpda_associator(*args, iterations=50))
-    m, c, nll = assoc(*scene)
+    m, c, nll = _associator("jpda")(*scene)
     m_ref, c_ref = jax.jit(lambda: _exact_jpda(scene, args))()
     # float32 over four sequential radar updates of 400 m^2 priors: a few ulp of 60 m
     np.testing.assert_allclose(np.asarray(m[:2]), np.asarray(m_ref[:2]), rtol=0, atol=5e-5)
@@ -77,8 +92,8 @@ def test_shared_return_equals_the_exact_jpda():
 def test_separate_tracks_equal_the_per_track_pda():
     """Tracks 300 m apart share no gated return: JPDA is each track's own PDA."""
     scene, args = _scene(300.0)
-    m, c, _ = jax.jit(track_update.jpda_associator(*args))(*scene)
-    m_p, c_p, _ = jax.jit(track_update.pda_associator(*args, exclusive=False))(*scene)
+    m, c, _ = _associator("jpda")(*scene)
+    m_p, c_p, _ = _associator("pda")(*scene)
     np.testing.assert_allclose(np.asarray(m), np.asarray(m_p), rtol=0, atol=1e-4)
     np.testing.assert_allclose(np.asarray(c), np.asarray(c_p), rtol=1e-5, atol=1e-4)
 
@@ -87,8 +102,8 @@ def test_jpda_shares_where_pda_double_counts():
     """With the shared return, the per-track PDA pulls the second track onto the drone
     as if the return were its own; the JPDA moves it less (the return is mostly A's)."""
     scene, args = _scene(12.0)
-    m, _, _ = jax.jit(track_update.jpda_associator(*args))(*scene)
-    m_p, _, _ = jax.jit(track_update.pda_associator(*args, exclusive=False))(*scene)
+    m, _, _ = _associator("jpda")(*scene)
+    m_p, _, _ = _associator("pda")(*scene)
     moved = lambda x: float(jnp.linalg.norm(x[1, :3] - scene[0][1, :3]))  # noqa: E731
     assert moved(m) < moved(m_p)
 
