@@ -10,17 +10,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _table_scene import MANAGED_GNN, PER_TARGET, table_scene
 from scipy.optimize import linear_sum_assignment
 
 from mjx_radar.env import environment
 from mjx_radar.estimation.data_association import assignment, association
-from mjx_radar.estimation.sensor import clutter
 from mjx_radar.estimation.tracks import track_table, track_update
 from mjx_radar.scenario.reader import load_scenario
-from mjx_radar.task.task import build
-
-MANAGED_GNN = {"management": "managed", "association": "gnn", "max_tracks": 6}
-PER_TARGET = {"structure": "per-target", "ground_prior": True}
 
 
 def test_hungarian_matches_scipy():
@@ -83,34 +79,11 @@ def test_gnn_assignment_is_the_best_joint_event():
     np.testing.assert_array_equal(np.asarray(vb), np.stack([b for _, b in same]))
 
 
-def _scene():
-    """raid_4r8t, managed: a drone's track A and a ghost B 12 m beside it, each radar's
-    return of the drone (noiseless) and one more return far from both."""
-    s = load_scenario("raid_4r8t").replace(tracker=MANAGED_GNN, filter=PER_TARGET)
-    task, params = build(s, "stationary")
-    n = task.fleet.n_radars
-    angle = 2 * np.pi * np.arange(n) / n
-    radar = jnp.asarray(np.stack([500 * np.cos(angle), 500 * np.sin(angle), 0 * angle], 1))
-    radar = radar.astype(jnp.float32)
-    drone = jnp.array([[0.0, 0.0, 60.0]])
-    z = task.measurement.predict(radar, drone).reshape(n, 1, -1)
-    far = task.measurement.predict(radar, jnp.array([[900.0, 900.0, 60.0]])).reshape(n, 1, -1)
-    zs, valid = jnp.concatenate([z, far], 1), jnp.ones((n, 2), bool)
-    means = jnp.array([[0.0, 0, 60, 0, 0, 0], [12.0, 0, 60, 0, 0, 0], [0.0] * 6])
-    covs = jnp.stack([jnp.diag(jnp.array([400.0, 400, 400, 25, 25, 25]))] * 3)
-    on = jnp.array([True, True, False])  # slot 2 empty
-    dp = params.detection
-    density = clutter.density(dp, task.measurement.dim) if s.detection.clutter else 1e-6
-    args = (task.measurement, params.noise, params.method.ccr, task.detection.model, dp)
-    args = (*args, density, dp.gate, dp.gate_probability, False)
-    return (means, covs, on, zs, valid, radar), args
-
-
 def test_two_tracks_one_return_pda_shares_gnn_assigns():
     """Per-track PDA (without exclusivity): drone and ghost both update with the drone's
     return; the joint GNN gives it to the drone's track only (the ghost keeps its
     prediction), takes no return into the empty slot, and only the drone earns a hit."""
-    scene, args = _scene()
+    scene, args = table_scene()
     means, covs = scene[0], scene[1]
     m_pda, _, nll_pda = jax.jit(track_update.pda_associator(*args, exclusive=False))(*scene)
     assert np.isfinite(np.asarray(nll_pda[:2, :, 0])).all()  # both gate every drone return

@@ -7,52 +7,21 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _table_scene import PER_TARGET, table_scene
 
 from mjx_radar.errors import ScenarioError
 from mjx_radar.estimation.data_association import jpda
 from mjx_radar.estimation.data_association import pda as pda_mod
-from mjx_radar.estimation.sensor import clutter
 from mjx_radar.estimation.tracks import track_update
 from mjx_radar.scenario.reader import load_scenario
-from mjx_radar.task.task import build
 
 MANAGED_JPDA = {"management": "managed", "association": "jpda", "marginals": "lbp"}
-PER_TARGET = {"structure": "per-target", "ground_prior": True}
-
-
-@functools.cache
-def _task():
-    s = load_scenario("raid_4r8t").replace(
-        tracker={**MANAGED_JPDA, "max_tracks": 6}, filter=PER_TARGET
-    )
-    return s, *build(s, "stationary")
-
-
-def _scene(ghost_x: float):
-    """raid_4r8t, managed: a drone's track A, a second track B ``ghost_x`` metres beside
-    it, an empty slot; each radar's noiseless return of the drone and one far return."""
-    s, task, params = _task()
-    n = task.fleet.n_radars
-    angle = 2 * np.pi * np.arange(n) / n
-    radar = jnp.asarray(np.stack([500 * np.cos(angle), 500 * np.sin(angle), 0 * angle], 1))
-    radar = radar.astype(jnp.float32)
-    z = task.measurement.predict(radar, jnp.array([[0.0, 0.0, 60.0]])).reshape(n, 1, -1)
-    far = task.measurement.predict(radar, jnp.array([[900.0, 900.0, 60.0]])).reshape(n, 1, -1)
-    zs, valid = jnp.concatenate([z, far], 1), jnp.ones((n, 2), bool)
-    means = jnp.array([[0.0, 0, 60, 0, 0, 0], [ghost_x, 0, 60, 0, 0, 0], [0.0] * 6])
-    covs = jnp.stack([jnp.diag(jnp.array([400.0, 400, 400, 25, 25, 25]))] * 3)
-    on = jnp.array([True, True, False])  # slot 2 empty
-    dp = params.detection
-    density = clutter.density(dp, task.measurement.dim) if s.detection.clutter else 1e-6
-    args = (task.measurement, params.noise, params.method.ccr, task.detection.model, dp)
-    args = (*args, density, dp.gate, dp.gate_probability, False)
-    return (means, covs, on, zs, valid, radar), args
 
 
 @functools.cache
 def _associator(kind: str):
     """The jitted associator of ``_task()``'s table (one compilation per kind)."""
-    _, args = _scene(12.0)
+    _, args = table_scene(12.0)
     if kind == "jpda":
         return jax.jit(track_update.jpda_associator(*args, iterations=50))
     return jax.jit(track_update.pda_associator(*args, exclusive=False))
@@ -77,7 +46,7 @@ def test_shared_return_equals_the_exact_jpda():
     """Tracks A and B 12 m apart both gate the drone's return at every radar: a tree
     (A - return - B), where loopy BP's fixed point is the exact marginal, so the
     associator equals the enumerated JPDA; the empty slot keeps its prediction."""
-    scene, args = _scene(12.0)
+    scene, args = table_scene(12.0)
     m, c, nll = _associator("jpda")(*scene)
     m_ref, c_ref = jax.jit(lambda: _exact_jpda(scene, args))()
     # float32 over four sequential radar updates of 400 m^2 priors: a few ulp of 60 m
@@ -91,7 +60,7 @@ def test_shared_return_equals_the_exact_jpda():
 
 def test_separate_tracks_equal_the_per_track_pda():
     """Tracks 300 m apart share no gated return: JPDA is each track's own PDA."""
-    scene, args = _scene(300.0)
+    scene, args = table_scene(300.0)
     m, c, _ = _associator("jpda")(*scene)
     m_p, c_p, _ = _associator("pda")(*scene)
     np.testing.assert_allclose(np.asarray(m), np.asarray(m_p), rtol=0, atol=1e-4)
@@ -101,7 +70,7 @@ def test_separate_tracks_equal_the_per_track_pda():
 def test_jpda_shares_where_pda_double_counts():
     """With the shared return, the per-track PDA pulls the second track onto the drone
     as if the return were its own; the JPDA moves it less (the return is mostly A's)."""
-    scene, args = _scene(12.0)
+    scene, args = table_scene(12.0)
     m, _, _ = _associator("jpda")(*scene)
     m_p, _, _ = _associator("pda")(*scene)
     moved = lambda x: float(jnp.linalg.norm(x[1, :3] - scene[0][1, :3]))  # noqa: E731

@@ -247,8 +247,8 @@ def _check_imm(s: Scenario) -> None:
 def _check_tracker(s: Scenario) -> None:
     t, m = s.tracker, s.n_targets
     managed = tracker_roles.roles(s).management == "managed"
-    if t.association == "pda" or (t.association in ("gnn", "jpda") and managed):
-        return  # the track table's gnn and jpda (lbp, tracker_checks): any K, no enumeration
+    if t.association == "pda" or (t.association in tracker_roles.TABLE_ASSOCIATORS and managed):
+        return  # the track table's own (jpda: lbp, tracker_checks): any K, no enumeration
     if tracker_roles.registered_associator(t.association):  # a plug-in: it drives the
         if not s.detection.clutter and not managed:
             raise ScenarioError(  # bank on cluttered scans, the track table on any
