@@ -1,4 +1,5 @@
-"""The variant names of benchmarks/studies/compare_trackers.py: ``NAME[-gateN][-assocA]``
+"""The variant names of benchmarks/studies/compare_trackers.py:
+``NAME[-settleStoK][-gateN][-assocA]``
 become the scenario tables they say (docs/tracking.md), and malformed names are refused."""
 
 import importlib.util
@@ -39,6 +40,14 @@ def test_suffixes_set_the_gate_and_the_association_term(ct, clutter):
     assert plain.mpc.alpha_assoc == 0.0
 
 
+def test_settle_suffix_keeps_the_variants_tracker(ct, clutter):
+    s = ct.variant(clutter, "mht-jpda-1024-settle40to64-gate4")
+    t = s.tracker
+    assert (t.hypotheses, t.branch_scans, t.merge_screen) == (1024, 1, 2)
+    assert (t.settle_scans, t.settled_hypotheses) == (40, 64)
+    assert s.detection.gate_probability == pytest.approx(0.9999, abs=1e-15)
+
+
 def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
     s = ct.variant(clutter, "known-gate6")  # known: the labelled scans (no clutter)
     assert s.detection.clutter_density == 0.0
@@ -58,6 +67,11 @@ def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
         ("nope-gate4", False),
         ("jpda-assoc1x", False),
         ("jpda-assoc10-gate4", False),  # the order is -gateN, then -assocA
+        ("mht-jpda-1024-settle40to64-gate4-assoc10", True),
+        ("mht-jpda-settle40", False),
+        ("mht-jpda-settle40to0", False),
+        ("mht-jpda-settlextoy", False),
+        ("mht-jpda-gate4-settle40to64", False),  # -settle comes first
     ],
 )
 def test_known_variant(ct, name, known):

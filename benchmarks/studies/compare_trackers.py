@@ -26,6 +26,9 @@ for every variant) of the given methods. The variants are the scenario with
     jpda-p0, mht-jpda-p0, jpda-star-p0, gnn-p0, mht-p0   from a good start (p0 = 1 m^2, not the
                scenario's): what the tracking after the start loses
     mht-jpda-b4   mht-jpda branching over the first 4 scans (branch_scans = 4)
+    NAME-settleStoK   variant NAME (an mht with branch_scans) with only the K heaviest
+               hypotheses going on after S scans (settle_scans = S, settled_hypotheses = K;
+               e.g. mht-jpda-1024-settle40to64)
     NAME-gateN    variant NAME with the validation gate's probability 1 - 10^-N
                ([detection] gate_probability; e.g. mht-jpda-gate6: 0.999999)
     NAME-assocA   variant NAME with the planner's association term weighted A
@@ -113,20 +116,33 @@ VARIANTS = {
 }
 
 
-def _parts(name: str) -> tuple[str, str | None, str | None]:
-    """``NAME[-gateN][-assocA]`` -> ``(NAME, N, A)`` (None where the suffix is absent)."""
+def _parts(name: str):
+    """``NAME[-settleStoK][-gateN][-assocA]`` -> ``(NAME, settle, N, A)``: each suffix's
+    text, or None where it is absent."""
     rest, sep_a, weight = name.partition("-assoc")
-    base, sep_g, gate = rest.partition("-gate")
-    return base, (gate if sep_g else None), (weight if sep_a else None)
+    rest, sep_g, gate = rest.partition("-gate")
+    base, sep_s, settle = rest.partition("-settle")
+    return base, (settle if sep_s else None), (gate if sep_g else None), (weight if sep_a else None)
+
+
+def _settle(text: str | None) -> tuple[int, int] | None:
+    """``"StoK"`` -> ``(S, K)`` (positive integers), else None."""
+    s, sep, k = (text or "").partition("to")
+    return (int(s), int(k)) if sep and s.isdigit() and k.isdigit() and int(k) > 0 else None
 
 
 def variant(scenario, name: str):
-    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`); ``NAME-gateN``:
+    """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`); ``NAME-settleStoK``:
+    variant NAME with ``settle_scans = S``, ``settled_hypotheses = K``; ``NAME-gateN``:
     variant NAME with the validation gate's probability ``1 − 10^−N``
     (``[detection] gate_probability``); ``NAME-assocA``: with the planner's association term
-    weighted A (``[mpc] alpha_assoc``); both may be given, in that order."""
-    base, gate, weight = _parts(name)
+    weighted A (``[mpc] alpha_assoc``); any of them may be given, in that order."""
+    base, settle, gate, weight = _parts(name)
     edits = dict(VARIANTS[base])
+    if settle is not None:
+        late, k2 = _settle(settle)
+        tracker = {"settle_scans": late, "settled_hypotheses": k2}
+        edits["tracker"] = {**edits.get("tracker", {}), **tracker}
     if gate is not None:
         gp = 1 - 10 ** -int(gate)
         edits["detection"] = {**edits.get("detection", {}), "gate_probability": gp}
@@ -136,12 +152,14 @@ def variant(scenario, name: str):
 
 
 def known_variant(name: str) -> bool:
-    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-gateN``
-    (N in 1..6, the gate probabilities the scenario accepts) and ``-assocA``."""
-    base, gate, weight = _parts(name)
+    """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-settleStoK``
+    (positive integers), ``-gateN`` (N in 1..6, the gate probabilities the scenario accepts)
+    and ``-assocA``."""
+    base, settle, gate, weight = _parts(name)
+    ok_settle = settle is None or _settle(settle) is not None
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
     ok_weight = weight is None or weight.replace(".", "", 1).isdigit()
-    return base in VARIANTS and ok_gate and ok_weight
+    return base in VARIANTS and ok_settle and ok_gate and ok_weight
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:

@@ -17,7 +17,9 @@ filter's Pd of a pair is the model's at each hypothesis's predicted range (0 whe
 line of sight is blocked), as in the PDA and JPDA banks. With ``branch_scans = B > 0`` only
 the first B scans branch (``begin`` sets the state's scan counter from the loop's step);
 later scans give each hypothesis JPDA's soft update weighted by its likelihood
-(:func:`mjx_radar.estimation.data_association.mht.soft_update`).
+(:func:`mjx_radar.estimation.data_association.mht.soft_update`); with ``settle_scans = S``
+only the ``settled_hypotheses`` heaviest go on after S scans
+(:func:`mjx_radar.estimation.data_association.mht.settled`).
 """
 
 from __future__ import annotations
@@ -60,6 +62,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     ccr = params.method.ccr
     dt = task.timing.dt_filter
     merge = (float(t.merge_distance), int(t.merge_screen), bool(t.merge_labels))
+    settle = (int(t.settle_scans), int(t.settled_hypotheses))
 
     def joint(hyp):
         return filter_bank.bank_to_joint(*mht.best(hyp))
@@ -75,7 +78,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
             return pd if los is None else jnp.where(los[:, None, :], pd, 0.0)
 
         tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates)
-        tail = (*tail, merge, int(t.branch_scans))
+        tail = (*tail, merge, int(t.branch_scans), settle)
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
         if task.filter.ground_prior:

@@ -126,6 +126,22 @@ class TrackerConfig:
             ),
         ),
     )
+    settle_scans: int = field(
+        default=0,
+        metadata=rule(
+            int,
+            0,
+            100000,
+            doc=(
+                "mht: after this many scans (>= branch_scans > 0) only the "
+                "settled_hypotheses heaviest hypotheses go on (0: all K, always)"
+            ),
+        ),
+    )
+    settled_hypotheses: int = field(
+        default=16,
+        metadata=rule(int, 1, 1024, doc="mht: hypotheses kept after settle_scans, K2 <= K"),
+    )
     plan_on: str = field(
         default="best",
         metadata=choice(

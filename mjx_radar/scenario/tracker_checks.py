@@ -18,14 +18,24 @@ __all__ = ["check", "check_mht"]
 
 def check_mht(t: TrackerConfig, m: int) -> None:
     """The MHT's limits (``association = "mht"``, M targets): its children per radar and
-    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; label-free merging
-    (M! target orders) for M <= 6."""
+    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; settling after the
+    branching scans, to at most K hypotheses; label-free merging (M! orders) for M <= 6."""
     children = t.hypotheses * (t.candidates + 1) ** m
     if children > MAX_CHILDREN:
         raise ScenarioError(
             f"tracker.hypotheses = {t.hypotheses}: hypotheses x (candidates + 1)^M = "
             f"{children} children per radar and scan exceed {MAX_CHILDREN}; "
             f"lower it or tracker.candidates"
+        )
+    if t.settle_scans > 0 and not 0 < t.branch_scans <= t.settle_scans:
+        raise ScenarioError(
+            f"tracker.settle_scans = {t.settle_scans}: needs tracker.branch_scans in "
+            f"1..{t.settle_scans} (got {t.branch_scans}); the hypotheses settle after branching"
+        )
+    if t.settle_scans > 0 and t.settled_hypotheses > t.hypotheses:
+        raise ScenarioError(
+            f"tracker.settled_hypotheses = {t.settled_hypotheses}: must be <= "
+            f"tracker.hypotheses = {t.hypotheses}"
         )
     if t.merge_labels and m > 6:
         raise ScenarioError(

@@ -43,6 +43,8 @@ _ASSOCIATION_FIELDS = {
     "merge_screen": ("mht",),
     "merge_labels": ("mht",),
     "branch_scans": ("mht",),
+    "settle_scans": ("mht",),
+    "settled_hypotheses": ("mht",),
     "plan_on": ("mht",),
 }
 #: ``[tracker]`` options of the managed track table (initiator, deleter, table)

@@ -23,14 +23,13 @@ heaviest survive (``lax.top_k``: the exact K best, no Murty needed at this size)
 the weights are renormalised (log-sum-exp). With K no smaller than the number of
 feasible histories and G no smaller than the returns, this is the exact Bayesian
 posterior over association histories (``tests/test_mht.py`` enumerates it); with K = 1
-it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened
-and near-duplicates merged before the K heaviest are kept
-(:mod:`~mjx_radar.estimation.data_association.mht_merge`). The estimate is the heaviest
-hypothesis's bank
-(MAP). With ``branch > 0`` (:func:`update_bank`) only the first scans branch; afterwards
-each hypothesis sums its children (:func:`soft_update`: its JPDA update, its weight times
-the scan's likelihood), a bank of JPDA filters started from the first scans' K best
-associations.
+it is the sequential GNN. Optionally the ``screen · K`` heaviest children are screened and
+near-duplicates merged before the K heaviest are kept (:mod:`.mht_merge`). The estimate is
+the heaviest hypothesis's bank (MAP). With ``branch > 0`` (:func:`update_bank`) only the
+first scans branch; afterwards each hypothesis sums its children (:func:`soft_update`: its
+JPDA update, its weight times the scan's likelihood), a bank of JPDA filters started from
+the first scans' K best associations, and optionally only the K₂ heaviest from a later
+scan on (:func:`settled`).
 
 Pure JAX on pytrees, static shapes (K, M, G, L), ``vmap``-able over trials.
 """
@@ -54,6 +53,7 @@ __all__ = [  # noqa: RUF022
     "radar_update",
     "soft_update",
     "update_bank",
+    "settled",
     "best",
 ]
 
@@ -230,6 +230,7 @@ def update_bank(
     g,
     merge=(0.0, 1, False),
     branch: int = 0,
+    settle=(0, 0),
 ):
     """Every radar's scan, radar after radar, each pruned to the K best.
 
@@ -245,6 +246,8 @@ def update_bank(
         branch: static; 0: every scan branches (:func:`radar_update`); B > 0: the first B
             scans branch (``hyp.scans < B``), the later ones take :func:`soft_update`
             (each hypothesis a JPDA bank weighted by its likelihood).
+        settle: static ``(S, K₂)``; with ``branch > 0``, ``S > 0`` and ``K₂ < K`` the scans
+            after the first S update only the K₂ heaviest hypotheses (:func:`settled`).
 
     Returns:
         The posterior :class:`HypState` (``scans`` one more when ``branch > 0``).
@@ -270,5 +273,28 @@ def update_bank(
     def soft(h):
         return _scan(h, pd, one(soft_update, ()), n, False)
 
-    hyp = jax.lax.cond(hyp.scans < branch, tree, soft, hyp)
+    late, k2 = settle
+    if late <= 0 or k2 >= hyp.logw.shape[0]:
+        hyp = jax.lax.cond(hyp.scans < branch, tree, soft, hyp)
+    else:
+        upd_soft = one(soft_update, ())
+        few = lambda h: settled(h, pd, k2, lambda u, p: _scan(u, p, upd_soft, n, False))  # noqa: E731
+        phase = jnp.where(hyp.scans < branch, 0, jnp.where(hyp.scans < late, 1, 2))
+        hyp = jax.lax.switch(phase, (tree, soft, few), hyp)
     return hyp._replace(scans=hyp.scans + 1)
+
+
+def settled(hyp: HypState, pd, k2: int, run) -> HypState:
+    """One scan of the K₂ heaviest hypotheses only (``lax.top_k`` of ``log w``): they take
+    ``run(sub, pd [N, K₂, M])`` (the soft scan of a K₂-slot state, weights renormalised
+    among them) and return to their slots; every other slot's weight becomes −inf (its
+    stale bank weighs nothing in the estimate, the mixture or the next ``top_k``). Once
+    the first scans have chosen between the starts, this costs K₂ banks a scan, not K.
+    """
+    _, keep = jax.lax.top_k(hyp.logw, k2)
+    sub = HypState(hyp.means[keep], hyp.covs[keep], hyp.logw[keep], hyp.scans)
+    sub = run(sub, pd[:, keep])
+    logw = jnp.full_like(hyp.logw, -jnp.inf).at[keep].set(sub.logw)
+    return HypState(
+        hyp.means.at[keep].set(sub.means), hyp.covs.at[keep].set(sub.covs), logw, hyp.scans
+    )
