@@ -9,6 +9,8 @@ banks (float64, 1e-12: the same operations on the same numbers), and every other
 empty (−inf). Before S scans the option changes nothing.
 """
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -48,7 +50,8 @@ def test_settled_scan_is_the_k2_heaviest_as_their_own_mht():
         means, covs, args = _scene()
         hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), K)
 
-        def upd(settle):  # jitted: eagerly the radar loop's dispatch takes seconds
+        @functools.cache  # one program per setting (eagerly, the radar loop's dispatch is slow)
+        def upd(settle):
             return jax.jit(lambda h: mht.update_bank(h, *args, branch=1, settle=settle))
 
         hyp = upd((0, 0))(hyp)  # scan 0: branches into K hypotheses

@@ -111,14 +111,14 @@ def test_objective_gradient_matches_finite_differences(rollout):
 @pytest.mark.parametrize(
     "planner",
     [
-        "ps",
+        pytest.param("ps", marks=pytest.mark.slow),  # CI: test_env, test_runner run it
         "grad",
         pytest.param("cem", marks=pytest.mark.slow),
         "cmaes",
         pytest.param("cem", marks=pytest.mark.slow),
         pytest.param("hybrid", marks=pytest.mark.slow),
         pytest.param("sep-cmaes", marks=pytest.mark.slow),
-    ],  # suite time: CI runs three
+    ],  # suite time: CI runs two
 )
 def test_every_planner_runs_inside_the_limits(tiny, planner):
     res = runner.run_trials(run_spec(tiny), f"ddr-sfim+{planner}", 0, np.arange(2), 8)
