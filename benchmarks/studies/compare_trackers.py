@@ -23,6 +23,8 @@ for every variant) of the given methods. The variants are the scenario with
     mht-jpda-16, mht-jpda-256, mht-jpda-512, mht-jpda-1024   mht-jpda with K = 16
                (merge_screen = 4), K = 256, K = 512, K = 1024
     mht-jpda-1024-b2   mht-jpda-1024 branching over the first 2 scans
+    mht-jpda-256-labels, mht-jpda-1024-labels   mht-jpda-256 and -1024 merging label
+               permutations of each other in the branching scan (merge_labels = true)
     jpda-p0, mht-jpda-p0, jpda-star-p0, gnn-p0, mht-p0   from a good start (p0 = 1 m^2, not the
                scenario's): what the tracking after the start loses
     mht-jpda-b4   mht-jpda branching over the first 4 scans (branch_scans = 4)
@@ -101,6 +103,24 @@ VARIANTS = {
     },
     "mht-jpda-1024": {
         "tracker": {"association": "mht", "hypotheses": 1024, "merge_screen": 2, "branch_scans": 1}
+    },
+    "mht-jpda-256-labels": {
+        "tracker": {
+            "association": "mht",
+            "hypotheses": 256,
+            "merge_screen": 2,
+            "branch_scans": 1,
+            "merge_labels": True,
+        }
+    },
+    "mht-jpda-1024-labels": {
+        "tracker": {
+            "association": "mht",
+            "hypotheses": 1024,
+            "merge_screen": 2,
+            "branch_scans": 1,
+            "merge_labels": True,
+        }
     },
     "jpda-p0": {"p0": 1.0, "tracker": {"association": "jpda"}},
     "jpda-star-p0": {"p0": 1.0, "tracker": {"association": "jpda", "jpda_star": True}},
