@@ -1,5 +1,5 @@
 """The variant names of benchmarks/studies/compare_trackers.py:
-``NAME[-settleStoK][-gateN][-assocA]``
+``NAME[-settleStoK][-missQ][-gateN][-assocA]``
 become the scenario tables they say (docs/tracking.md), and malformed names are refused."""
 
 import importlib.util
@@ -46,6 +46,8 @@ def test_settle_suffix_keeps_the_variants_tracker(ct, clutter):
     assert (t.hypotheses, t.branch_scans, t.merge_screen) == (1024, 1, 2)
     assert (t.settle_scans, t.settled_hypotheses) == (40, 64)
     assert s.detection.gate_probability == pytest.approx(0.9999, abs=1e-15)
+    s = ct.variant(clutter, "mht-jpda-1024-settle40to64-miss0.5-assoc10")
+    assert (s.tracker.settle_scans, s.tracker.miss_noise, s.mpc.alpha_assoc) == (40, 0.5, 10.0)
 
 
 def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
@@ -72,6 +74,11 @@ def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
         ("mht-jpda-settle40to0", False),
         ("mht-jpda-settlextoy", False),
         ("mht-jpda-gate4-settle40to64", False),  # -settle comes first
+        ("mht-jpda-settle40to64-miss0.5-gate4", True),
+        ("mht-jpda-miss2", True),
+        ("mht-jpda-missx", False),
+        ("mht-jpda-miss", False),
+        ("mht-jpda-miss0.5-settle40to64", False),  # -settle before -miss
     ],
 )
 def test_known_variant(ct, name, known):

@@ -31,6 +31,8 @@ for every variant) of the given methods. The variants are the scenario with
     NAME-settleStoK   variant NAME (an mht with branch_scans) with only the K heaviest
                hypotheses going on after S scans (settle_scans = S, settled_hypotheses = K;
                e.g. mht-jpda-1024-settle40to64)
+    NAME-missQ    variant NAME (an mht with branch_scans) with miss_noise = Q m^2 (e.g.
+               mht-jpda-1024-settle100to64-miss0.5-gate4-assoc10)
     NAME-gateN    variant NAME with the validation gate's probability 1 - 10^-N
                ([detection] gate_probability; e.g. mht-jpda-gate6: 0.999999)
     NAME-assocA   variant NAME with the planner's association term weighted A
@@ -137,12 +139,24 @@ VARIANTS = {
 
 
 def _parts(name: str):
-    """``NAME[-settleStoK][-gateN][-assocA]`` -> ``(NAME, settle, N, A)``: each suffix's
-    text, or None where it is absent."""
+    """``NAME[-settleStoK][-missQ][-gateN][-assocA]`` -> ``(NAME, settle, Q, N, A)``: each
+    suffix's text, or None where it is absent."""
     rest, sep_a, weight = name.partition("-assoc")
     rest, sep_g, gate = rest.partition("-gate")
+    rest, sep_m, miss = rest.partition("-miss")
     base, sep_s, settle = rest.partition("-settle")
-    return base, (settle if sep_s else None), (gate if sep_g else None), (weight if sep_a else None)
+    return (
+        base,
+        settle if sep_s else None,
+        miss if sep_m else None,
+        gate if sep_g else None,
+        weight if sep_a else None,
+    )
+
+
+def _number(text: str | None) -> bool:
+    """Whether ``text`` is a non-negative decimal (``10``, ``0.5``)."""
+    return text is not None and text.replace(".", "", 1).isdigit()
 
 
 def _settle(text: str | None) -> tuple[int, int] | None:
@@ -153,32 +167,38 @@ def _settle(text: str | None) -> tuple[int, int] | None:
 
 def variant(scenario, name: str):
     """``scenario`` with the tracker variant ``name`` (:data:`VARIANTS`); ``NAME-settleStoK``:
-    variant NAME with ``settle_scans = S``, ``settled_hypotheses = K``; ``NAME-gateN``:
+    variant NAME with ``settle_scans = S``, ``settled_hypotheses = K``; ``NAME-missQ``: with
+    ``miss_noise = Q``; ``NAME-gateN``:
     variant NAME with the validation gate's probability ``1 − 10^−N``
     (``[detection] gate_probability``); ``NAME-assocA``: with the planner's association term
     weighted A (``[mpc] alpha_assoc``); any of them may be given, in that order."""
-    base, settle, gate, weight = _parts(name)
+    base, settle, miss, gate, weight = _parts(name)
     edits = dict(VARIANTS[base])
     if settle is not None:
         late, k2 = _settle(settle)
         tracker = {"settle_scans": late, "settled_hypotheses": k2}
         edits["tracker"] = {**edits.get("tracker", {}), **tracker}
+    if miss is not None:
+        edits["tracker"] = {**edits.get("tracker", {}), "miss_noise": float(miss)}
     if gate is not None:
         gp = 1 - 10 ** -int(gate)
         edits["detection"] = {**edits.get("detection", {}), "gate_probability": gp}
     if weight is not None:
         edits["mpc"] = {"alpha_assoc": float(weight)}
-    return scenario.replace(name=f"{scenario.name}_{name.replace('-', '_')}", **edits)
+    return scenario.replace(
+        name=f"{scenario.name}_{name.replace('-', '_').replace('.', 'p')}", **edits
+    )
 
 
 def known_variant(name: str) -> bool:
     """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-settleStoK``
-    (positive integers), ``-gateN`` (N in 1..6, the gate probabilities the scenario accepts)
-    and ``-assocA``."""
-    base, settle, gate, weight = _parts(name)
+    (positive integers), ``-missQ`` (a decimal), ``-gateN`` (N in 1..6, the gate
+    probabilities the scenario accepts) and ``-assocA``."""
+    base, settle, miss, gate, weight = _parts(name)
     ok_settle = settle is None or _settle(settle) is not None
+    ok_settle = ok_settle and (miss is None or _number(miss))
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
-    ok_weight = weight is None or weight.replace(".", "", 1).isdigit()
+    ok_weight = weight is None or _number(weight)
     return base in VARIANTS and ok_settle and ok_gate and ok_weight
 
 

@@ -19,7 +19,9 @@ the first B scans branch (``begin`` sets the state's scan counter from the loop'
 later scans give each hypothesis JPDA's soft update weighted by its likelihood
 (:func:`mjx_radar.estimation.data_association.mht.soft_update`); with ``settle_scans = S``
 only the ``settled_hypotheses`` heaviest go on after S scans
-(:func:`mjx_radar.estimation.data_association.mht.settled`).
+(:func:`mjx_radar.estimation.data_association.mht.settled`); ``miss_noise`` spreads a track
+along the line of sight of a radar whose returns it misses in those scans
+(:func:`mjx_radar.estimation.data_association.pda.miss_inflation`).
 """
 
 from __future__ import annotations
@@ -78,7 +80,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
             return pd if los is None else jnp.where(los[:, None, :], pd, 0.0)
 
         tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates)
-        tail = (*tail, merge, int(t.branch_scans), settle)
+        tail = (*tail, merge, int(t.branch_scans), settle, float(t.miss_noise))
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
         if task.filter.ground_prior:

@@ -142,6 +142,19 @@ class TrackerConfig:
         default=16,
         metadata=rule(int, 1, 1024, doc="mht: hypotheses kept after settle_scans, K2 <= K"),
     )
+    miss_noise: float = field(
+        default=0.0,
+        metadata=rule(
+            float,
+            0.0,
+            1e4,
+            doc=(
+                "mht with branch_scans: position variance [m^2] a track gains along a "
+                "radar's line of sight per scan it takes none of that radar's returns, "
+                "weighted P_D beta_0 (0: none)"
+            ),
+        ),
+    )
     plan_on: str = field(
         default="best",
         metadata=choice(

@@ -18,8 +18,9 @@ __all__ = ["check", "check_mht"]
 
 def check_mht(t: TrackerConfig, m: int) -> None:
     """The MHT's limits (``association = "mht"``, M targets): its children per radar and
-    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; settling after the
-    branching scans, to at most K hypotheses; label-free merging (M! orders) for M <= 6."""
+    scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; settling and the
+    miss noise after the branching scans, settling to at most K hypotheses; label-free
+    merging (M! orders) for M <= 6."""
     children = t.hypotheses * (t.candidates + 1) ** m
     if children > MAX_CHILDREN:
         raise ScenarioError(
@@ -31,6 +32,11 @@ def check_mht(t: TrackerConfig, m: int) -> None:
         raise ScenarioError(
             f"tracker.settle_scans = {t.settle_scans}: needs tracker.branch_scans in "
             f"1..{t.settle_scans} (got {t.branch_scans}); the hypotheses settle after branching"
+        )
+    if t.miss_noise > 0 and t.branch_scans == 0:
+        raise ScenarioError(
+            f"tracker.miss_noise = {t.miss_noise}: needs tracker.branch_scans >= 1 (it acts "
+            f"in the soft scans that follow the branching ones)"
         )
     if t.settle_scans > 0 and t.settled_hypotheses > t.hypotheses:
         raise ScenarioError(

@@ -45,6 +45,7 @@ _ASSOCIATION_FIELDS = {
     "branch_scans": ("mht",),
     "settle_scans": ("mht",),
     "settled_hypotheses": ("mht",),
+    "miss_noise": ("mht",),
     "plan_on": ("mht",),
 }
 #: ``[tracker]`` options of the managed track table (initiator, deleter, table)

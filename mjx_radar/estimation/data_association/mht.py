@@ -174,7 +174,7 @@ def _clean(hyp: HypState) -> HypState:
     return HypState(sel(hyp.means), sel(hyp.covs), logw, hyp.scans)
 
 
-def soft_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, residual=None):
+def soft_update(hyp, z, valid, h, R, pd, density, gate, pg, g: int, residual=None, miss=0.0):
     """One radar's scan without branching: every hypothesis takes the JPDA update.
 
     Hypothesis h's children (the events θ of :func:`radar_update`, weights
@@ -184,7 +184,8 @@ def soft_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, re
     its children's Kalman updates, which is the exact JPDA's PDA mixture with
     ``β_htj = Σ_{θ: θ(t) = j} w_{h,θ} / Σ_θ w_{h,θ}`` (:func:`pda.mixture`). With K = 1 it
     is the JPDA bank (``marginals = "exact"``, G candidates). Arguments as
-    :func:`radar_update` (no merging, no parents: the K hypotheses stay in their slots).
+    :func:`radar_update` (no merging, no parents: the K hypotheses stay in their slots);
+    ``miss`` (static, m²): :func:`pda.miss_inflation` of every target by ``P_D β_0``.
 
     Returns:
         The updated :class:`HypState` (weights renormalised).
@@ -201,6 +202,9 @@ def soft_update(hyp: HypState, z, valid, h, R, pd, density, gate, pg, g: int, re
     full = jax.vmap(lambda b, i: association.scatter(b, i, n_meas))(beta[..., 1:], idx)
     mix = jax.vmap(jax.vmap(pda.mixture))
     means, covs = mix(hyp.means, hyp.covs, K, S, nu, beta[..., 0], full)
+    if miss > 0:  # at the predicted means, weighted P_D β_0
+        grow = jax.vmap(jax.vmap(lambda x, P, w: pda.miss_inflation(x, P, h, w, miss)))
+        covs = grow(hyp.means, covs, jnp.clip(pd, 0.0, 1.0) * beta[..., 0])
     return _clean(HypState(means, covs, logw, hyp.scans))
 
 
@@ -231,6 +235,7 @@ def update_bank(
     merge=(0.0, 1, False),
     branch: int = 0,
     settle=(0, 0),
+    miss: float = 0.0,
 ):
     """Every radar's scan, radar after radar, each pruned to the K best.
 
@@ -248,9 +253,9 @@ def update_bank(
             (each hypothesis a JPDA bank weighted by its likelihood).
         settle: static ``(S, K₂)``; with ``branch > 0``, ``S > 0`` and ``K₂ < K`` the scans
             after the first S update only the K₂ heaviest hypotheses (:func:`settled`).
+        miss: static; the soft scans' :func:`pda.miss_inflation` [m²] (0: none).
 
-    Returns:
-        The posterior :class:`HypState` (``scans`` one more when ``branch > 0``).
+    Returns: the posterior :class:`HypState` (``scans`` one more when ``branch > 0``).
     """
     g = min(g, zs.shape[1])
     pd = pd_fn(hyp.means[..., :3])  # [N, K, M], as the PDA and JPDA banks: at the prediction
@@ -269,15 +274,12 @@ def update_bank(
 
     if branch <= 0:
         return tree(hyp)
-
-    def soft(h):
-        return _scan(h, pd, one(soft_update, ()), n, False)
-
+    upd_soft = one(soft_update, (miss,))
+    soft = lambda h: _scan(h, pd, upd_soft, n, False)  # noqa: E731
     late, k2 = settle
     if late <= 0 or k2 >= hyp.logw.shape[0]:
         hyp = jax.lax.cond(hyp.scans < branch, tree, soft, hyp)
     else:
-        upd_soft = one(soft_update, ())
         few = lambda h: settled(h, pd, k2, lambda u, p: _scan(u, p, upd_soft, n, False))  # noqa: E731
         phase = jnp.where(hyp.scans < branch, 0, jnp.where(hyp.scans < late, 1, 2))
         hyp = jax.lax.switch(phase, (tree, soft, few), hyp)
@@ -288,9 +290,7 @@ def settled(hyp: HypState, pd, k2: int, run) -> HypState:
     """One scan of the K₂ heaviest hypotheses only (``lax.top_k`` of ``log w``): they take
     ``run(sub, pd [N, K₂, M])`` (the soft scan of a K₂-slot state, weights renormalised
     among them) and return to their slots; every other slot's weight becomes −inf (its
-    stale bank weighs nothing in the estimate, the mixture or the next ``top_k``). Once
-    the first scans have chosen between the starts, this costs K₂ banks a scan, not K.
-    """
+    stale bank weighs nothing in the estimate, the mixture or the next ``top_k``)."""
     _, keep = jax.lax.top_k(hyp.logw, k2)
     sub = HypState(hyp.means[keep], hyp.covs[keep], hyp.logw[keep], hyp.scans)
     sub = run(sub, pd[:, keep])

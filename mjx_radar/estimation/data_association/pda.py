@@ -38,6 +38,7 @@ __all__ = [  # noqa: RUF022
     "innovations",
     "miss_ratio",
     "mixture",
+    "miss_inflation",
     "update_bank",
     "irf_table",
     "irf",
@@ -108,6 +109,17 @@ def mixture(mean, cov, K, S, nu, beta0, beta):
     new_mean = mean + K @ nu_c
     new_cov = cov - (1.0 - beta0) * (K @ S @ K.T) + K @ spread @ K.T
     return new_mean, linalg.symmetrize(new_cov)
+
+
+def miss_inflation(mean, cov, h, weight, q):
+    """``P + q w u uᵀ`` on the position block: a scan in which the target takes none of a
+    radar's returns though the radar should see it (``w = P_D β_0``) lets the track's
+    position spread by ``q`` [m²] along that radar's line of sight ``u`` (the unit gradient
+    of the range ``h(x)[0]`` at ``mean``), so a track that a wrong early return moved off
+    a radar's range can take that radar's returns again."""
+    grad = jax.grad(lambda x: h(x)[0])(mean)[:3]
+    u = grad / jnp.maximum(jnp.linalg.norm(grad), 1e-12)
+    return cov.at[:3, :3].add(q * weight * jnp.outer(u, u))
 
 
 def pda_update(mean, cov, z, valid, h, R, pd, density, gate, pg, residual=None):
