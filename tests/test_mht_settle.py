@@ -11,6 +11,7 @@ empty (−inf). Before S scans the option changes nothing.
 
 import functools
 
+import _range_scene
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -24,22 +25,8 @@ PG, K, K2 = 0.99, 8, 3
 
 
 def _scene():
-    from mjx_radar.estimation.sensor.measurement import RangeModel
-    from mjx_radar.estimation.sensor.noise import NoiseParams
-
-    rng = np.random.default_rng(5)
-    radars = np.array([[300.0, 40.0, 0.0], [-50.0, 260.0, 0.0], [100.0, -200.0, 0.0]])
-    truth = np.array([[0.0, 0, 50, 5, 2, 0], [8.0, 3, 55, 4, 3, 0], [3.0, 9, 48, 6, 1, 0]])
-    means = truth + rng.normal(0, [2, 2, 2, 1, 1, 1], truth.shape)
-    covs = np.stack([np.diag([6.0, 5.0, 7.0, 2.0, 2.0, 2.0])] * 3)
-    d = np.linalg.norm(truth[None, :, :3] - radars[:, None], axis=-1)
-    zs = 2 * d + rng.normal(0, 1.2, d.shape)
-    zs = np.concatenate([zs, zs[:, :1] + rng.normal(0, 3, (3, 3))], 1)[..., None]  # clutter
-    one = jnp.float64(1.0)
-    noise = NoiseParams(one, jnp.float64(1.5), one, one)
-    pd = jnp.asarray([[0.9, 0.8, 0.7]] * 3)
-    valid = jnp.ones(zs.shape[:2], bool)
-    args = (jnp.asarray(zs), valid, jnp.asarray(radars), RangeModel(), noise, True)
+    means, covs, zs = _range_scene.scene()
+    args, pd = _range_scene.model_args(zs)
     args = (*args, lambda pos: jnp.broadcast_to(pd[:, None], (3, *pos.shape[:2])))
     tail = (jnp.float64(0.02), jnp.float64(chi2.ppf(PG, 1)), jnp.float64(PG), 4)
     return means, covs, (*args, *tail)

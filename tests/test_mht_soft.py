@@ -16,6 +16,7 @@ update (``[tracker] branch_scans``, docs/tracking.md) against independent refere
 
 import itertools
 
+import _range_scene
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -157,25 +158,10 @@ def test_soft_scan_after_branching_matches_enumeration():
 
 
 def test_one_hypothesis_branches_then_is_the_jpda_bank():
-    from mjx_radar.estimation.sensor.measurement import RangeModel
-    from mjx_radar.estimation.sensor.noise import NoiseParams
-
-    model = RangeModel()
-    rng = np.random.default_rng(5)
-    radars = np.array([[300.0, 40.0, 0.0], [-50.0, 260.0, 0.0], [100.0, -200.0, 0.0]])
-    truth = np.array([[0.0, 0, 50, 5, 2, 0], [8.0, 3, 55, 4, 3, 0], [3.0, 9, 48, 6, 1, 0]])
-    means = truth + rng.normal(0, [2, 2, 2, 1, 1, 1], truth.shape)
-    covs = np.stack([np.diag([6.0, 5.0, 7.0, 2.0, 2.0, 2.0])] * 3)
-    d = np.linalg.norm(truth[None, :, :3] - radars[:, None], axis=-1)
-    zs = 2 * d + rng.normal(0, 1.2, d.shape)
-    zs = np.concatenate([zs, zs[:, :1] + rng.normal(0, 3, (3, 3))], 1)[..., None]  # clutter
+    means, covs, zs = _range_scene.scene()
     with jax.enable_x64(True):
-        one = jnp.float64(1.0)
-        noise = NoiseParams(one, jnp.float64(1.5), one, one)
-        pd = jnp.asarray([[0.9, 0.8, 0.7]] * 3)
-        valid = jnp.ones(zs.shape[:2], bool)
+        args, pd = _range_scene.model_args(zs)
         tail = (jnp.float64(0.02), jnp.float64(chi2.ppf(PG, 1)), jnp.float64(PG))
-        args = (jnp.asarray(zs), valid, jnp.asarray(radars), model, noise, True)
 
         def bank(rule):  # jitted: eagerly the radar loop's dispatch takes seconds
             return jax.jit(lambda x, p: jpda.update_bank(x, p, *args, pd, *tail, rule))
