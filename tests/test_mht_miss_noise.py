@@ -42,10 +42,13 @@ def test_soft_scan_adds_q_pd_beta0_along_the_line_of_sight():
         hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), 1)
         soft = jax.jit(lambda hy, q: mht.soft_update(hy, *args, *tail, miss=q), static_argnums=1)
         plain, grown = soft(hyp, 0.0), soft(hyp, Q)
+        at_radar = jnp.concatenate([jnp.asarray(radars[0]), jnp.ones(3)])  # no line of sight
+        same = jax.jit(lambda x, P: pda.miss_inflation(x, P, h, 1.0, Q))(at_radar, covs[0])
         rule = jpda.rule("exact", 3)
         _, (beta0, _) = jax.jit(
             lambda m, c: jpda.joint_update(m, c, *args[:4], args[4][0], *tail[:3], rule)
         )(jnp.asarray(means), jnp.asarray(covs))
+    np.testing.assert_array_equal(np.asarray(same), covs[0])  # finite, untouched
     beta0 = np.asarray(beta0)
     assert beta0[0] == pytest.approx(1.0, abs=1e-9) and 0 < beta0[1] < 0.5
     u = means[:, :3] - radars[0]

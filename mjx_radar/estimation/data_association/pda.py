@@ -117,7 +117,7 @@ def miss_inflation(mean, cov, h, weight, q):
     position spread by ``q`` [m²] along that radar's line of sight ``u`` (the unit gradient
     of the range ``h(x)[0]`` at ``mean``), so a track that a wrong early return moved off
     a radar's range can take that radar's returns again."""
-    grad = jax.grad(lambda x: h(x)[0])(mean)[:3]
+    grad = jnp.nan_to_num(jax.grad(lambda x: h(x)[0])(mean)[:3])  # 0 at the radar itself
     u = grad / jnp.maximum(jnp.linalg.norm(grad), 1e-12)
     return cov.at[:3, :3].add(q * weight * jnp.outer(u, u))
 
