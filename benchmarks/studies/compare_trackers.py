@@ -174,12 +174,13 @@ def variant(scenario, name: str):
     weighted A (``[mpc] alpha_assoc``); any of them may be given, in that order."""
     base, settle, miss, gate, weight = _parts(name)
     edits = dict(VARIANTS[base])
+    tracker = dict(edits.get("tracker", {}))
     if settle is not None:
-        late, k2 = _settle(settle)
-        tracker = {"settle_scans": late, "settled_hypotheses": k2}
-        edits["tracker"] = {**edits.get("tracker", {}), **tracker}
+        tracker["settle_scans"], tracker["settled_hypotheses"] = _settle(settle)
     if miss is not None:
-        edits["tracker"] = {**edits.get("tracker", {}), "miss_noise": float(miss)}
+        tracker["miss_noise"] = float(miss)
+    if tracker:
+        edits["tracker"] = tracker
     if gate is not None:
         gp = 1 - 10 ** -int(gate)
         edits["detection"] = {**edits.get("detection", {}), "gate_probability": gp}
@@ -196,10 +197,10 @@ def known_variant(name: str) -> bool:
     probabilities the scenario accepts) and ``-assocA``."""
     base, settle, miss, gate, weight = _parts(name)
     ok_settle = settle is None or _settle(settle) is not None
-    ok_settle = ok_settle and (miss is None or _number(miss))
+    ok_miss = miss is None or _number(miss)
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
     ok_weight = weight is None or _number(weight)
-    return base in VARIANTS and ok_settle and ok_gate and ok_weight
+    return base in VARIANTS and ok_settle and ok_miss and ok_gate and ok_weight
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:

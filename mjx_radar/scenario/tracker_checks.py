@@ -59,9 +59,10 @@ def check(s) -> None:
         t.association not in TABLE_ASSOCIATORS
         and t.association.lower() not in ASSOCIATORS.registered()
     ):
+        names = ", ".join(f'"{a}"' for a in TABLE_ASSOCIATORS)
         raise ScenarioError(
-            f'tracker.association = "{t.association}": the managed tracker takes "pda", "gnn", '
-            f'"jpda" or a registered associator ({t.association} drives the per-target bank only)'
+            f'tracker.association = "{t.association}": the managed tracker takes {names} '
+            f"or a registered associator ({t.association} drives the per-target bank only)"
         )
     if t.association == "jpda" and t.marginals != "lbp":
         raise ScenarioError(

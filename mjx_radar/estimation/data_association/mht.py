@@ -255,7 +255,8 @@ def update_bank(
             after the first S update only the K₂ heaviest hypotheses (:func:`settled`).
         miss: static; the soft scans' :func:`pda.miss_inflation` [m²] (0: none).
 
-    Returns: the posterior :class:`HypState` (``scans`` one more when ``branch > 0``).
+    Returns:
+        The posterior :class:`HypState` (``scans`` one more when ``branch > 0``).
     """
     g = min(g, zs.shape[1])
     pd = pd_fn(hyp.means[..., :3])  # [N, K, M], as the PDA and JPDA banks: at the prediction
@@ -269,20 +270,18 @@ def update_bank(
 
         return upd
 
-    def tree(h):
-        return _scan(h, pd, one(radar_update, (merge,)), n, True)
-
+    tree = lambda h: _scan(h, pd, one(radar_update, (merge,)), n, True)  # noqa: E731
     if branch <= 0:
         return tree(hyp)
-    upd_soft = one(soft_update, (miss,))
-    soft = lambda h: _scan(h, pd, upd_soft, n, False)  # noqa: E731
+    upd = one(soft_update, (miss,))
+    run = lambda h, p: _scan(h, p, upd, n, False)  # noqa: E731  (the soft scans)
     late, k2 = settle
     if late <= 0 or k2 >= hyp.logw.shape[0]:
-        hyp = jax.lax.cond(hyp.scans < branch, tree, soft, hyp)
+        hyp = jax.lax.cond(hyp.scans < branch, tree, lambda h: run(h, pd), hyp)
     else:
-        few = lambda h: settled(h, pd, k2, lambda u, p: _scan(u, p, upd_soft, n, False))  # noqa: E731
         phase = jnp.where(hyp.scans < branch, 0, jnp.where(hyp.scans < late, 1, 2))
-        hyp = jax.lax.switch(phase, (tree, soft, few), hyp)
+        few = lambda h: settled(h, pd, k2, run)  # noqa: E731
+        hyp = jax.lax.switch(phase, (tree, lambda h: run(h, pd), few), hyp)
     return hyp._replace(scans=hyp.scans + 1)
 
 
