@@ -1,5 +1,5 @@
 """The variant names of benchmarks/studies/compare_trackers.py:
-``NAME[-settleStoK][-missQ][-gateN][-assocA]``
+``NAME[-settleStoK][-missQ][-gateN][-assocA][-ground][-consensusS]``
 become the scenario tables they say (docs/tracking.md), and malformed names are refused."""
 
 import importlib.util
@@ -50,6 +50,21 @@ def test_settle_suffix_keeps_the_variants_tracker(ct, clutter):
     assert (s.tracker.settle_scans, s.tracker.miss_noise, s.mpc.alpha_assoc) == (40, 0.5, 10.0)
 
 
+def test_ground_and_consensus_suffixes(ct, clutter):
+    s = ct.variant(clutter, "mht-jpda-1024-settle100to64-gate4-assoc10-ground-consensus2.5")
+    t = s.tracker
+    assert (t.hypotheses, t.settle_scans, t.estimate, t.consensus_scale) == (
+        1024,
+        100,
+        "consensus",
+        2.5,
+    )
+    assert s.filter.ground_prior and s.mpc.alpha_assoc == 10.0
+    assert s.name.endswith("_assoc10_ground_consensus2p5")
+    plain = ct.variant(clutter, "mht-jpda")
+    assert not plain.filter.ground_prior and plain.tracker.estimate == "best"
+
+
 def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
     s = ct.variant(clutter, "known-gate6")  # known: the labelled scans (no clutter)
     assert s.detection.clutter_density == 0.0
@@ -79,6 +94,14 @@ def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
         ("mht-jpda-missx", False),
         ("mht-jpda-miss", False),
         ("mht-jpda-miss0.5-settle40to64", False),  # -settle before -miss
+        ("mht-jpda-1024-settle100to64-gate4-assoc10-ground-consensus5", True),
+        ("mht-jpda-ground", True),
+        ("mht-jpda-consensus2.5", True),
+        ("mht-jpda-ground-assoc10", False),  # -ground after -assocA
+        ("mht-jpda-groundx", False),
+        ("mht-jpda-consensus0", False),
+        ("mht-jpda-consensus", False),
+        ("mht-jpda-consensus5-ground", False),  # -ground before -consensusS
     ],
 )
 def test_known_variant(ct, name, known):

@@ -37,6 +37,11 @@ for every variant) of the given methods. The variants are the scenario with
                ([detection] gate_probability; e.g. mht-jpda-gate6: 0.999999)
     NAME-assocA   variant NAME with the planner's association term weighted A
                ([mpc] alpha_assoc = A; e.g. mht-jpda-assoc10)
+    NAME-ground   variant NAME with [filter] ground_prior = true (estimates reflected to
+               z >= 0; an MHT reflects every hypothesis's)
+    NAME-consensusS   variant NAME (an mht) reporting the consensus hypothesis
+               (estimate = "consensus", consensus_scale = S m; e.g.
+               mht-jpda-1024-settle100to64-gate4-assoc10-ground-consensus5)
     mht-jpda-mix  mht-jpda with the planner planning for the moment-matched mixture of
                the hypotheses (plan_on = "mixture"; the metrics score the heaviest's)
 
@@ -139,9 +144,13 @@ VARIANTS = {
 
 
 def _parts(name: str):
-    """``NAME[-settleStoK][-missQ][-gateN][-assocA]`` -> ``(NAME, settle, Q, N, A)``: each
-    suffix's text, or None where it is absent."""
-    rest, sep_a, weight = name.partition("-assoc")
+    """``NAME[-settleStoK][-missQ][-gateN][-assocA][-ground][-consensusS]`` ->
+    ``(NAME, settle, Q, N, A, ground, S)``: each suffix's text (``ground`` a bool), or None
+    where it is absent."""
+    rest, sep_c, scale = name.partition("-consensus")
+    rest, sep_gr, tail = rest.partition("-ground")
+    rest += tail  # "-ground" is a flag: text after it is malformed unless empty
+    rest, sep_a, weight = rest.partition("-assoc")
     rest, sep_g, gate = rest.partition("-gate")
     rest, sep_m, miss = rest.partition("-miss")
     base, sep_s, settle = rest.partition("-settle")
@@ -151,6 +160,8 @@ def _parts(name: str):
         miss if sep_m else None,
         gate if sep_g else None,
         weight if sep_a else None,
+        bool(sep_gr) and not tail,
+        scale if sep_c else None,
     )
 
 
@@ -171,14 +182,18 @@ def variant(scenario, name: str):
     ``miss_noise = Q``; ``NAME-gateN``:
     variant NAME with the validation gate's probability ``1 − 10^−N``
     (``[detection] gate_probability``); ``NAME-assocA``: with the planner's association term
-    weighted A (``[mpc] alpha_assoc``); any of them may be given, in that order."""
-    base, settle, miss, gate, weight = _parts(name)
+    weighted A (``[mpc] alpha_assoc``); ``NAME-ground``: with ``[filter] ground_prior``;
+    ``NAME-consensusS``: with ``estimate = "consensus"``, ``consensus_scale = S``; any of them
+    may be given, in that order."""
+    base, settle, miss, gate, weight, ground, scale = _parts(name)
     edits = dict(VARIANTS[base])
     tracker = dict(edits.get("tracker", {}))
     if settle is not None:
         tracker["settle_scans"], tracker["settled_hypotheses"] = _settle(settle)
     if miss is not None:
         tracker["miss_noise"] = float(miss)
+    if scale is not None:
+        tracker["estimate"], tracker["consensus_scale"] = "consensus", float(scale)
     if tracker:
         edits["tracker"] = tracker
     if gate is not None:
@@ -186,6 +201,8 @@ def variant(scenario, name: str):
         edits["detection"] = {**edits.get("detection", {}), "gate_probability": gp}
     if weight is not None:
         edits["mpc"] = {"alpha_assoc": float(weight)}
+    if ground:
+        edits["filter"] = {**edits.get("filter", {}), "ground_prior": True}
     return scenario.replace(
         name=f"{scenario.name}_{name.replace('-', '_').replace('.', 'p')}", **edits
     )
@@ -194,13 +211,17 @@ def variant(scenario, name: str):
 def known_variant(name: str) -> bool:
     """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-settleStoK``
     (positive integers), ``-missQ`` (a decimal), ``-gateN`` (N in 1..6, the gate
-    probabilities the scenario accepts) and ``-assocA``."""
-    base, settle, miss, gate, weight = _parts(name)
+    probabilities the scenario accepts), ``-assocA``, ``-ground`` and ``-consensusS`` (a
+    positive decimal)."""
+    base, settle, miss, gate, weight, ground, scale = _parts(name)
     ok_settle = settle is None or _settle(settle) is not None
     ok_miss = miss is None or _number(miss)
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
     ok_weight = weight is None or _number(weight)
-    return base in VARIANTS and ok_settle and ok_miss and ok_gate and ok_weight
+    ok_scale = scale is None or (_number(scale) and float(scale) > 0)
+    ok_ground = ground or "-ground" not in name
+    ok = ok_settle and ok_miss and ok_gate and ok_weight and ok_scale and ok_ground
+    return base in VARIANTS and ok
 
 
 def rows(metrics: pd.DataFrame, summary: pd.DataFrame, upto: int | None = None) -> pd.DataFrame:

@@ -9,7 +9,9 @@ hypothesis and joint event over each target's ``candidates`` best returns, prune
 the K heaviest (:func:`mjx_radar.estimation.data_association.mht.update_bank`). The joint estimate
 the
 loop carries (``mean [6M]``, ``cov [6M, 6M]``: metrics, lost-track detector, planner)
-is the heaviest hypothesis's bank, so the planner plans for the best hypothesis; with
+is the heaviest hypothesis's bank (with ``estimate = "consensus"`` the hypothesis with the
+most posterior weight near it: :mod:`~mjx_radar.estimation.data_association.mht_estimate`),
+so the planner plans for that hypothesis; with
 ``plan_on = "mixture"`` the planner sees the moment-matched mixture of the hypotheses
 instead (:mod:`~mjx_radar.estimation.data_association.mht_mixture`, ``FilterOps.plan_view``),
 while the metrics keep the heaviest's. The
@@ -31,7 +33,7 @@ import jax.numpy as jnp
 
 from mjx_radar.env.filter_ops import FilterOps
 from mjx_radar.errors import ScenarioError
-from mjx_radar.estimation.data_association import mht, mht_mixture
+from mjx_radar.estimation.data_association import mht, mht_estimate, mht_mixture
 from mjx_radar.estimation.filters import filter_bank, ground_prior
 from mjx_radar.estimation.sensor import clutter, detection
 from mjx_radar.physics import target_motion
@@ -66,7 +68,13 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     merge = (float(t.merge_distance), int(t.merge_screen), bool(t.merge_labels))
     settle = (int(t.settle_scans), int(t.settled_hypotheses))
 
-    def joint(hyp):
+    scale = float(t.consensus_scale)
+
+    def joint(hyp):  # the reported hypothesis: the heaviest, or the consensus
+        if t.estimate == "consensus":
+            return filter_bank.bank_to_joint(
+                *mht_estimate.consensus(hyp.means, hyp.covs, hyp.logw, scale)
+            )
         return filter_bank.bank_to_joint(*mht.best(hyp))
 
     def predict(mean, cov, modes):

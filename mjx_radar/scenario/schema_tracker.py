@@ -163,6 +163,14 @@ class TrackerConfig:
             doc="mht: the planner's estimate: the heaviest hypothesis or the mixture",
         ),
     )
+    estimate: str = field(
+        default="best",
+        metadata=choice("best", "consensus", doc="mht: the heaviest hypothesis or the consensus"),
+    )
+    consensus_scale: float = field(
+        default=5.0,
+        metadata=rule(float, 0.0, 1e5, lo_open=True, unit="m", doc="mht consensus: kernel scale s"),
+    )
     management: str = field(
         default="known",
         metadata=choice(

@@ -20,7 +20,7 @@ def check_mht(t: TrackerConfig, m: int) -> None:
     """The MHT's limits (``association = "mht"``, M targets): its children per radar and
     scan ``hypotheses · (candidates + 1)^M`` at most ``MAX_CHILDREN``; settling and the
     miss noise after the branching scans, settling to at most K hypotheses; label-free
-    merging (M! orders) for M <= 6."""
+    merging and the consensus estimate (M! orders) for M <= 6."""
     children = t.hypotheses * (t.candidates + 1) ** m
     if children > MAX_CHILDREN:
         raise ScenarioError(
@@ -42,6 +42,16 @@ def check_mht(t: TrackerConfig, m: int) -> None:
         raise ScenarioError(
             f"tracker.settled_hypotheses = {t.settled_hypotheses}: must be <= "
             f"tracker.hypotheses = {t.hypotheses}"
+        )
+    if t.estimate != "consensus" and t.consensus_scale != TrackerConfig.consensus_scale:
+        raise ScenarioError(
+            f"tracker.consensus_scale = {t.consensus_scale}: read only with "
+            f'tracker.estimate = "consensus" (here "{t.estimate}"); remove it'
+        )
+    if t.estimate == "consensus" and m > 6:
+        raise ScenarioError(
+            f'tracker.estimate = "consensus": compares M! = {math.factorial(m)} target '
+            f'orders for M = {m} targets; at most 6 targets (set it "best")'
         )
     if t.merge_labels and m > 6:
         raise ScenarioError(

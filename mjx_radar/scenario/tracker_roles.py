@@ -47,6 +47,8 @@ _ASSOCIATION_FIELDS = {
     "settled_hypotheses": ("mht",),
     "miss_noise": ("mht",),
     "plan_on": ("mht",),
+    "estimate": ("mht",),
+    "consensus_scale": ("mht",),
 }
 #: ``[tracker]`` options of the managed track table (initiator, deleter, table)
 _MANAGED_FIELDS = (
