@@ -144,3 +144,22 @@ def test_estimate_off_by_default_and_refused_in_one_line():
         with pytest.raises(ScenarioError, match=msg.replace("(", r"\(")) as e:
             s.replace(tracker=edit)
         assert "\n" not in str(e.value)
+
+
+@pytest.mark.slow  # one closed-loop environment program (~40 s on a busy CPU)
+def test_the_loop_carries_the_consensus_hypothesis():
+    import mjx_radar
+    from mjx_radar.env import environment
+    from mjx_radar.estimation.filters import filter_bank
+
+    s = mjx_radar.load_scenario("clutter_3r4t")
+    edit = {"association": "mht", "hypotheses": 8, "estimate": "consensus", "consensus_scale": 20}
+    env = environment.make(s.replace(tracker=edit))
+    state = jax.jit(env.reset)(env.trial_key(env.params.seed, 2))
+    state = jax.jit(env.step)(state, jnp.zeros((env.n_radars, 2)))  # one scan: trial 2's
+    modes = state.loop.modes  # consensus is not its heaviest hypothesis (so this can fail)
+    i = int(mht_estimate.consensus_index(modes.means, modes.logw, 20.0))
+    assert i != int(jnp.argmax(modes.logw))
+    want = filter_bank.bank_to_joint(modes.means[i], modes.covs[i])
+    np.testing.assert_array_equal(np.asarray(state.loop.mean), np.asarray(want[0]))
+    np.testing.assert_array_equal(np.asarray(state.loop.cov), np.asarray(want[1]))
