@@ -39,6 +39,13 @@ and ``Z = N·M·dim`` measurements per step (``dim`` 1 for ranges, 2 with azimut
   a planner); per-target bank: the joint
   covariance kept between steps ``6·D²`` plus ``M`` small filters ``7·M·(N·dim)² +
   24·Z + 72·H·M`` (``4·D² + M·(N·dim)² + 24·Z`` without a planner);
+* the MHT (``[tracker] association = "mht"``): every hypothesis's joint events, scored and
+  mixed, ``K·E·M·3.5`` numbers a trial (K hypotheses, ``E = (G + 1)^M`` events), and with
+  ``merge_labels`` the label-free distances of the ``s·K`` screened children over the M!
+  orders, ``3·(s·K)²·M!`` (:func:`mht_numbers`), and its K banks ``K·(42M + 1)`` in the
+  loop state. The event tables live apart from the planner's
+  arrays in the step, so a planning program keeps only what exceeds those (measured: the
+  CPU, clutter_3r4t, K = 16-1024, 2 trials, 0.96-1.01 of XLA's figure);
 * loop state: the carry (joint ``4·D² + 120·D``, bank ``576·M + 4·D²``, the
   ``2·32·H·N`` kept MPPI samples, 2500 numbers of keys, clocks and small arrays), a
   segment's records (``run``: ``3D + 6N + 22`` numbers a filter step and
@@ -66,6 +73,7 @@ of clutter_3r4t's (0.62-0.63: its peak lies ~230 MB above the step program's fig
 from __future__ import annotations
 
 import functools
+import math
 from typing import TYPE_CHECKING
 
 from mjx_radar.engine.memory_model_gpu import device_peak, gpu_terms  # noqa: F401
@@ -104,6 +112,21 @@ JOINED_ARRAYS = {"cpu": (11.3, 0.5), "gpu": (6.0, 1.0)}
 #: extra arrays per radar when the planner weighs the information by the detection
 #: probability with clutter (the PDA planner factor, ``[detection] planner = true``)
 CLUTTER_ARRAYS = 5.0
+
+
+#: numbers a trial per MHT hypothesis, joint event and target (scores, events, mixtures)
+MHT_EVENT_NUMBERS = 3.5
+#: numbers a trial per pair of screened children and target order (label-free merging)
+MHT_LABEL_NUMBERS = 3.0
+
+
+def mht_numbers(size: ProgramSize) -> float:
+    """Numbers a trial of the MHT's event tables and label-free merge distances (0 without
+    the MHT): ``K·E·M·3.5 + 3·(s·K)²·M!``."""
+    m = size.n_targets
+    events = MHT_EVENT_NUMBERS * size.hypotheses * size.events * m
+    labels = MHT_LABEL_NUMBERS * size.merge_pairs**2 * math.factorial(m) if size.merge_pairs else 0
+    return events + labels
 
 
 def objective_arrays(kind: str, n: int, platform: str, clutter: bool = False) -> float:
@@ -150,7 +173,8 @@ def device_terms(
 
     Returns:
         ``{"planner expectations", "MPPI sampling", "filter", "loop state"[, "MJX
-        rollouts", "line of sight"]: bytes}`` (no planner terms for kind ``"none"``).
+        rollouts", "line of sight", "MHT hypotheses"]: bytes}`` (no planner terms for kind
+        ``"none"``).
     """
     n, m = size.n_radars, size.n_targets
     s, h, dim, joint = size.samples, size.horizon, size.dim, size.joint
@@ -182,12 +206,15 @@ def device_terms(
     else:
         state += k * (8 * m + 12)
     state += 2 * KEEP * h * n + 2500  # the kept MPPI samples; keys, clocks, small arrays
+    state += size.hypotheses * (42 * m + 1)  # the MHT's K banks and weights
     f = float_bytes()
     # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
     motion = (9 * size.steps + 7) * m * f if size.target_motion else 0
     if platform == "gpu" and kind != "all":
         tests = occluder_tests(obstacles) if obstacles else 0
-        return gpu_terms(size, trials, kind, state * trials * f + motion, tests, f)
+        loop = state * trials * f + motion
+        return gpu_terms(size, trials, kind, loop, tests, f, mht_numbers(size))
+    mht = trials * mht_numbers(size) * f
     terms = {"filter": trials * filt * f, "loop state": trials * state * f + motion}
     arrays = objective_arrays(kind, n, platform, clutter)
     if arrays:
@@ -203,6 +230,9 @@ def device_terms(
         if size.rollout == "mjx" and (gpu or not joint or kind == "all"):
             n_obs = len(obstacles) if gpu or kind == "all" else 0
             terms["MJX rollouts"] = trials * s * (400 * (n + 1) + 50 * n_obs) * f
+    if mht:  # apart from the planner's arrays: only what exceeds them
+        planner = terms.get("planner expectations", 0) + terms.get("MPPI sampling", 0)
+        terms["MHT hypotheses"] = max(0.0, mht - planner)
     return {k: int(v) for k, v in terms.items()}
 
 

@@ -62,17 +62,27 @@ GPU_WORKSPACE = 32 * 2**20
 GPU_GEMM_SAMPLES, GPU_GEMM_STATE, GPU_GEMM_TESTS = 128, 48, 200
 #: the joint filter's ``D²`` work kept without a planner (``2·D² + 5·Z²``)
 GPU_NONE_JOINT_FILTER = 2
+#: the MHT's numbers (:func:`~mjx_radar.engine.memory_model.mht_numbers`) a GPU program
+#: keeps, as a share of the CPU's
+GPU_MHT_SHARE = 1.0
 #: the device's peak: ``max(x, GPU_FLOOR + GPU_FLOOR_SHARE·x)`` for XLA's figure ``x``
 GPU_FLOOR, GPU_FLOOR_SHARE = 150e6, 0.5
 
 
 def gpu_terms(
-    size: ProgramSize, trials: int, kind: str, loop_state: float, tests: int, f: int
+    size: ProgramSize,
+    trials: int,
+    kind: str,
+    loop_state: float,
+    tests: int,
+    f: int,
+    mht: float = 0.0,
 ) -> dict:
     """``memory_model.device_terms`` of a program of one kind or a study's on a GPU.
 
     ``loop_state``: bytes of the loop state (as on the CPU); ``tests``: the obstacles'
-    half-space and cylinder tests (``K·F + C``); ``f``: bytes per number.
+    half-space and cylinder tests (``K·F + C``); ``f``: bytes per number; ``mht``: the
+    MHT's numbers a trial (``memory_model.mht_numbers``), part of the filter's temporaries.
     """
     n, m = size.n_radars, size.n_targets
     s, h, dim, joint = size.samples, size.horizon, size.dim, size.joint
@@ -88,6 +98,7 @@ def gpu_terms(
     else:
         filt = 4 * d * d + m * (n * dim) ** 2 + 24 * z
     filt += n * m * tests  # the truth's line of sight, one number a test
+    filt += GPU_MHT_SHARE * mht  # the MHT's events and merge distances
     terms = {"filter": trials * filt * f, "loop state": loop_state}
     if not infos:  # a matrix product large enough for cuBLAS: its workspace, shared
         # with the filter's temporaries

@@ -19,6 +19,7 @@ from collections.abc import Callable
 
 from mjx_radar.scenario.schema import Scenario, Timing
 from mjx_radar.scenario.schema_metrics import MetricsConfig
+from mjx_radar.scenario.tracker_roles import composed
 from mjx_radar.task.method import Method
 from mjx_radar.task.params import TaskParams, shape_key, task_params
 
@@ -40,6 +41,9 @@ class ProgramSize:
         control_every: filter steps per control step; steps: the scenario's K.
         target_motion: the scenario has ``[[target_motion]]`` tables.
         rollout: the planner's rollout backend (``"mjx"`` or ``"analytic"``).
+        hypotheses, events, merge_pairs: the MHT's K hypotheses, its ``E = (G + 1)^M``
+            joint events per hypothesis and radar, and the ``screen · K`` children whose
+            label-free distances it merges on (0 where it does not; all 0 without the MHT).
     """
 
     n_radars: int
@@ -54,6 +58,9 @@ class ProgramSize:
     steps: int
     target_motion: bool
     rollout: str
+    hypotheses: int = 0
+    events: int = 0
+    merge_pairs: int = 0
 
     @property
     def joint(self) -> bool:
@@ -98,7 +105,11 @@ class RunSpec:
 
 def program_size(scenario: Scenario) -> ProgramSize:
     """The :class:`ProgramSize` of a scenario."""
-    det = scenario.detection
+    det, t = scenario.detection, scenario.tracker
+    mht = composed(scenario) == "mht"
+    k = t.hypotheses if mht else 0
+    g = min(t.candidates, scenario.n_targets + det.max_false_alarms)  # capped at the scan
+    labels = mht and t.merge_labels and t.merge_distance > 0
     return ProgramSize(
         n_radars=scenario.n_radars,
         n_targets=scenario.n_targets,
@@ -112,6 +123,9 @@ def program_size(scenario: Scenario) -> ProgramSize:
         steps=scenario.timing.steps,
         target_motion=bool(scenario.target_motion),
         rollout=scenario.mpc.rollout,
+        hypotheses=k,
+        events=(g + 1) ** scenario.n_targets if mht else 0,
+        merge_pairs=t.merge_screen * k if labels else 0,
     )
 
 
