@@ -527,3 +527,57 @@ def test_run_takes_gpu_memory_on_demand_unless_the_user_chose(monkeypatch, capsy
     monkeypatch.setenv("XLA_PYTHON_CLIENT_PREALLOCATE", "true")
     resources.allocate_gpu_memory_on_demand()
     assert os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] == "true"
+
+
+# The MHT's terms (benchmarks/mht_memory.py): clutter_3r4t with K = 16-1024 hypotheses,
+# settling and label-free merging, a run's stationary program and a study's, against XLA's
+# figure on the CPU (2 trials) and one H200 (64 trials)
+MHT_ROWS = {
+    plat: json.loads((REPO / f"benchmarks/results/memory_model_mht_{f}.json").read_text())["rows"]
+    for plat, f in (("cpu", "cpu"), ("gpu", "h200"))
+}
+
+
+@pytest.mark.parametrize(
+    "platform, row",
+    [(p, r) for p, rows in MHT_ROWS.items() for r in rows],
+    ids=lambda r: r if isinstance(r, str) else "-".join(map(str, r[:2])),
+)
+def test_mht_terms_against_xla(platform, row):
+    """Within 25 % on the CPU, and on the GPU where the MHT's arrays dominate (XLA's
+    figure above 1 GB); below that the GPU fuses more (up to 1.9x), never under 0.9."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from mht_memory import scenario
+
+    name, kind, program, trials, xla, _ = row
+    s = scenario(name)
+    est = sum(
+        resources.device_terms(
+            program_size(s), trials, platform, kind, program == "run", runner_segment(s)
+        ).values()
+    )
+    lo, hi = memory_model.BUNDLED_FACTOR
+    if platform == "gpu" and xla < 1e9:
+        hi = 1.9
+    assert lo <= est / xla <= hi and est / xla >= 0.9, (platform, row, est / xla)
+
+
+def test_mht_label_merging_chunk_refused_naming_the_hypotheses(monkeypatch):
+    """K = 1024 with label-free merging needs ~1 GB a trial: 200 trials do not fit 100 GiB
+    and the line names the MHT's settings and the chunk that fits."""
+    _gpu(monkeypatch, 100)
+    s = load_scenario("clutter_3r4t").replace(
+        tracker={"association": "mht", "hypotheses": 1024, "merge_screen": 2, "merge_labels": True}
+    )
+    assert program_size(s).merge_pairs == 2048
+    with pytest.raises(InputError) as err:
+        resources.check(run_spec(s), 200, 600, full=False, batch_option="--chunk")
+    line = str(err.value)
+    assert "\n" not in line and "the MHT hypotheses need" in line, line
+    assert "tracker.hypotheses = 1024 of 625 joint events" in line, line
+    assert "set tracker.merge_labels = false" in line, line
+    fit = int(line.split("; --chunk ")[1].split()[0])
+    assert 50 <= fit < 200, fit
+    resources.check(run_spec(s), fit, 600, full=False, batch_option="--chunk")
+    no_labels = s.replace(tracker={"merge_labels": False})
+    resources.check(run_spec(no_labels), 200, 600, full=False, batch_option="--chunk")

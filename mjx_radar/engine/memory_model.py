@@ -198,25 +198,19 @@ def device_terms(
         filt += 6 * n * m * occluder_tests(obstacles)
         meshes = sum(o.kind == "mesh" for o in obstacles)  # their geometry: carry
         state += 270 * meshes + 20 * (len(obstacles) - meshes)
-    clutter = size.clutter_planner
-    every = size.control_every
-    k = segment_steps or every
-    if full:
-        state += k * (3 * d + 6 * n + 22) + (k // every) * 2 * (n + h * n + KEEP * h * n + KEEP)
-    else:
-        state += k * (8 * m + 12)
-    state += 2 * KEEP * h * n + 2500  # the kept MPPI samples; keys, clocks, small arrays
+    k = segment_steps or size.control_every
+    state += _records(size, full, k) + 2 * KEEP * h * n + 2500  # + keys, clocks, small
     state += size.hypotheses * (42 * m + 1)  # the MHT's K banks and weights
     f = float_bytes()
     # the motion tables, accel, mean_v [K, M, 3], vel [K+1, M, 3]
     motion = (9 * size.steps + 7) * m * f if size.target_motion else 0
     if platform == "gpu" and kind != "all":
         tests = occluder_tests(obstacles) if obstacles else 0
-        loop = state * trials * f + motion
-        return gpu_terms(size, trials, kind, loop, tests, f, mht_numbers(size))
-    mht = trials * mht_numbers(size) * f
+        return gpu_terms(
+            size, trials, kind, state * trials * f + motion, tests, f, mht_numbers(size)
+        )
     terms = {"filter": trials * filt * f, "loop state": trials * state * f + motion}
-    arrays = objective_arrays(kind, n, platform, clutter)
+    arrays = objective_arrays(kind, n, platform, size.clutter_planner)
     if arrays:
         terms["planner expectations"] = trials * s * h * (p * m * arrays + 8 * n) * f
         terms["MPPI sampling"] = 6 * trials * s * s * f
@@ -230,10 +224,20 @@ def device_terms(
         if size.rollout == "mjx" and (gpu or not joint or kind == "all"):
             n_obs = len(obstacles) if gpu or kind == "all" else 0
             terms["MJX rollouts"] = trials * s * (400 * (n + 1) + 50 * n_obs) * f
-    if mht:  # apart from the planner's arrays: only what exceeds them
+    if size.hypotheses:  # apart from the planner's arrays: only what exceeds them
         planner = terms.get("planner expectations", 0) + terms.get("MPPI sampling", 0)
-        terms["MHT hypotheses"] = max(0.0, mht - planner)
+        terms["MHT hypotheses"] = max(0.0, trials * mht_numbers(size) * f - planner)
     return {k: int(v) for k, v in terms.items()}
+
+
+def _records(size: ProgramSize, full: bool, k: int) -> int:
+    """Numbers a trial of a segment's records of ``k`` filter steps, and the kept MPPI
+    samples of a ``run`` (``full``)."""
+    n, m, h, every = size.n_radars, size.n_targets, size.horizon, size.control_every
+    if full:
+        d = 6 * m
+        return k * (3 * d + 6 * n + 22) + (k // every) * 2 * (n + h * n + KEEP * h * n + KEEP)
+    return k * (8 * m + 12)
 
 
 @functools.lru_cache(maxsize=64)

@@ -64,7 +64,7 @@ GPU_GEMM_SAMPLES, GPU_GEMM_STATE, GPU_GEMM_TESTS = 128, 48, 200
 GPU_NONE_JOINT_FILTER = 2
 #: the MHT's numbers (:func:`~mjx_radar.engine.memory_model.mht_numbers`) a GPU program
 #: keeps, as a share of the CPU's
-GPU_MHT_SHARE = 1.0
+GPU_MHT_SHARE = 0.75
 #: the device's peak: ``max(x, GPU_FLOOR + GPU_FLOOR_SHARE·x)`` for XLA's figure ``x``
 GPU_FLOOR, GPU_FLOOR_SHARE = 150e6, 0.5
 
@@ -98,13 +98,15 @@ def gpu_terms(
     else:
         filt = 4 * d * d + m * (n * dim) ** 2 + 24 * z
     filt += n * m * tests  # the truth's line of sight, one number a test
-    filt += GPU_MHT_SHARE * mht  # the MHT's events and merge distances
     terms = {"filter": trials * filt * f, "loop state": loop_state}
+    hyp = trials * GPU_MHT_SHARE * mht * f  # the MHT's events and merge distances
+    if hyp:
+        terms["MHT hypotheses"] = hyp
     if not infos:  # a matrix product large enough for cuBLAS: its workspace, shared
         # with the filter's temporaries
         gemm = not joint or d >= GPU_GEMM_STATE or tests >= GPU_GEMM_TESTS
-        if gemm and GPU_WORKSPACE > terms["filter"]:
-            terms["cuBLAS workspace"] = GPU_WORKSPACE - terms["filter"]
+        if gemm and GPU_WORKSPACE > terms["filter"] + hyp:
+            terms["cuBLAS workspace"] = GPU_WORKSPACE - terms["filter"] - hyp
         return {k: int(v) for k, v in terms.items()}
     clutter = size.clutter_planner
     best = None
@@ -125,9 +127,15 @@ def gpu_terms(
         terms["MJX rollouts"] = trials * s * GPU_ROLLOUT_NUMBERS * (n + 1) * f
     if shared:
         terms["cuBLAS workspace"] = shared
-    # the filter's temporaries live apart from the planner's: only what exceeds them
-    planner = sum(v for k, v in terms.items() if k not in ("filter", "loop state"))
+    # the filter's temporaries (the MHT's with them) live apart from the planner's: only
+    # what exceeds them
+    planner = sum(
+        v for k, v in terms.items() if k not in ("filter", "loop state", "MHT hypotheses")
+    )
+    both = max(0.0, terms["filter"] + hyp - planner)
     terms["filter"] = max(0.0, terms["filter"] - planner)
+    if hyp:
+        terms["MHT hypotheses"] = both - terms["filter"]
     return {k: int(v) for k, v in terms.items()}
 
 

@@ -262,6 +262,12 @@ def _advice(sz: ProgramSize, term: str, batch: str, size: int, kind: str) -> tup
         what = f"{m} targets ({sz.structure} filter), {batch}"
         fix = f"reduce the number of targets or {batch.split()[0]}"
         return what, f"{per_target} or {fix}" if joint else fix
+    if term == "MHT hypotheses":
+        merge = sz.merge_pairs > 0
+        what = f"tracker.hypotheses = {sz.hypotheses} of {sz.events} joint events each"
+        what += f", label-free merging over {m}! target orders" if merge else ""
+        fix = f"reduce tracker.hypotheses, tracker.candidates or {batch.split()[0]}"
+        return f"{what}, {batch}", f"set tracker.merge_labels = false, or {fix}" if merge else fix
     if term == "line of sight":
         return f"{len(sz.obstacles)} obstacles, mppi.samples = {s}, {batch}", (
             f"reduce mppi.samples, mpc.horizon, the obstacles or {batch.split()[0]}"
