@@ -144,6 +144,13 @@ def test_estimate_off_by_default_and_refused_in_one_line():
         with pytest.raises(ScenarioError, match=msg.replace("(", r"\(")) as e:
             s.replace(tracker=edit)
         assert "\n" not in str(e.value)
+    raid = mjx_radar.load_scenario("raid_4r8t")  # 8 drones: 8! orders
+    edit = {"association": "mht", "candidates": 1, "estimate": "consensus"}
+    with pytest.raises(ScenarioError, match="M! = 40320 target orders .* at most 6") as e:
+        raid.replace(
+            filter={"structure": "per-target"}, detection={"clutter_density": 0.001}, tracker=edit
+        )
+    assert "\n" not in str(e.value)
 
 
 @pytest.mark.slow  # one closed-loop environment program (~40 s on a busy CPU)
