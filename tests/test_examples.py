@@ -73,3 +73,12 @@ def test_small_study(tmp_path, run_example):
     frame = pd.read_parquet(study / "metrics.parquet")
     assert sorted(frame["method"].astype(str).unique()) == ["ddr-sfim", "stationary"]
     assert frame["trial"].nunique() == 4
+
+
+@pytest.mark.slow  # CI keeps compare_methods, custom_cost, video_and_snapshot (suite time)
+def test_track_in_clutter(tmp_path, run_example):
+    run_example("track_in_clutter", tmp_path / "o")
+    table = pd.read_csv(tmp_path / "o" / "trackers.csv")
+    assert list(table["tracker"]) == ["jpda", "mht"] and (table["trials"] == 2).all()
+    assert table["unmatched_trials"].between(0, 2).all()
+    assert (table["median_gospa_m"] > 0).all() and (table["median_gospa_m"] < 60).all()
