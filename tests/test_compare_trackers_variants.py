@@ -1,5 +1,5 @@
 """The variant names of benchmarks/studies/compare_trackers.py:
-``NAME[-settleStoK][-missQ][-gateN][-assocA][-ground][-consensusS]``
+``NAME[-settleStoK][-missQ][-gateN][-assocA][-ground][-consensusS][-altH]``
 become the scenario tables they say (docs/tracking.md), and malformed names are refused."""
 
 import importlib.util
@@ -63,6 +63,9 @@ def test_ground_and_consensus_suffixes(ct, clutter):
     assert s.name.endswith("_assoc10_ground_consensus2p5")
     plain = ct.variant(clutter, "mht-jpda")
     assert not plain.filter.ground_prior and plain.tracker.estimate == "best"
+    alt = ct.variant(clutter, "mht-jpda-ground-consensus5-alt40")
+    assert (alt.tracker.height_std, alt.tracker.birth_height) == (40.0, 60.0)
+    assert plain.tracker.height_std == 0.0
 
 
 def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
@@ -102,6 +105,9 @@ def test_the_gate_keeps_the_variants_own_detection_edits(ct, clutter):
         ("mht-jpda-consensus0", False),
         ("mht-jpda-consensus", False),
         ("mht-jpda-consensus5-ground", False),  # -ground before -consensusS
+        ("mht-jpda-1024-settle200to64-gate4-assoc10-ground-consensus5-alt40", True),
+        ("mht-jpda-alt0", False),
+        ("mht-jpda-alt40-ground", False),  # -altH comes last
     ],
 )
 def test_known_variant(ct, name, known):

@@ -42,6 +42,9 @@ for every variant) of the given methods. The variants are the scenario with
     NAME-consensusS   variant NAME (an mht) reporting the consensus hypothesis
                (estimate = "consensus", consensus_scale = S m; e.g.
                mht-jpda-1024-settle100to64-gate4-assoc10-ground-consensus5)
+    NAME-altH     variant NAME (an mht) with the altitude prior: every hypothesis's heights
+               held near birth_height (60 m) with std H m, the hypotheses weighed by it
+               (height_std = H)
     mht-jpda-mix  mht-jpda with the planner planning for the moment-matched mixture of
                the hypotheses (plan_on = "mixture"; the metrics score the heaviest's)
 
@@ -144,10 +147,11 @@ VARIANTS = {
 
 
 def _parts(name: str):
-    """``NAME[-settleStoK][-missQ][-gateN][-assocA][-ground][-consensusS]`` ->
-    ``(NAME, settle, Q, N, A, ground, S)``: each suffix's text (``ground`` a bool), or None
-    where it is absent."""
-    rest, sep_c, scale = name.partition("-consensus")
+    """``NAME[-settleStoK][-missQ][-gateN][-assocA][-ground][-consensusS][-altH]`` ->
+    ``(NAME, settle, Q, N, A, ground, S, H)``: each suffix's text (``ground`` a bool), or
+    None where it is absent."""
+    rest, sep_h, alt = name.partition("-alt")
+    rest, sep_c, scale = rest.partition("-consensus")
     rest, sep_gr, tail = rest.partition("-ground")
     rest += tail  # "-ground" is a flag: text after it is malformed unless empty
     rest, sep_a, weight = rest.partition("-assoc")
@@ -162,6 +166,7 @@ def _parts(name: str):
         weight if sep_a else None,
         bool(sep_gr) and not tail,
         scale if sep_c else None,
+        alt if sep_h else None,
     )
 
 
@@ -183,9 +188,10 @@ def variant(scenario, name: str):
     variant NAME with the validation gate's probability ``1 − 10^−N``
     (``[detection] gate_probability``); ``NAME-assocA``: with the planner's association term
     weighted A (``[mpc] alpha_assoc``); ``NAME-ground``: with ``[filter] ground_prior``;
-    ``NAME-consensusS``: with ``estimate = "consensus"``, ``consensus_scale = S``; any of them
-    may be given, in that order."""
-    base, settle, miss, gate, weight, ground, scale = _parts(name)
+    ``NAME-consensusS``: with ``estimate = "consensus"``, ``consensus_scale = S``;
+    ``NAME-altH``: with the altitude prior ``height_std = H`` (at ``birth_height``, 60 m);
+    any of them may be given, in that order."""
+    base, settle, miss, gate, weight, ground, scale, alt = _parts(name)
     edits = dict(VARIANTS[base])
     tracker = dict(edits.get("tracker", {}))
     if settle is not None:
@@ -194,6 +200,8 @@ def variant(scenario, name: str):
         tracker["miss_noise"] = float(miss)
     if scale is not None:
         tracker["estimate"], tracker["consensus_scale"] = "consensus", float(scale)
+    if alt is not None:
+        tracker["height_std"] = float(alt)
     if tracker:
         edits["tracker"] = tracker
     if gate is not None:
@@ -211,14 +219,15 @@ def variant(scenario, name: str):
 def known_variant(name: str) -> bool:
     """Whether ``name`` is a variant of :data:`VARIANTS`, with or without ``-settleStoK``
     (positive integers), ``-missQ`` (a decimal), ``-gateN`` (N in 1..6, the gate
-    probabilities the scenario accepts), ``-assocA``, ``-ground`` and ``-consensusS`` (a
-    positive decimal)."""
-    base, settle, miss, gate, weight, ground, scale = _parts(name)
+    probabilities the scenario accepts), ``-assocA``, ``-ground``, ``-consensusS`` and
+    ``-altH`` (positive decimals)."""
+    base, settle, miss, gate, weight, ground, scale, alt = _parts(name)
     ok_settle = settle is None or _settle(settle) is not None
     ok_miss = miss is None or _number(miss)
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
     ok_weight = weight is None or _number(weight)
     ok_scale = scale is None or (_number(scale) and float(scale) > 0)
+    ok_scale = ok_scale and (alt is None or (_number(alt) and float(alt) > 0))
     ok_ground = ground or "-ground" not in name
     ok = ok_settle and ok_miss and ok_gate and ok_weight and ok_scale and ok_ground
     return base in VARIANTS and ok

@@ -23,23 +23,27 @@ later scans give each hypothesis JPDA's soft update weighted by its likelihood
 only the ``settled_hypotheses`` heaviest go on after S scans
 (:func:`mjx_radar.estimation.data_association.mht.settled`); ``miss_noise`` spreads a track
 along the line of sight of a radar whose returns it misses in those scans
-(:func:`mjx_radar.estimation.data_association.pda.miss_inflation`).
+(:func:`mjx_radar.estimation.data_association.pda.miss_inflation`); ``height_std > 0``
+holds every hypothesis's heights near ``birth_height`` and weighs the hypotheses by it
+(:func:`altitude_prior`).
 """
 
 from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+from jax.scipy.special import logsumexp
 
 from mjx_radar.env.filter_ops import FilterOps
 from mjx_radar.errors import ScenarioError
 from mjx_radar.estimation.data_association import mht, mht_estimate, mht_mixture
 from mjx_radar.estimation.filters import filter_bank, ground_prior
 from mjx_radar.estimation.sensor import clutter, detection
+from mjx_radar.estimation.tracks import altitude
 from mjx_radar.physics import target_motion
 from mjx_radar.task.task import RadarTask
 
-__all__ = ["mht_bank"]
+__all__ = ["mht_bank", "altitude_prior"]
 
 
 def _ground(hyp: mht.HypState) -> mht.HypState:
@@ -51,6 +55,22 @@ def _ground(hyp: mht.HypState) -> mht.HypState:
 
     means, covs = jax.vmap(one)(hyp.means, hyp.covs)
     return hyp._replace(means=means, covs=covs)
+
+
+def altitude_prior(hyp: mht.HypState, h0: float, var: float) -> mht.HypState:
+    """Every hypothesis's targets take the pseudo-measurement ``z = h₀`` of their height
+    with variance ``σ_a² = var`` (:func:`~mjx_radar.estimation.tracks.altitude.height_update`),
+    and every hypothesis is weighed by its predictive likelihood,
+    ``log w_h += Σ_t log N(h₀; x_ht,z, P_ht,zz + σ_a²)`` (renormalised; empty slots stay
+    empty): a prior on the drones' flight altitude that also ranks the hypotheses."""
+    s = hyp.covs[..., 2, 2] + var  # [K, M]
+    ll = -0.5 * jnp.sum((hyp.means[..., 2] - h0) ** 2 / s + jnp.log(2 * jnp.pi * s), -1)
+    logw = jnp.where(jnp.isfinite(hyp.logw), hyp.logw + ll, -jnp.inf)
+    on = jnp.ones(hyp.means.shape[1], bool)
+    means, covs = jax.vmap(lambda x, p: altitude.height_update(x, p, on, h0, var))(
+        hyp.means, hyp.covs
+    )
+    return hyp._replace(means=means, covs=covs, logw=logw - logsumexp(logw))
 
 
 def mht_bank(task: RadarTask, params) -> FilterOps:
@@ -91,6 +111,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
         tail = (*tail, merge, int(t.branch_scans), settle, float(t.miss_noise))
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
         modes = mht.update_bank(modes, *args, *tail)
+        if t.height_std > 0:  # the altitude prior (off by default)
+            modes = altitude_prior(modes, float(t.birth_height), float(t.height_std) ** 2)
         if task.filter.ground_prior:
             modes = _ground(modes)
         return (*joint(modes), modes)

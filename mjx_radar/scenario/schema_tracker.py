@@ -235,7 +235,9 @@ class TrackerConfig:
     )
     birth_height: float = field(
         default=60.0,
-        metadata=rule(float, -1e4, 1e4, unit="m", doc="managed: height prior of a new track"),
+        metadata=rule(
+            float, -1e4, 1e4, unit="m", doc="managed: height prior of a new track; h0 of height_std"
+        ),
     )
     birth_height_std: float = field(
         default=100.0,
@@ -269,8 +271,8 @@ class TrackerConfig:
             1e5,
             unit="m",
             doc=(
-                "managed: std of a per-scan pseudo-measurement of each track's height at "
-                "birth_height (0: off)"
+                "managed and mht: std of a per-scan pseudo-measurement of each track's height "
+                "at birth_height (mht: it also weighs the hypotheses; 0: off)"
             ),
         ),
     )

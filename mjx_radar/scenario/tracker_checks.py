@@ -48,6 +48,11 @@ def check_mht(t: TrackerConfig, m: int) -> None:
             f"tracker.consensus_scale = {t.consensus_scale}: read only with "
             f'tracker.estimate = "consensus" (here "{t.estimate}"); remove it'
         )
+    if t.height_std == 0 and t.birth_height != TrackerConfig.birth_height:
+        raise ScenarioError(
+            f"tracker.birth_height = {t.birth_height}: the MHT reads it only as the altitude "
+            f"prior's h0, with tracker.height_std > 0; remove it"
+        )
     if t.estimate == "consensus" and m > 6:
         raise ScenarioError(
             f'tracker.estimate = "consensus": compares M! = {math.factorial(m)} target '

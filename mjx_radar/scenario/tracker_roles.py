@@ -60,13 +60,13 @@ _MANAGED_FIELDS = (
     "hit_radars",
     "birth_radars",
     "max_births",
-    "birth_height",
     "birth_height_std",
     "birth_speed_std",
     "birth_scans",
     "tentative_weight",
-    "height_std",
 )
+#: ``[tracker]`` options of the altitude prior, read by the managed table and the MHT
+_ALTITUDE_FIELDS = ("birth_height", "height_std")
 #: ``[filter]`` options of the IMM form
 _IMM_FIELDS = ("imm_turn_rate", "imm_switch_prob")
 
@@ -131,6 +131,9 @@ def check(s) -> None:
         _unused(s.filter, "filter", _IMM_FIELDS, 'filter.motion = "imm"')
     if r.management != "managed":
         _unused(s.tracker, "tracker", _MANAGED_FIELDS, 'tracker.management = "managed"')
+        if r.associator != "mht":
+            needs = 'tracker.management = "managed" or tracker.association = "mht"'
+            _unused(s.tracker, "tracker", _ALTITUDE_FIELDS, needs)
     if registered_associator(r.associator):  # it may read any association option
         return
     assoc = r.associator or ""
