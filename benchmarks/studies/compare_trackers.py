@@ -227,9 +227,9 @@ def known_variant(name: str) -> bool:
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
     ok_weight = weight is None or _number(weight)
     ok_scale = scale is None or (_number(scale) and float(scale) > 0)
-    ok_scale = ok_scale and (alt is None or (_number(alt) and float(alt) > 0))
+    ok_alt = alt is None or (_number(alt) and float(alt) > 0)
     ok_ground = ground or "-ground" not in name
-    ok = ok_settle and ok_miss and ok_gate and ok_weight and ok_scale and ok_ground
+    ok = ok_settle and ok_miss and ok_gate and ok_weight and ok_scale and ok_alt and ok_ground
     return base in VARIANTS and ok
 
 

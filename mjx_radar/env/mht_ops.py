@@ -90,12 +90,13 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
 
     scale = float(t.consensus_scale)
 
-    def joint(hyp):  # the reported hypothesis: the heaviest, or the consensus
-        if t.estimate == "consensus":
-            return filter_bank.bank_to_joint(
-                *mht_estimate.consensus(hyp.means, hyp.covs, hyp.logw, scale)
-            )
-        return filter_bank.bank_to_joint(*mht.best(hyp))
+    def consensus(hyp):
+        return mht_estimate.consensus(hyp.means, hyp.covs, hyp.logw, scale)
+
+    pick = consensus if t.estimate == "consensus" else mht.best  # the reported hypothesis
+
+    def joint(hyp):
+        return filter_bank.bank_to_joint(*pick(hyp))
 
     def predict(mean, cov, modes):
         modes = mht.predict(modes, a6, q6)
