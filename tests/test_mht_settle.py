@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from mjx_radar.estimation.data_association import mht
+from mjx_radar.estimation.data_association import mht, mht_settle
 from mjx_radar.io.checks import ScenarioError
 
 PG, K, K2 = 0.99, 8, 3
@@ -78,3 +78,64 @@ def test_settle_options_off_by_default_and_refused_in_one_line():
     for edit, msg in bad:
         with pytest.raises(ScenarioError, match=msg):
             s.replace(tracker={**mht_, **edit})
+
+
+def _settled_state():
+    """A K-slot state after the settled scan (scans > S: all but the K₂ heaviest empty)."""
+    means, covs, args = _scene()
+    hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), K)
+    hyp = mht.update_bank(hyp, *args, branch=1, settle=(1, K2))  # scan 0: branches
+    return mht.update_bank(hyp, *args, branch=1, settle=(1, K2))  # scan 1: settled
+
+
+def test_settled_time_update_gives_the_live_hypotheses_the_full_one():
+    """Once settled (``scans > S``), :func:`mht.predict` and :func:`mht_settle.live_only`
+    work on the K₂ live slots only: those get what the K-slot time update and the K-slot
+    altitude prior give them, to round-off (float64, 1e-12: the same operations, which XLA
+    vectorises differently for a batch of K₂ than of K, and the prior's renormalisation
+    sums K₂ terms instead of K with K − K₂ zeros); the empty slots keep their stale banks
+    and stay empty. Before (``scans <= S``) every slot is predicted."""
+    from mjx_radar.env import mht_ops
+
+    with jax.enable_x64(True):
+        hyp = _settled_state()
+        assert int(hyp.scans) == 2
+        live = np.isfinite(np.asarray(hyp.logw))
+        assert live.sum() == K2
+        a6 = jnp.eye(6).at[:3, 3:].set(0.025 * jnp.eye(3))
+        q6 = 0.1 * jnp.eye(6)
+        full, few = mht.predict(hyp, a6, q6), mht.predict(hyp, a6, q6, (1, K2))
+        prior = functools.partial(mht_ops.altitude_prior, h0=60.0, var=1600.0)
+        full_a = prior(hyp)
+        few_a = mht_settle.live_only(hyp, (1, K2), prior)
+        early = mht.predict(hyp, a6, q6, (2, K2))  # scans = 2 <= S = 2: the K-slot update
+    np.testing.assert_allclose(np.asarray(few.means)[live], full.means[live], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(few.covs)[live], full.covs[live], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(np.asarray(few.means)[~live], np.asarray(hyp.means)[~live])
+    assert not np.array_equal(np.asarray(full.means)[~live], np.asarray(hyp.means)[~live])
+    np.testing.assert_array_equal(np.asarray(few.logw), np.asarray(hyp.logw))
+    np.testing.assert_allclose(np.asarray(few_a.logw), np.asarray(full_a.logw), atol=1e-12)
+    np.testing.assert_allclose(np.asarray(few_a.means)[live], full_a.means[live], atol=1e-12)
+    np.testing.assert_allclose(np.asarray(few_a.covs)[live], full_a.covs[live], atol=1e-12)
+    assert not np.isfinite(np.asarray(few_a.logw)[~live]).any()
+    for a, b in zip(early[:2], full[:2], strict=True):  # every slot predicted
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=0, atol=1e-12)
+
+
+def test_mht_fallback_keeps_the_loops_scan_counter():
+    """A non-finite update falls back to the prediction for the banks and weights, but
+    the scan counter is the update's (the loop's step in every trial: what lets the step
+    program hand it to the vmapped loop unbatched, engine/program_trace.py)."""
+    import mjx_radar
+    from mjx_radar.env import mht_ops
+    from mjx_radar.task.task import build
+
+    s = mjx_radar.load_scenario("clutter_3r4t").replace(
+        tracker={"association": "mht", "hypotheses": 4, "branch_scans": 1}
+    )
+    ops = mht_ops.mht_bank(*build(s))
+    post = mht.HypState(jnp.full((4, 4, 6), jnp.nan), jnp.zeros((4, 4, 6, 6)), jnp.zeros(4), 7)
+    pred = mht.HypState(jnp.ones((4, 4, 6)), jnp.eye(6) * jnp.ones((4, 4, 1, 1)), jnp.zeros(4), 6)
+    out = ops.keep(jnp.asarray(True), jnp.asarray(False), post, pred, pred)
+    np.testing.assert_array_equal(np.asarray(out.means), np.asarray(pred.means))
+    assert int(out.scans) == 7

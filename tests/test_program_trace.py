@@ -52,3 +52,22 @@ def test_the_period_index_is_the_one_shared_leaf(tiny):
     flat, _ = jax.tree_util.tree_flatten_with_path(carry)
     names = [jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared, strict=True) if s]
     assert names == [program_trace.PERIOD] == [".state.info['period']"]
+
+
+def test_the_mht_scan_counter_is_shared_too():
+    """With the MHT its scan counter (set from the period at every step, and kept by the
+    MHT's fallback) is handed unbatched as well, so its settled time update and scans
+    stay branches under ``vmap``; no other leaf is."""
+    import mjx_radar
+    from mjx_radar.task.task import build
+
+    s = mjx_radar.load_scenario("clutter_3r4t").replace(
+        tracker={"association": "mht", "hypotheses": 4, "branch_scans": 1}
+    )
+    task, params = build(s)
+    carry, _ = jax.eval_shape(lambda: closed_loop.init_carry(task, params, 0))
+    shared = program_trace._shared_leaves(carry)
+    flat, _ = jax.tree_util.tree_flatten_with_path(carry)
+    names = {jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared, strict=True) if s}
+    assert names == {program_trace.PERIOD, program_trace.MHT_SCANS}
+    assert program_trace.MHT_SCANS == ".state.loop.modes.scans"

@@ -55,6 +55,9 @@ class FilterOps(NamedTuple):
       ``plan_view(mean, cov, modes) -> (mean, cov)``: the joint estimate the planner sees
       instead (the MHT's mixture of its hypotheses, ``[tracker] plan_on``); the metrics
       and the reward keep the tracker's own.
+    * ``keep``: None (a non-finite update falls back leaf by leaf, :func:`keep`), or
+      ``keep(ok_pred, ok, post, pred, prev) -> modes`` the tracker's own fallback (the
+      MHT's scan counter follows the loop's step whatever the update gave).
 
     ``cov`` is P, or its factor S with ``filter.form = "sqrt"``.
     """
@@ -65,6 +68,7 @@ class FilterOps(NamedTuple):
     init: Callable = lambda mean, cov: ()  # noqa: E731
     tracks: Callable | None = None
     plan_view: Callable | None = None
+    keep: Callable | None = None
 
 
 def keep(ok_pred, ok, post, pred, prev):

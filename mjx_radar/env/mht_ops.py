@@ -34,9 +34,10 @@ import jax
 import jax.numpy as jnp
 from jax.scipy.special import logsumexp
 
+from mjx_radar.env import filter_ops
 from mjx_radar.env.filter_ops import FilterOps
 from mjx_radar.errors import ScenarioError
-from mjx_radar.estimation.data_association import mht, mht_estimate, mht_mixture
+from mjx_radar.estimation.data_association import mht, mht_estimate, mht_mixture, mht_settle
 from mjx_radar.estimation.filters import filter_bank, ground_prior
 from mjx_radar.estimation.sensor import clutter, detection
 from mjx_radar.estimation.tracks import altitude
@@ -87,6 +88,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     dt = task.timing.dt_filter
     merge = (float(t.merge_distance), int(t.merge_screen), bool(t.merge_labels))
     settle = (int(t.settle_scans), int(t.settled_hypotheses))
+    live = settle if t.branch_scans > 0 else (0, 0)  # settling needs branch_scans
 
     scale = float(t.consensus_scale)
 
@@ -99,8 +101,13 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
         return filter_bank.bank_to_joint(*pick(hyp))
 
     def predict(mean, cov, modes):
-        modes = mht.predict(modes, a6, q6)
+        modes = mht.predict(modes, a6, q6, live)
         return (*joint(modes), modes)
+
+    def after(modes):  # every hypothesis's priors after a scan
+        if t.height_std > 0:  # the altitude prior (off by default)
+            modes = altitude_prior(modes, float(t.birth_height), float(t.height_std) ** 2)
+        return _ground(modes) if task.filter.ground_prior else modes
 
     def update(mean, cov, modes, z, radar_pos, scan_, los=None):
         def pd_fn(pos):  # [K, M, 3] -> [N, K, M]
@@ -111,11 +118,7 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
         tail = (clutter.density(dp, model.dim), dp.gate, dp.gate_probability, t.candidates)
         tail = (*tail, merge, int(t.branch_scans), settle, float(t.miss_noise))
         args = (scan_.zs, scan_.valid, radar_pos, model, params.noise, ccr, pd_fn)
-        modes = mht.update_bank(modes, *args, *tail)
-        if t.height_std > 0:  # the altitude prior (off by default)
-            modes = altitude_prior(modes, float(t.birth_height), float(t.height_std) ** 2)
-        if task.filter.ground_prior:
-            modes = _ground(modes)
+        modes = mht_settle.live_only(mht.update_bank(modes, *args, *tail), live, after)
         return (*joint(modes), modes)
 
     def begin(modes, mean, cov, k):  # appearing targets restart in every hypothesis
@@ -137,5 +140,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
     def mixture(mean, cov, modes):  # what the planner sees with plan_on = "mixture"
         return filter_bank.bank_to_joint(*mht_mixture.mixture(modes.means, modes.covs, modes.logw))
 
+    def keep(ok_pred, ok, post, pred, prev):  # the scan counter: the loop's, in every trial
+        return filter_ops.keep(ok_pred, ok, post, pred, prev)._replace(scans=post.scans)
+
     view = mixture if t.plan_on == "mixture" else None
-    return FilterOps(predict, update, begin, init, plan_view=view)
+    return FilterOps(predict, update, begin, init, plan_view=view, keep=keep)

@@ -72,7 +72,10 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         modes_p = tracker.begin(modes_p, mean, cov, k)  # the IMM's modes of appearing targets
         obs = scan.observe(task.detection, params, key, k, radars[:, :3], truth[:, :3], z, vis)
         post = tracker.update(mean, cov, modes_p, z, radars[:, :3], obs, vis)
-        mean, cov, modes, blown = finite_update((mean0, cov0, modes0), (mean, cov, modes_p), post)
+        fallback = tracker.keep or filter_ops.keep
+        mean, cov, modes, blown = finite_update(
+            (mean0, cov0, modes0), (mean, cov, modes_p), post, fallback
+        )
         (track_pos, track_exist), (mean, cov) = tracks_of(
             tracker, modes, (mean, cov), truth, here, params.p0
         )
@@ -111,7 +114,7 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
     return filter_step
 
 
-def finite_update(before, predicted, post):
+def finite_update(before, predicted, post, keep=filter_ops.keep):
     """``(mean, cov, modes, blown)``: the update where it is finite.
 
     A diverged misspecified filter (CCR noise model) can overflow float32 in the update;
@@ -122,12 +125,13 @@ def finite_update(before, predicted, post):
         before: ``(mean, cov, modes)`` of the last step.
         predicted: ``(mean, cov, modes)`` of the prediction.
         post: ``(mean, cov, modes, ...)`` of the tracker's update.
+        keep: the modes' fallback (:attr:`~mjx_radar.env.filter_ops.FilterOps.keep`).
     """
     (mean0, cov0, modes0), (mean, cov, modes_p) = before, predicted
     finite = lambda a, b: jnp.all(jnp.isfinite(a)) & jnp.all(jnp.isfinite(b))  # noqa: E731
     ok_pred, ok = finite(mean, cov), finite(*post[:2])
     blown = ~(ok_pred & ok)
-    modes = filter_ops.keep(ok_pred, ok, post[2], modes_p, modes0)
+    modes = keep(ok_pred, ok, post[2], modes_p, modes0)
     mean, cov = jnp.where(ok_pred, mean, mean0), jnp.where(ok_pred, cov, cov0)
     mean, cov = jnp.where(ok, post[0], mean), jnp.where(ok, post[1], cov)
     return mean, cov, modes, blown

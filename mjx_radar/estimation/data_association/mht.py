@@ -44,6 +44,7 @@ import numpy as np
 
 from mjx_radar.estimation import linalg
 from mjx_radar.estimation.data_association import association, mht_merge, pda
+from mjx_radar.estimation.data_association.mht_settle import live_only, settled
 from mjx_radar.estimation.filters import filter_bank
 
 __all__ = [  # noqa: RUF022
@@ -79,12 +80,17 @@ def init(means, covs, k: int) -> HypState:
     return HypState(rep(means), rep(jnp.asarray(covs, means.dtype)), logw, scans)
 
 
-def predict(hyp: HypState, A6, Q6) -> HypState:
-    """CKF time update of every target of every hypothesis (weights unchanged)."""
-    means, covs = jax.vmap(filter_bank.predict_bank, (0, 0, None, None))(
-        hyp.means, hyp.covs, A6, Q6
-    )
-    return hyp._replace(means=means, covs=covs)
+def predict(hyp: HypState, A6, Q6, settle=(0, 0)) -> HypState:
+    """CKF time update of every target of every hypothesis (weights unchanged); with
+    ``settle = (S, K₂)`` (static, :func:`update_bank`'s) only the K₂ live ones once the
+    settled scans have begun (:func:`~.mht_settle.live_only`)."""
+
+    def step(h):
+        fn = jax.vmap(filter_bank.predict_bank, (0, 0, None, None))
+        means, covs = fn(h.means, h.covs, A6, Q6)
+        return h._replace(means=means, covs=covs)
+
+    return live_only(hyp, settle, step)
 
 
 def best(hyp: HypState):
@@ -283,17 +289,3 @@ def update_bank(
         few = lambda h: settled(h, pd, k2, run)  # noqa: E731
         hyp = jax.lax.switch(phase, (tree, lambda h: run(h, pd), few), hyp)
     return hyp._replace(scans=hyp.scans + 1)
-
-
-def settled(hyp: HypState, pd, k2: int, run) -> HypState:
-    """One scan of the K₂ heaviest hypotheses only (``lax.top_k`` of ``log w``): they take
-    ``run(sub, pd [N, K₂, M])`` (the soft scan of a K₂-slot state, weights renormalised
-    among them) and return to their slots; every other slot's weight becomes −inf (its
-    stale bank weighs nothing in the estimate, the mixture or the next ``top_k``)."""
-    _, keep = jax.lax.top_k(hyp.logw, k2)
-    sub = HypState(hyp.means[keep], hyp.covs[keep], hyp.logw[keep], hyp.scans)
-    sub = run(sub, pd[:, keep])
-    logw = jnp.full_like(hyp.logw, -jnp.inf).at[keep].set(sub.logw)
-    return HypState(
-        hyp.means.at[keep].set(sub.means), hyp.covs.at[keep].set(sub.covs), logw, hyp.scans
-    )
