@@ -72,10 +72,8 @@ def make_filter_step(task, params, key, tracker: filter_ops.FilterOps):
         modes_p = tracker.begin(modes_p, mean, cov, k)  # the IMM's modes of appearing targets
         obs = scan.observe(task.detection, params, key, k, radars[:, :3], truth[:, :3], z, vis)
         post = tracker.update(mean, cov, modes_p, z, radars[:, :3], obs, vis)
-        fallback = tracker.keep or filter_ops.keep
-        mean, cov, modes, blown = finite_update(
-            (mean0, cov0, modes0), (mean, cov, modes_p), post, fallback
-        )
+        prior = ((mean0, cov0, modes0), (mean, cov, modes_p))
+        mean, cov, modes, blown = finite_update(*prior, post, tracker.keep or filter_ops.keep)
         (track_pos, track_exist), (mean, cov) = tracks_of(
             tracker, modes, (mean, cov), truth, here, params.p0
         )
