@@ -153,3 +153,29 @@ def test_lbp_float32_with_sure_assignments():
         assert b[0, 0] > 0.5  # exact: 1 / (1 + 1 / (e^4 + e^2)) = 0.984
         if exact:
             np.testing.assert_allclose(b, _brute(logr)[1], rtol=1e-5, atol=1e-7)
+
+
+def test_event_weights_against_a_python_loop():
+    """Every joint event's log weight (the enumeration's table, looked up by target pairs)
+    against a plain loop: −inf exactly when two detected targets take one measurement or a
+    detected target a padded candidate, else the sum of its log ratios (to float32
+    round-off, 1e-6: numpy sums in another order). Candidate lists that share
+    measurements, M up to 5, G up to 4."""
+    rng = np.random.default_rng(7)
+    for m, g in itertools.product(range(1, 6), range(1, 5)):
+        events = association.event_table(m, g)
+        for _ in range(2):
+            idx = rng.integers(0, g + 2, (m, g)).astype(np.int32)  # shared across targets
+            logr = np.where(rng.random((m, g)) < 0.8, rng.normal(size=(m, g)), -np.inf)
+            logr = logr.astype(np.float32)
+            got, meas = association.event_log_weights(jnp.asarray(logr), jnp.asarray(idx), events)
+            for e, slots in enumerate(events):
+                taken = [idx[t, s - 1] for t, s in enumerate(slots) if s > 0]
+                terms = [logr[t, s - 1] if s > 0 else np.float32(0) for t, s in enumerate(slots)]
+                want = -np.inf if len(set(taken)) < len(taken) else np.sum(terms, dtype=np.float32)
+                assert np.isneginf(got[e]) == np.isneginf(want)
+                if np.isfinite(want):
+                    np.testing.assert_allclose(got[e], want, rtol=1e-6, atol=1e-6)
+                assert list(meas[e]) == [
+                    idx[t, s - 1] if s > 0 else -1 for t, s in enumerate(slots)
+                ]

@@ -104,18 +104,31 @@ def _assigned(events, idx):
     return jnp.where(slot > 0, meas, -1)
 
 
+def _clash(events, idx):
+    """``[E]`` bool: the events in which two detected targets take the same measurement.
+
+    The ``[M, G, M, G]`` table of which candidates of two targets are one measurement is
+    computed once; each event looks up its ``M (M − 1) / 2`` target pairs there (static
+    indices from the event table), instead of comparing its ``M²`` assigned measurements.
+    """
+    m, g = idx.shape
+    ev = np.asarray(events)  # static
+    t, u = np.triu_indices(m, k=1)
+    st, su = ev[:, t], ev[:, u]  # [E, pairs]
+    flat = ((t * g + np.maximum(st - 1, 0)) * m + u) * g + np.maximum(su - 1, 0)
+    same = (idx[:, :, None, None] == idx[None, None, :, :]).reshape(-1)  # [M G M G]
+    return jnp.any(same[flat] & ((st > 0) & (su > 0)), axis=1)
+
+
 def event_log_weights(logr_c, idx, events):
     """``(log P(θ) unnormalised [E], meas[E, M])``: −inf for events using a measurement
-    twice or a padded (ungated) candidate."""
+    twice or a padded (ungated) candidate (``events``: :func:`event_table`, static)."""
     m = idx.shape[0]
     slot = jnp.asarray(events)
     pad = jnp.concatenate([jnp.zeros((m, 1), logr_c.dtype), logr_c], axis=1)  # slot 0: miss
     terms = pad[jnp.arange(m)[None, :], slot]  # [E, M]
-    meas = _assigned(events, idx)
-    same = (meas[:, :, None] == meas[:, None, :]) & (meas[:, :, None] >= 0)
-    clash = jnp.any(same & ~jnp.eye(m, dtype=bool)[None], axis=(1, 2))
-    logw = jnp.where(clash, -jnp.inf, jnp.sum(terms, axis=1))
-    return logw, meas
+    logw = jnp.where(_clash(events, idx), -jnp.inf, jnp.sum(terms, axis=1))
+    return logw, _assigned(events, idx)
 
 
 def star_mask(logw, meas, logr):
