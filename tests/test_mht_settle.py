@@ -84,8 +84,8 @@ def _settled_state():
     """A K-slot state after the settled scan (scans > S: all but the K₂ heaviest empty)."""
     means, covs, args = _scene()
     hyp = mht.init(jnp.asarray(means), jnp.asarray(covs), K)
-    hyp = mht.update_bank(hyp, *args, branch=1, settle=(1, K2))  # scan 0: branches
-    return mht.update_bank(hyp, *args, branch=1, settle=(1, K2))  # scan 1: settled
+    upd = jax.jit(lambda h: mht.update_bank(h, *args, branch=1, settle=(1, K2)))
+    return upd(upd(hyp))  # scan 0 branches, scan 1 is settled
 
 
 def test_settled_time_update_gives_the_live_hypotheses_the_full_one():
