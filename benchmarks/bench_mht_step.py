@@ -90,12 +90,8 @@ def time_step(sc, modes, scan, radar_pos, trials: int, repeats: int) -> float:
         return ops.update(pm, pc, modes, z, radar_pos, scan)
 
     axes = mht.HypState(0, 0, 0, None)  # the scan counter: the batch's (the study's program)
-    batch = modes._replace(
-        **{
-            f: jnp.broadcast_to(getattr(modes, f), (trials,) + getattr(modes, f).shape)
-            for f in ("means", "covs", "logw")
-        }
-    )  # noqa: E501
+    tile = lambda x: jnp.broadcast_to(x, (trials, *x.shape))  # noqa: E731
+    batch = modes._replace(means=tile(modes.means), covs=tile(modes.covs), logw=tile(modes.logw))
     run = jax.jit(jax.vmap(step, in_axes=(axes,)))
     jax.block_until_ready(run(batch))
     best = np.inf

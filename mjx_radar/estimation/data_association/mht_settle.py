@@ -37,13 +37,8 @@ def settled(hyp, pd, k2: int, run):
         pd: ``[N, K, M]`` detection probabilities; k2: K₂ (static, < K).
         run: ``run(sub, pd_sub) -> sub`` the soft scan.
     """
-    _, keep = jax.lax.top_k(hyp.logw, k2)
-    sub = hyp._replace(means=hyp.means[keep], covs=hyp.covs[keep], logw=hyp.logw[keep])
-    sub = run(sub, pd[:, keep])
-    logw = jnp.full_like(hyp.logw, -jnp.inf).at[keep].set(sub.logw)
-    return hyp._replace(
-        means=hyp.means.at[keep].set(sub.means), covs=hyp.covs.at[keep].set(sub.covs), logw=logw
-    )
+    keep, sub = _heaviest(hyp, k2)
+    return _put(hyp, keep, run(sub, pd[:, keep]), jnp.full_like(hyp.logw, -jnp.inf))
 
 
 def on_heaviest(hyp, k2: int, f):
@@ -55,12 +50,22 @@ def on_heaviest(hyp, k2: int, f):
         f: ``f(sub) -> sub`` on a K₂-slot state (its weights may change; a renormalisation
             inside it is over the K₂, which is over all K once the others are −inf).
     """
+    keep, sub = _heaviest(hyp, k2)
+    return _put(hyp, keep, f(sub), hyp.logw)
+
+
+def _heaviest(hyp, k2: int):
+    """``(keep [K₂], sub)``: the K₂ heaviest slots (``lax.top_k`` of ``log w``) as a state."""
     _, keep = jax.lax.top_k(hyp.logw, k2)
-    sub = f(hyp._replace(means=hyp.means[keep], covs=hyp.covs[keep], logw=hyp.logw[keep]))
+    return keep, hyp._replace(means=hyp.means[keep], covs=hyp.covs[keep], logw=hyp.logw[keep])
+
+
+def _put(hyp, keep, sub, logw):
+    """``hyp`` with ``sub`` back in the slots ``keep``; the other slots' weights ``logw``."""
     return hyp._replace(
         means=hyp.means.at[keep].set(sub.means),
         covs=hyp.covs.at[keep].set(sub.covs),
-        logw=hyp.logw.at[keep].set(sub.logw),
+        logw=logw.at[keep].set(sub.logw),
     )
 
 
