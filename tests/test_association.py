@@ -156,11 +156,11 @@ def test_lbp_float32_with_sure_assignments():
 
 
 def test_event_weights_against_a_python_loop():
-    """Every joint event's log weight (the enumeration's table, looked up by target pairs)
-    against a plain loop: −inf exactly when two detected targets take one measurement or a
-    detected target a padded candidate, else the sum of its log ratios (to float32
-    round-off, 1e-6: numpy sums in another order). Candidate lists that share
-    measurements, M up to 5, G up to 4."""
+    """Every joint event's log weight (an outer sum over the event grid, masked by the
+    target pairs' shared measurements) against a plain loop: −inf exactly when two
+    detected targets take one measurement or a detected target a padded candidate, else
+    the sum of its log ratios (to float32 round-off, 1e-6: numpy sums in another order).
+    Candidate lists that share measurements, M up to 5, G up to 4."""
     rng = np.random.default_rng(7)
     for m, g in itertools.product(range(1, 6), range(1, 5)):
         events = association.event_table(m, g)
@@ -181,3 +181,10 @@ def test_event_weights_against_a_python_loop():
                 assert list(meas[e]) == [
                     idx[t, s - 1] if s > 0 else -1 for t, s in enumerate(slots)
                 ]
+
+
+def test_event_weights_need_the_event_table():
+    """The weights are laid on the event table's grid: another table is refused by name."""
+    idx, logr = jnp.zeros((2, 2), jnp.int32), jnp.zeros((2, 2))
+    with pytest.raises(ValueError, match=r"event_table\(2, 2\)"):
+        association.event_log_weights(logr, idx, association.event_table(2, 2)[::-1])

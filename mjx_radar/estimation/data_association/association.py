@@ -104,30 +104,44 @@ def _assigned(events, idx):
     return jnp.where(slot > 0, meas, -1)
 
 
-def _clash(events, idx):
-    """``[E]`` bool: the events in which two detected targets take the same measurement.
+def _on_axis(values, t: int, m: int):
+    """``values [G + 1, ...]`` laid along axis t of the ``[G + 1] * M`` event grid."""
+    return values.reshape([values.shape[0] if s == t else 1 for s in range(m)])
 
-    The ``[M, G, M, G]`` table of which candidates of two targets are one measurement is
-    computed once; each event looks up its ``M (M − 1) / 2`` target pairs there (static
-    indices from the event table), instead of comparing its ``M²`` assigned measurements.
+
+def _grid_clash(idx):
+    """``[G + 1] * M`` bool: the events in which two detected targets take one measurement.
+
+    The event table (:func:`event_table`) is the C-ordered grid of every target's slot,
+    so each target pair's ``[G + 1, G + 1]`` table of shared measurements (slot 0, the
+    miss, shares none) broadcasts along the pair's two axes; the events are their union
+    over the ``M (M − 1) / 2`` pairs. Broadcasts only: no per-event gathers.
     """
     m, g = idx.shape
-    ev = np.asarray(events)  # static
-    t, u = np.triu_indices(m, k=1)
-    st, su = ev[:, t], ev[:, u]  # [E, pairs]
-    flat = ((t * g + np.maximum(st - 1, 0)) * m + u) * g + np.maximum(su - 1, 0)
-    same = (idx[:, :, None, None] == idx[None, None, :, :]).reshape(-1)  # [M G M G]
-    return jnp.any(same[flat] & ((st > 0) & (su > 0)), axis=1)
+    clash = jnp.zeros((g + 1,) * m, bool)
+    for t, u in zip(*np.triu_indices(m, k=1), strict=True):  # static pairs
+        same = jnp.pad(idx[t][:, None] == idx[u][None, :], ((1, 0), (1, 0)))  # [G+1, G+1]
+        shape = [g + 1 if s in (t, u) else 1 for s in range(m)]
+        clash = clash | same.reshape(shape)
+    return clash
 
 
 def event_log_weights(logr_c, idx, events):
     """``(log P(θ) unnormalised [E], meas[E, M])``: −inf for events using a measurement
-    twice or a padded (ungated) candidate (``events``: :func:`event_table`, static)."""
-    m = idx.shape[0]
-    slot = jnp.asarray(events)
+    twice or a padded (ungated) candidate.
+
+    ``events`` must be :func:`event_table` ``(M, G)`` (static), the C-ordered grid of the
+    targets' slots, so the weights are the outer sum of the targets' ``[G + 1]`` slot log
+    ratios (slot 0, the miss: 0) over that grid, masked by :func:`_grid_clash`.
+    """
+    m, g = idx.shape
+    if not np.array_equal(events, event_table(m, g)):
+        raise ValueError(f"event_log_weights: events must be event_table({m}, {g})")
     pad = jnp.concatenate([jnp.zeros((m, 1), logr_c.dtype), logr_c], axis=1)  # slot 0: miss
-    terms = pad[jnp.arange(m)[None, :], slot]  # [E, M]
-    logw = jnp.where(_clash(events, idx), -jnp.inf, jnp.sum(terms, axis=1))
+    total = _on_axis(pad[0], 0, m)
+    for t in range(1, m):  # ((r_0 + r_1) + r_2) + ...: the order of a sum over the targets
+        total = total + _on_axis(pad[t], t, m)
+    logw = jnp.where(_grid_clash(idx), -jnp.inf, total).reshape(-1)
     return logw, _assigned(events, idx)
 
 
