@@ -56,8 +56,8 @@ def test_the_period_index_is_the_one_shared_leaf(tiny):
 
 def test_the_mht_scan_counter_is_shared_too():
     """With the MHT its scan counter (set from the period at every step, and kept by the
-    MHT's fallback) is handed unbatched as well, so its settled time update and scans
-    stay branches under ``vmap``; no other leaf is."""
+    MHT's fallback; ``HypState.BATCH_SHARED``) is handed unbatched as well, so its settled
+    time update and scans stay branches under ``vmap``; no other leaf is."""
     import mjx_radar
     from mjx_radar.task.task import build
 
@@ -69,5 +69,39 @@ def test_the_mht_scan_counter_is_shared_too():
     shared = program_trace._shared_leaves(carry)
     flat, _ = jax.tree_util.tree_flatten_with_path(carry)
     names = {jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared, strict=True) if s}
-    assert names == {program_trace.PERIOD, program_trace.MHT_SCANS}
-    assert program_trace.MHT_SCANS == ".state.loop.modes.scans"
+    assert names == {program_trace.PERIOD, ".state.loop.modes.scans"}
+
+
+def test_a_state_declares_its_shared_fields():
+    """Any NamedTuple of the loop state names its batch-shared fields by ``BATCH_SHARED``,
+    nested or not, whatever its fields hold (arrays, tuples, nothing); the rest of the
+    state is per trial, the period index shared."""
+    from typing import NamedTuple
+
+    class Counted(NamedTuple):
+        BATCH_SHARED = ("count", "clock")
+
+        values: object
+        count: object
+        clock: object = ()
+
+    class State(NamedTuple):
+        info: dict
+
+    class Carry(NamedTuple):
+        state: State
+        a: Counted
+        b: list
+
+    leaf = jax.ShapeDtypeStruct((3,), jnp.float32)
+    carry = Carry(
+        State({"period": leaf, "other": leaf}),
+        Counted(leaf, (leaf, leaf)),
+        [leaf, Counted((leaf,), leaf, leaf)],
+    )
+    shared = program_trace._shared_leaves(carry)
+    flat, _ = jax.tree_util.tree_flatten_with_path(carry)
+    names = [jax.tree_util.keystr(path) for (path, _), s in zip(flat, shared, strict=True) if s]
+    want = [".a.count[0]", ".a.count[1]", ".b[1].count", ".b[1].clock", program_trace.PERIOD]
+    assert sorted(names) == sorted(want)
+    assert len(shared) == len(flat) == 9

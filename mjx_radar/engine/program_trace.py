@@ -146,24 +146,42 @@ def step_program(
 #: the loop state's control-period index (``LoopCarry.state.info["period"]``); a leaf of the
 #: planner's own carry with that key is per trial
 PERIOD = ".state.info['period']"
-#: the MHT's scan counter (``HypState.scans``): set from the period at every step, and
-#: its fallback keeps the update's (``FilterOps.keep``), so every trial holds the same
-MHT_SCANS = ".state.loop.modes.scans"
+#: the class attribute by which a NamedTuple of the loop state (a tracker's modes) names
+#: its fields that every trial of a batch holds in common (``HypState``: ``("scans",)``)
+BATCH_SHARED = "BATCH_SHARED"
+
+
+def _declares(node) -> bool:
+    return isinstance(getattr(type(node), BATCH_SHARED, None), tuple)
 
 
 def _shared_leaves(c_shapes) -> list[bool]:
     """Per loop-state leaf: whether every trial of a batch holds the same value -- the
     control period's index (``state.info["period"]``: a batch's trials advance together)
-    and the MHT's scan counter, which follows it.
+    and the fields that a NamedTuple of the state names in its ``BATCH_SHARED`` (the MHT's
+    scan counter, which follows the period: ``mht.HypState``).
 
     The step program hands them to the vmapped loop unbatched, so what depends on the
     period alone stays unbatched: a ``lax.cond`` on it (the MHT's branching and settled
     scans, :func:`mjx_radar.estimation.data_association.mht.update_bank`, and its settled
     time update, :func:`mjx_radar.estimation.data_association.mht.predict`) stays a branch
     instead of a ``select`` that computes both sides for every trial at every step. The
-    values are the same either way."""
-    flat, _ = jax.tree_util.tree_flatten_with_path(c_shapes)
-    return [jax.tree_util.keystr(path) in (PERIOD, MHT_SCANS) for path, _ in flat]
+    values are the same either way, provided the state's owner keeps its declared fields
+    equal across trials (the MHT: ``FilterOps.keep``)."""
+
+    def mark(path, node):
+        if _declares(node):  # its declared fields' leaves, True
+            named = getattr(type(node), BATCH_SHARED)
+            return node._replace(
+                **{
+                    f: jax.tree.map(lambda _, f=f: f in named, getattr(node, f))
+                    for f in node._fields
+                }
+            )
+        return jax.tree_util.keystr(path) == PERIOD
+
+    marked = jax.tree_util.tree_map_with_path(mark, c_shapes, is_leaf=_declares)
+    return jax.tree.leaves(marked)
 
 
 def flat_programs(task, periods, full, mesh, n_params, tree, c_shapes, planner="mppi", **kw):

@@ -62,7 +62,11 @@ __all__ = [  # noqa: RUF022
 class HypState(NamedTuple):
     """K global hypotheses: ``means [K, M, 6]``, ``covs [K, M, 6, 6]``, ``logw [K]``
     (normalised, ``logsumexp(logw) = 0``; −inf for an empty slot), and ``scans []`` int32,
-    the scans updated so far (counted only with ``branch > 0``, :func:`update_bank`)."""
+    the scans updated so far (counted only with ``branch > 0``, :func:`update_bank`): the
+    same in every trial of a batch (``BATCH_SHARED``: the loop hands it to the vmapped
+    step unbatched, so the branching and settled phases stay ``lax.cond`` branches)."""
+
+    BATCH_SHARED = ("scans",)
 
     means: jax.Array
     covs: jax.Array
