@@ -118,3 +118,24 @@ def test_script_gospa_matches_brute_force():
             best = min(best, cost + c**p / 2 * (len(xs) + len(ys) - 2 * k))
         g = mod.gospa(x, px, y, ey, c, p)
         np.testing.assert_allclose(g[0], best ** (1 / p), rtol=1e-9)
+
+
+def test_script_mirror_folded_gospa():
+    """run_raid_managed.py's mirror-folded truth: a drone 30 m below the radars' plane and a
+    track at its mirror image are 60 m apart (beyond c: a miss and a false track), and
+    nothing apart once folded; a drone above is left as it is."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "run_raid_managed.py"
+    spec = importlib.util.spec_from_file_location("run_raid_managed", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    truth = np.array([[10.0, -20.0, -30.0], [5.0, 7.0, 40.0]])
+    est = np.array([[10.0, -20.0, 30.0], [5.0, 7.0, 40.0]])
+    both = np.ones(2, bool)
+    c = 50.0
+    np.testing.assert_allclose(mod.gospa(truth, both, est, both, c)[0], c, rtol=1e-12)
+    folded = mod.mirror_folded(truth)
+    np.testing.assert_array_equal(folded, est)
+    assert mod.gospa(folded, both, est, both, c) == (0.0, 0.0, 0, 0)

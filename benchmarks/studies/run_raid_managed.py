@@ -61,6 +61,12 @@ def gospa(truth, present, est, exist, c: float, p: float = 2.0):
     return total ** (1 / p), loc, m - k, n - k
 
 
+def mirror_folded(truth):
+    """``truth [..., 3]`` folded into the upper half space ``(x, y, |z|)``: a position and
+    its mirror image below the radars' plane (z = 0) give the same ranges."""
+    return np.concatenate([truth[..., :2], np.abs(truth[..., 2:])], -1)
+
+
 def label(management: str, birth_scans: int) -> str:
     """The output folder of a row: ``managed_b3`` for ``birth_scans = 3``."""
     return f"managed_b{birth_scans}" if management == "managed" and birth_scans > 1 else management
@@ -98,7 +104,7 @@ def run_chunk(sc, method, seed, trials, steps, cutoff):
     truth = res["target"][..., :3]  # [T, K, M, 3]
     present, pos, exist = res["present"], res["track_pos"], res["track_exist"]
     t, k = truth.shape[:2]
-    folded = np.concatenate([truth[..., :2], np.abs(truth[..., 2:])], -1)  # (x, y, |z|)
+    folded = mirror_folded(truth)
     out = np.zeros((5, t, k))
     for i in range(t):
         for j in range(k):
