@@ -52,6 +52,7 @@ __all__ = [  # noqa: RUF022
     "event_table",
     "candidates",
     "event_log_weights",
+    "grid_log_weights",
     "exact_marginals",
     "gnn_weights",
     "star_mask",
@@ -105,44 +106,47 @@ def _assigned(events, idx):
 
 
 def _on_axis(values, t: int, m: int):
-    """``values [G + 1, ...]`` laid along axis t of the ``[G + 1] * M`` event grid."""
+    """``values [S]`` laid along axis t of an ``[S] * M`` grid."""
     return values.reshape([values.shape[0] if s == t else 1 for s in range(m)])
 
 
-def _grid_clash(idx):
-    """``[G + 1] * M`` bool: the events in which two detected targets take one measurement.
+def grid_log_weights(terms, clash_of):
+    """Every joint event's log weight ``[S^M]`` in :func:`event_table`'s order.
 
-    The event table (:func:`event_table`) is the C-ordered grid of every target's slot,
-    so each target pair's ``[G + 1, G + 1]`` table of shared measurements (slot 0, the
-    miss, shares none) broadcasts along the pair's two axes; the events are their union
-    over the ``M (M − 1) / 2`` pairs. Broadcasts only: no per-event gathers.
+    The event table is the C-ordered grid of the M targets' S slots, so an event's log
+    weight is the outer sum of the targets' ``terms [M, S]`` over that grid, ``−inf`` where
+    two targets clash: ``clash_of(t, u) -> [S, S]`` bool for each target pair ``t < u``,
+    broadcast along the pair's two axes and united over the ``M (M − 1) / 2`` pairs.
+    Broadcasts only: no per-event gathers.
     """
-    m, g = idx.shape
-    clash = jnp.zeros((g + 1,) * m, bool)
+    m, n = terms.shape
+    total = _on_axis(terms[0], 0, m)
+    for t in range(1, m):  # ((r_0 + r_1) + r_2) + ...: the order of a sum over the targets
+        total = total + _on_axis(terms[t], t, m)
+    clash = jnp.zeros((n,) * m, bool)
     for t, u in zip(*np.triu_indices(m, k=1), strict=True):  # static pairs
-        same = jnp.pad(idx[t][:, None] == idx[u][None, :], ((1, 0), (1, 0)))  # [G+1, G+1]
-        shape = [g + 1 if s in (t, u) else 1 for s in range(m)]
-        clash = clash | same.reshape(shape)
-    return clash
+        shape = [n if s in (t, u) else 1 for s in range(m)]
+        clash = clash | clash_of(int(t), int(u)).reshape(shape)
+    return jnp.where(clash, -jnp.inf, total).reshape(-1)
 
 
 def event_log_weights(logr_c, idx, events):
     """``(log P(θ) unnormalised [E], meas[E, M])``: −inf for events using a measurement
     twice or a padded (ungated) candidate.
 
-    ``events`` must be :func:`event_table` ``(M, G)`` (static), the C-ordered grid of the
-    targets' slots, so the weights are the outer sum of the targets' ``[G + 1]`` slot log
-    ratios (slot 0, the miss: 0) over that grid, masked by :func:`_grid_clash`.
+    ``events`` must be :func:`event_table` ``(M, G)`` (static): the weights are
+    :func:`grid_log_weights` of the targets' ``[G + 1]`` slot log ratios (slot 0, the
+    miss: 0), two targets clashing where their candidates are one measurement.
     """
     m, g = idx.shape
     if not np.array_equal(events, event_table(m, g)):
         raise ValueError(f"event_log_weights: events must be event_table({m}, {g})")
     pad = jnp.concatenate([jnp.zeros((m, 1), logr_c.dtype), logr_c], axis=1)  # slot 0: miss
-    total = _on_axis(pad[0], 0, m)
-    for t in range(1, m):  # ((r_0 + r_1) + r_2) + ...: the order of a sum over the targets
-        total = total + _on_axis(pad[t], t, m)
-    logw = jnp.where(_grid_clash(idx), -jnp.inf, total).reshape(-1)
-    return logw, _assigned(events, idx)
+
+    def clash_of(t, u):  # [G+1, G+1]: slot 0, the miss, shares nothing
+        return jnp.pad(idx[t][:, None] == idx[u][None, :], ((1, 0), (1, 0)))
+
+    return grid_log_weights(pad, clash_of), _assigned(events, idx)
 
 
 def star_mask(logw, meas, logr):

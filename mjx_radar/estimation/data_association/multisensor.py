@@ -143,19 +143,21 @@ def tuple_scores(nu, S, Pxz, valid, pd, density, gate, pg, g: int):
 
 def event_log_weights(logw, meas):
     """``(log w[E], events[E, M])`` of the ``K^M`` joint events of M targets' options:
-    the sum of the chosen options' log weights, −inf where two targets share a return.
+    the sum of the chosen options' log weights, −inf where two targets share a return
+    (:func:`~mjx_radar.estimation.data_association.association.grid_log_weights`).
 
     Args:
         logw: ``[M, K]`` log weights of each target's options (−inf: none).
         meas: ``[M, K, N]`` return index of each option per radar (−1: missed).
     """
     m, k = logw.shape
+
+    def clash_of(t, u):  # [K, K]: options of t and u that take one return at some radar
+        a, b = meas[t][:, None, :], meas[u][None, :, :]
+        return jnp.any((a == b) & (a >= 0), axis=-1)
+
     ev = jnp.asarray(association.event_table(m, k - 1))  # [E, M]: K options per target
-    em = meas[jnp.arange(m)[None], ev]  # [E, M, N]
-    same = (em[:, :, None, :] == em[:, None, :, :]) & (em[:, :, None, :] >= 0)
-    clash = jnp.any(same & ~jnp.eye(m, dtype=bool)[None, :, :, None], axis=(1, 2, 3))
-    lw = jnp.sum(logw[jnp.arange(m)[None], ev], axis=1)
-    return jnp.where(clash, -jnp.inf, lw), ev
+    return association.grid_log_weights(logw, clash_of), ev
 
 
 def exclusive_marginals(logw, meas):
