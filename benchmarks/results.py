@@ -71,6 +71,8 @@ def software() -> dict:
     """The versions of the running process (and the repository's commit)."""
     from importlib import metadata
 
+    from mjx_radar.version import __version__ as package_version
+
     def version(name):
         try:
             return metadata.version(name)
@@ -88,7 +90,7 @@ def software() -> dict:
     except (OSError, subprocess.CalledProcessError):
         commit = None
     return {
-        "mjx_radar": version("mjx_radar"),
+        "mjx_radar": version("mjx_radar") or package_version,  # a checkout on the path
         "commit": commit,
         "jax": version("jax"),
         "jaxlib": version("jaxlib"),
