@@ -109,7 +109,10 @@ def run_chunk(sc, method, seed, trials, steps, cutoff):
     for i in range(t):
         for j in range(k):
             out[:4, i, j] = gospa(truth[i, j], present[i, j], pos[i, j], exist[i, j], cutoff)
-            out[4, i, j] = gospa(folded[i, j], present[i, j], pos[i, j], exist[i, j], cutoff)[0]
+            if np.any(present[i, j] & (truth[i, j, :, 2] < 0)):  # else the same as above
+                out[4, i, j] = gospa(folded[i, j], present[i, j], pos[i, j], exist[i, j], cutoff)[0]
+            else:
+                out[4, i, j] = out[0, i, j]
     return {
         "gospa": out[0],
         "gospa_mirror": out[4],
@@ -144,6 +147,7 @@ def summarise(out: Path, dt: float, cases) -> dict:
         loc_rms = np.sqrt(d["loc"].sum() / max(matched.sum(), 1))
         per_s = int(round(1 / dt))
         k = d["gospa"].shape[1] // per_s * per_s
+        mirror = d.get("gospa_mirror")  # absent in chunks written before it was kept
 
         def by_s(a, k=k, per_s=per_s):
             return a[:, :k].reshape(a.shape[0], -1, per_s).mean((0, 2))
@@ -151,15 +155,13 @@ def summarise(out: Path, dt: float, cases) -> dict:
         summary[f"{management}/{method}"] = {
             "trials": int(d["gospa"].shape[0]),
             "gospa_mean": float(d["gospa"].mean()),
-            "gospa_mirror_mean": float(d["gospa_mirror"].mean()) if "gospa_mirror" in d else None,
+            "gospa_mirror_mean": None if mirror is None else float(mirror.mean()),
             "loc_rms": float(loc_rms),
             "missed_mean": float(d["missed"].mean()),
             "false_mean": float(d["false"].mean()),
             "below_mean": float(d["below"].mean()) if "below" in d else None,
             "gospa_per_s": by_s(d["gospa"]).round(2).tolist(),
-            "gospa_mirror_per_s": by_s(d["gospa_mirror"]).round(2).tolist()
-            if "gospa_mirror" in d
-            else None,
+            "gospa_mirror_per_s": None if mirror is None else by_s(mirror).round(2).tolist(),
             "confirmed_per_s": by_s(d["confirmed"]).round(2).tolist(),
             "present_per_s": by_s(d["present"]).round(2).tolist(),
         }
@@ -168,7 +170,7 @@ def summarise(out: Path, dt: float, cases) -> dict:
             f"| {management} | {method} | {s['trials']} | {s['gospa_mean']:.2f} | "
             f"{loc_rms:.2f} | {s['missed_mean']:.2f} | {s['false_mean']:.2f} | "
             f"{(d['confirmed'] - d['present']).mean():+.2f} | "
-            + (f"{s['gospa_mirror_mean']:.2f} |" if "gospa_mirror" in d else "– |")
+            + ("– |" if mirror is None else f"{s['gospa_mirror_mean']:.2f} |")
         )
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
     (out / "summary.md").write_text("\n".join(lines) + "\n")
