@@ -139,3 +139,31 @@ def test_script_mirror_folded_gospa():
     folded = mod.mirror_folded(truth)
     np.testing.assert_array_equal(folded, est)
     assert mod.gospa(folded, both, est, both, c) == (0.0, 0.0, 0, 0)
+
+
+def test_raid_arrival_scene_score_by_hand():
+    """benchmarks/studies/raid_arrival_scene.py's per-scan score on one hand-made scan:
+    four drones, a confirmed track 3 m and one 4 m from drones 0 and 1, a confirmed track
+    70 m from drone 2 (false; drones 2 and 3 missed), a tentative one 10 m from drone 3."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "raid_arrival_scene.py"
+    spec = importlib.util.spec_from_file_location("raid_arrival_scene", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    truth = np.array([[0.0, 0, 60], [100, 0, 60], [200, 0, 60], [300, 0, 60]])
+    pos = np.array([[3.0, 0, 60], [100, 4, 60], [200, 70, 60], [310, 0, 60]])
+    rec = {
+        "exist": np.array([[[True, True, True, False]]]),
+        "pos": pos[None, None],
+        "truth": truth[None, None],
+        "status": np.array([[[2, 2, 2, 1]]]),
+        "cov": np.broadcast_to(np.diag([4.0, 4.0, 25.0]), (1, 1, 4, 3, 3)),
+        "seen": np.array([[[4, 4, 4, 2]]]),
+    }
+    found, false, gospa, near = mod.score(rec, 50.0)
+    assert found[0, 0] == 2 and false[0, 0] == 1
+    np.testing.assert_allclose(gospa[0, 0], np.sqrt(9 + 16 + 1250 * 3), rtol=1e-12)
+    # drone 2: the 70 m track, confirmed, chi2 70²/4; drone 3: the tentative 10 m track
+    np.testing.assert_allclose(near, [[0, 70, 70**2 / 4, 4, 1], [0, 10, 100 / 4, 2, 0]], rtol=1e-12)
