@@ -211,3 +211,26 @@ def test_two_devices_match_one(study_dir, tmp_path):
     one = one[(one["method"] == "stationary") & (one["trial"] < 3)].reset_index(drop=True)
     for col in ("rmse_pos", "rmse_state", "nees", "crlb_pos"):
         np.testing.assert_allclose(two[col].to_numpy(), one[col].to_numpy(), rtol=1e-3)
+
+
+@pytest.mark.slow
+def test_two_devices_match_one_with_the_settled_mht(tmp_path):
+    """The settled MHT sharded over 2 (forced host) devices, 3 trials padded to 4, matches
+    1 device: its hypothesis tables split over the trial axis, its scan counter (a
+    batch-shared leaf, ``HypState.BATCH_SHARED``) handed to every trial unbatched."""
+    from mjx_radar.scenario.reader import load_scenario
+
+    mht = {"association": "mht", "hypotheses": 16, "branch_scans": 1, "settle_scans": 8}
+    mht |= {"settled_hypotheses": 4, "estimate": "consensus"}
+    load_scenario("clutter_3r4t").replace(tracker=mht).to_toml(tmp_path / "mht.toml")
+    args = ["study", str(tmp_path / "mht.toml"), "--methods", "stationary", "--rollouts"]
+    args += ["analytic", "--steps", "16", "--trials", "3", "--chunk", "3", "--seed", "3"]
+    frames = []
+    for n in (1, 2):
+        env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={n}")
+        out = tmp_path / f"d{n}"
+        assert _subprocess([*args, "--out", str(out)], env=env).wait(timeout=900) == 0
+        assert json.loads((out / "study.json").read_text())["n_devices"] == n
+        frames.append(_frame(out))
+    for col in ("rmse_pos", "nees"):
+        np.testing.assert_allclose(frames[1][col].to_numpy(), frames[0][col].to_numpy(), rtol=1e-3)

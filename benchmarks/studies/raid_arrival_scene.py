@@ -37,7 +37,7 @@ BASE = {
 
 
 def simulate(options: dict, layouts: int, scans: int, seed: int) -> dict:
-    """``{exist, pos, truth, status, cov, seen}`` per layout and scan (numpy)."""
+    """``{exist, pos, truth, status, cov, seen, radars}`` per layout and scan (numpy)."""
     import jax
     import jax.numpy as jnp
 
@@ -77,20 +77,14 @@ def simulate(options: dict, layouts: int, scans: int, seed: int) -> dict:
             _, _, modes = ops.update(zero, eye, modes, z, radars, none)
             view, table = ops.tracks(modes), (modes[0] if multi else modes)
             cov = table.cov[:, :3, :3]
-            return (modes, key, x), (
-                view.exist,
-                view.mean[:, :3],
-                x[:, :3],
-                table.status,
-                cov,
-                table.gated.sum(-1),
-            )
+            out = (view.exist, view.mean[:, :3], x[:, :3], table.status, cov, table.gated.sum(-1))
+            return (modes, key, x), (*out, radars)
 
         init = (ops.init(zero, eye), key, jnp.asarray(drones))
         return jax.lax.scan(scan, init, None, length=scans)[1]
 
     keys = jax.random.split(jax.random.PRNGKey(seed), layouts)
-    names = ("exist", "pos", "truth", "status", "cov", "seen")
+    names = ("exist", "pos", "truth", "status", "cov", "seen", "radars")
     return dict(zip(names, (np.asarray(a) for a in jax.jit(jax.vmap(one))(keys)), strict=True))
 
 
