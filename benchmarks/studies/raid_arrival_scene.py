@@ -20,9 +20,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # run_raid_managed
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # run_raid_managed, diagnose_raid_tracks
 
 #: the study's recommended table ("Height priors of births and tracks"); --tracker overrides
 BASE = {
@@ -41,9 +40,10 @@ def simulate(options: dict, layouts: int, scans: int, seed: int) -> dict:
     import jax
     import jax.numpy as jnp
 
-    from mjx_radar.env import environment
+    from mjx_radar.env import trackers
     from mjx_radar.env.scan import Scan
     from mjx_radar.scenario.reader import load_scenario
+    from mjx_radar.task.task import build
 
     sc = load_scenario("raid_4r8t")
     drones = np.asarray(sc.target_init, np.float32)[:4]
@@ -55,9 +55,9 @@ def simulate(options: dict, layouts: int, scans: int, seed: int) -> dict:
         tracker={**BASE, **options},
         filter={"structure": "per-target", "ground_prior": True},
     )
-    env = environment.make(sc, "stationary")
-    ops, model, noise = env._tracker, env.task.measurement, env.params.noise
-    dt, q, w = sc.timing.dt_filter, env.params.sigma_w2, sc.placement_half_width
+    task, params = build(sc, "stationary")
+    ops, model, noise = trackers.make(task, params), task.measurement, params.noise
+    dt, q, w = sc.timing.dt_filter, params.sigma_w2, sc.placement_half_width
     multi = sc.tracker.birth_scans > 1
     eye, zero = jnp.eye(6 * len(drones)), jnp.zeros(6 * len(drones))
     none = Scan(None, jnp.int32(0), jnp.int32(0), jnp.int32(0), None, None)
@@ -89,28 +89,28 @@ def simulate(options: dict, layouts: int, scans: int, seed: int) -> dict:
 
 
 def score(rec: dict, c: float):
-    """``found, false, gospa [B, T]`` and the nearest live track of each missed drone."""
-    b_n, t_n = rec["exist"].shape[:2]
+    """``found, false, gospa [B, T]`` and the nearest live track of each missed drone
+    (GOSPA and its assignment: ``run_raid_managed.gospa``, ``diagnose_raid_tracks.matches``)."""
+    from diagnose_raid_tracks import matches
+    from run_raid_managed import gospa as gospa_of
+
+    b_n, t_n, m = rec["truth"].shape[:3]
     found, false, gospa = np.zeros((b_n, t_n)), np.zeros((b_n, t_n)), np.zeros((b_n, t_n))
+    present = np.ones(m, bool)  # the first wave: every drone present
     nearest = []  # (scan, distance, χ², radars that saw it, confirmed)
     for b in range(b_n):
         for k in range(t_n):
-            truth, s = rec["truth"][b, k], np.flatnonzero(rec["exist"][b, k])
-            d = np.linalg.norm(rec["pos"][b, k][s][:, None] - truth[None], axis=-1)
-            r, m = linear_sum_assignment(np.minimum(d, c) ** 2) if s.size else ([], [])
-            ok = d[r, m] < c if s.size else np.zeros(0, bool)
-            found[b, k], false[b, k] = ok.sum(), s.size - ok.sum()
-            miss = len(truth) - ok.sum() + s.size - ok.sum()
-            gospa[b, k] = np.sqrt((d[r, m][ok] ** 2).sum() + c**2 / 2 * miss)
+            truth, pos, exist = rec["truth"][b, k], rec["pos"][b, k], rec["exist"][b, k]
+            gospa[b, k], _, missed, false[b, k] = gospa_of(truth, present, pos, exist, c)
+            found[b, k] = m - missed
             live = np.flatnonzero(rec["status"][b, k] > 0)
-            for i in sorted(set(range(len(truth))) - set(np.asarray(m)[ok].tolist())):
-                if live.size:
-                    e = rec["pos"][b, k][live] - truth[i]
-                    j = np.argmin(np.linalg.norm(e, axis=-1))
-                    chi2 = e[j] @ np.linalg.solve(rec["cov"][b, k][live[j]], e[j])
-                    st = rec["status"][b, k][live[j]] == 2
-                    seen = rec["seen"][b, k][live[j]]
-                    nearest.append((k, np.linalg.norm(e[j]), chi2, seen, st))
+            got = matches(truth, present, pos, exist, c)
+            for i in np.setdiff1d(np.arange(m), got) if live.size else ():
+                e = pos[live] - truth[i]
+                j = np.argmin(np.linalg.norm(e, axis=-1))
+                chi2 = e[j] @ np.linalg.solve(rec["cov"][b, k][live[j]], e[j])
+                st = rec["status"][b, k][live[j]] == 2
+                nearest.append((k, np.linalg.norm(e[j]), chi2, rec["seen"][b, k][live[j]], st))
     return found, false, gospa, np.asarray(nearest).reshape(-1, 5)
 
 
