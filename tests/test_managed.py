@@ -167,3 +167,31 @@ def test_raid_arrival_scene_score_by_hand():
     np.testing.assert_allclose(gospa[0, 0], np.sqrt(9 + 16 + 1250 * 3), rtol=1e-12)
     # drone 2: the 70 m track, confirmed, chi2 70²/4; drone 3: the tentative 10 m track
     np.testing.assert_allclose(near, [[0, 70, 70**2 / 4, 4, 1], [0, 10, 100 / 4, 2, 0]], rtol=1e-12)
+
+
+@pytest.mark.parametrize("script", ["run_raid_managed", "raid_arrival_scene"])
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [("height_std=-1", "tracker.height_std = -1: must be"), ("height_std", "--tracker: KEY=VALUE")],
+)
+def test_raid_scripts_refuse_a_bad_tracker_field_in_one_line(
+    script, item, message, tmp_path, capsys
+):
+    """A bad ``--tracker`` item: one line naming it, exit 2, nothing written, no run."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    studies = Path(__file__).parents[1] / "benchmarks" / "studies"
+    sys.path.insert(0, str(studies))
+    try:
+        spec = importlib.util.spec_from_file_location(script, studies / f"{script}.py")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        out = ["--out", str(tmp_path / "o")] if script == "run_raid_managed" else []
+        with pytest.raises(SystemExit) as e:
+            mod.main([*out, "--tracker", item])
+    finally:
+        sys.path.remove(str(studies))
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert e.value.code == 2 and message in err and not (tmp_path / "o").exists()

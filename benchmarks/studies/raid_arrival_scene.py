@@ -115,7 +115,9 @@ def score(rec: dict, c: float):
 
 
 def main(argv=None) -> int:
-    from run_raid_managed import _value
+    from run_raid_managed import tracker_options
+
+    from mjx_radar.errors import ScenarioError
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--layouts", type=int, default=32)
@@ -124,8 +126,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cutoff", type=float, default=50.0)
     ap.add_argument("--tracker", action="append", default=[], metavar="KEY=VALUE")
     a = ap.parse_args(argv)
-    options = {k: _value(v) for k, v in (o.split("=") for o in a.tracker)}
-    found, false, gospa, near = score(simulate(options, a.layouts, a.scans, a.seed), a.cutoff)
+    try:
+        rec = simulate(tracker_options(ap, a.tracker), a.layouts, a.scans, a.seed)
+    except ScenarioError as e:  # a bad --tracker field: one line, before any work
+        ap.error(str(e))
+    found, false, gospa, near = score(rec, a.cutoff)
     for k in sorted({4, 10, 20, 40, a.scans // 2, a.scans - 1}):
         f, g, e = found[:, k].mean(), false[:, k].mean(), gospa[:, k].mean()
         print(f"scan {k + 1:4d}: found {f:.2f}, false {g:.2f}, GOSPA {e:.1f} m")

@@ -43,6 +43,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from mjx_radar.engine.run_spec import run_spec
+from mjx_radar.errors import ScenarioError
 
 
 def gospa(truth, present, est, exist, c: float, p: float = 2.0):
@@ -82,6 +83,15 @@ def _value(v: str):
     return v
 
 
+def tracker_options(ap: argparse.ArgumentParser, items) -> dict:
+    """``--tracker KEY=VALUE`` items as ``{key: value}``; one line (``ap.error``, exit 2) for
+    an item without ``=``."""
+    bad = [o for o in items if "=" not in o]
+    if bad:
+        ap.error(f"--tracker: KEY=VALUE, got {bad[0]!r}")
+    return {k: _value(v) for k, v in (o.split("=", 1) for o in items)}
+
+
 def scenario_for(management: str, max_tracks: int, steps: int, options=(), birth_scans: int = 1):
     """raid_4r8t with the per-target filter (and the track table, ``options``: more
     ``[tracker]`` fields as ``KEY=VALUE``; ``birth_scans``: the multi-scan births)."""
@@ -90,7 +100,7 @@ def scenario_for(management: str, max_tracks: int, steps: int, options=(), birth
     sc = load_scenario("raid_4r8t")
     changes = {"filter": {"structure": "per-target", "ground_prior": True}}
     if management == "managed":
-        extra = {k: _value(v) for k, v in (o.split("=") for o in options)}
+        extra = {k: _value(v) for k, v in (o.split("=", 1) for o in options)}
         changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
         if birth_scans > 1:  # absent otherwise: the default program
             changes["tracker"]["birth_scans"] = birth_scans
@@ -214,12 +224,19 @@ def main(argv=None):
         scans = [0]
     if not all(1 <= b <= 10 for b in scans):
         ap.error(f"--birth-scans: integers in [1, 10], got {a.birth_scans!r}")
+    tracker_options(ap, a.tracker)
     rows = [(g, b) for g in a.management.split(",") for b in (scans if g == "managed" else [1])]
     runs = [(label(g, b), m, g, b) for g, b in rows for m in a.methods.split(",")]
     cases = [(name, m) for name, m, _, _ in runs]
     dt = None
+    try:  # every row's scenario first: a bad field is one line before any run
+        scenarios = {
+            (k, b): scenario_for(k, a.max_tracks, a.steps, a.tracker, b) for _, _, k, b in runs
+        }
+    except ScenarioError as e:
+        ap.error(str(e))
     for management, method, kind, b in runs:
-        sc = scenario_for(kind, a.max_tracks, a.steps, a.tracker, b)
+        sc = scenarios[kind, b]
         dt = sc.timing.dt_filter
         for t0 in range(0, a.trials, a.chunk):
             t1 = min(t0 + a.chunk, a.trials)
