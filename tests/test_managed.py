@@ -141,6 +141,28 @@ def test_script_mirror_folded_gospa():
     assert mod.gospa(folded, both, est, both, c) == (0.0, 0.0, 0, 0)
 
 
+def test_script_scenario_with_and_without_the_ground_prior():
+    """run_raid_managed.py's ``--ground-prior off`` reaches ``[filter] ground_prior`` of
+    both the managed and the known rows; the managed rows take the tracker fields."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "run_raid_managed.py"
+    spec = importlib.util.spec_from_file_location("run_raid_managed", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    opts = ["birth_shared=1", "height_scans=200"]
+    on = mod.scenario_for("managed", 16, 40, opts, 2)
+    off = mod.scenario_for("managed", 16, 40, opts, 2, ground_prior=False)
+    known = mod.scenario_for("known", 16, 40, (), 1, ground_prior=False)
+    assert (on.filter.ground_prior, off.filter.ground_prior, known.filter.ground_prior) == (
+        True,
+        False,
+        False,
+    )
+    assert (off.tracker.birth_shared, off.tracker.height_scans) == (1, 200)
+
+
 def test_raid_arrival_scene_score_by_hand():
     """benchmarks/studies/raid_arrival_scene.py's per-scan score on one hand-made scan:
     four drones, a confirmed track 3 m and one 4 m from drones 0 and 1, a confirmed track

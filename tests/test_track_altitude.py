@@ -108,3 +108,32 @@ def test_managed_tracker_applies_it_after_the_prediction():
     expect = float(ref.mean[0, 2]) + pzz / (pzz + 40.0**2) * (60.0 - float(ref.mean[0, 2]))
     assert abs(float(out.mean[0, 2]) - expect) < 1e-3 and float(ref.mean[0, 2]) == 200.0
     np.testing.assert_array_equal(np.asarray(out.mean[1:]), np.asarray(ref.mean[1:]))
+
+
+def test_height_scans_limits_it_to_young_tracks():
+    """With ``height_scans = H`` a track of age < H takes the pseudo-measurement and an
+    older one only the CV prediction (the same numbers as with height_std off)."""
+    sc = load_scenario("raid_4r8t").replace(
+        filter={"structure": "per-target", "ground_prior": False},
+        tracker={"management": "managed", "max_tracks": 2, "height_std": 40.0},
+    )
+    table = track_table.insert(
+        track_table.empty(2, 4, jnp.float32, 50.0),
+        jnp.asarray([[0.0, 500.0, 200.0, 0.0, -20.0, 0.0]] * 2, jnp.float32),
+        jnp.broadcast_to(jnp.eye(6, dtype=jnp.float32) * 400.0, (2, 6, 6)),
+        jnp.asarray([True, True]),
+    )
+    table = table._replace(age=jnp.asarray([199, 200], jnp.int32))
+    young = build(sc.replace(tracker={"height_scans": 200}), "stationary")
+    always = build(sc, "stationary")
+    off = build(sc.replace(tracker={"height_std": 0.0}), "stationary")
+    _, _, out = managed.managed_tracker(*young).predict(None, None, table)
+    _, _, every = managed.managed_tracker(*always).predict(None, None, table)
+    _, _, cv = managed.managed_tracker(*off).predict(None, None, table)
+    np.testing.assert_array_equal(np.asarray(out.mean[0]), np.asarray(every.mean[0]))
+    np.testing.assert_array_equal(np.asarray(out.cov[0]), np.asarray(every.cov[0]))
+    np.testing.assert_array_equal(np.asarray(out.mean[1]), np.asarray(cv.mean[1]))
+    np.testing.assert_array_equal(np.asarray(out.cov[1]), np.asarray(cv.cov[1]))
+    assert float(every.mean[0, 2]) < float(cv.mean[0, 2]) - 1.0  # it did pull the young one
+    with pytest.raises(ScenarioError, match="height_scans"):
+        sc.replace(tracker={"height_scans": -1})

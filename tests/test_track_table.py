@@ -5,6 +5,8 @@ of the least-squares fit against its linearised covariance, and a plain Python s
 machine of the M-of-N life cycle on random hit sequences.
 """
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -208,3 +210,46 @@ def test_sorted_scans_hide_the_truth_order():
     z, v = jax.jit(track_update.sorted_scans)(zs, valid)
     assert np.asarray(z)[0, :, 0].tolist() == [20.0, 30.0, 10.0]
     assert np.asarray(v).tolist() == [[True, True, False]]
+
+
+def test_births_may_share_a_claimed_return_with_birth_shared():
+    """A drone one of whose returns a live track claims (not free) is born only with
+    ``shared >= 1``; at the noiseless point (closed form), from all four returns; a seed
+    holding two claimed returns needs ``shared >= 2``."""
+    model = measurement.make_model("range")
+    two = TARGETS[[0, 3]]  # 300 m apart: no return of one joins the other's gate
+    z = jnp.asarray(2 * np.linalg.norm(two[None] - RADARS[:, None], axis=-1)[..., None])
+    rv = jnp.full(z.shape, 1.0)
+    valid = jnp.ones(z.shape[:2], bool)
+    pos = jnp.asarray(RADARS)
+
+    @functools.partial(jax.jit, static_argnums=1)
+    def fits(free, shared):
+        out = []
+        for s in shared:
+            bs = track_birth.BirthSettings(birth_radars=4, height_std=1e4, shared=s)
+            x, _, _, joined, good, _ = track_birth.fit_seeds(
+                model, z, free, rv, pos, 6.63, bs, None, valid
+            )
+            out.append((x, joined, good))
+        return out
+
+    def born(x, joined, good):  # the drones with a good seed at the point, all 4 returns
+        x, joined, good = (np.asarray(a) for a in (x, joined, good))
+        d = np.linalg.norm(x[:, None] - two[None], axis=-1)  # [C, 2]
+        at = good[:, None] & (d < 0.05) & np.all(joined >= 0, axis=1)[:, None]  # float32
+        return at.any(0).tolist()
+
+    one_held = valid.at[0, 1].set(False)  # drone 1's return at radar 0 claimed by a track
+    r0, r1 = fits(one_held, (0, 1))
+    assert born(*r0) == [True, False] and born(*r1) == [True, True]
+    x, joined, good = (np.asarray(a) for a in r1)
+    at1 = good & (np.linalg.norm(x - two[1], axis=-1) < 0.05)
+    assert np.all(joined[at1, 0] == 1)  # with the claimed return of radar 0
+    two_held = one_held.at[2, 1].set(False)
+    r1, r2 = fits(two_held, (1, 2))
+    assert born(*r1) == [True, False] and born(*r2) == [True, True]
+    with pytest.raises(ValueError, match="valid"):
+        track_birth.fit_seeds(
+            model, z, one_held, rv, pos, 6.63, track_birth.BirthSettings(shared=1), None
+        )

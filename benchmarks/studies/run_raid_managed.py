@@ -92,13 +92,21 @@ def tracker_options(ap: argparse.ArgumentParser, items) -> dict:
     return {k: _value(v) for k, v in (o.split("=", 1) for o in items)}
 
 
-def scenario_for(management: str, max_tracks: int, steps: int, options=(), birth_scans: int = 1):
+def scenario_for(
+    management: str,
+    max_tracks: int,
+    steps: int,
+    options=(),
+    birth_scans: int = 1,
+    ground_prior: bool = True,
+):
     """raid_4r8t with the per-target filter (and the track table, ``options``: more
-    ``[tracker]`` fields as ``KEY=VALUE``; ``birth_scans``: the multi-scan births)."""
+    ``[tracker]`` fields as ``KEY=VALUE``; ``birth_scans``: the multi-scan births;
+    ``ground_prior``: the filter's reflection to z >= 0)."""
     from mjx_radar.scenario.reader import load_scenario
 
     sc = load_scenario("raid_4r8t")
-    changes = {"filter": {"structure": "per-target", "ground_prior": True}}
+    changes = {"filter": {"structure": "per-target", "ground_prior": ground_prior}}
     if management == "managed":
         extra = {k: _value(v) for k, v in (o.split("=", 1) for o in options)}
         changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
@@ -211,6 +219,12 @@ def main(argv=None):
     )
     ap.add_argument("--cutoff", type=float, default=50.0, help="GOSPA cut-off c [m]")
     ap.add_argument(
+        "--ground-prior",
+        choices=("on", "off"),
+        default="on",
+        help="[filter] ground_prior of every row: reflect estimates to z >= 0 (default on)",
+    )
+    ap.add_argument(
         "--tracker",
         action="append",
         default=[],
@@ -231,7 +245,8 @@ def main(argv=None):
     dt = None
     try:  # every row's scenario first: a bad field is one line before any run
         scenarios = {
-            (k, b): scenario_for(k, a.max_tracks, a.steps, a.tracker, b) for _, _, k, b in runs
+            (k, b): scenario_for(k, a.max_tracks, a.steps, a.tracker, b, a.ground_prior == "on")
+            for _, _, k, b in runs
         }
     except ScenarioError as e:
         ap.error(str(e))

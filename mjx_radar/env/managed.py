@@ -7,13 +7,15 @@ is indexed like the truth), nor the presence of the drones, nor the order of the
 returns (each radar's buffer is sorted by range). Per scan:
 
 1. predict every live slot (CV, the filter's process noise; with ``height_std > 0`` the
-   altitude pseudo-measurement of :mod:`~mjx_radar.estimation.tracks.altitude`);
+   altitude pseudo-measurement of :mod:`~mjx_radar.estimation.tracks.altitude`, with
+   ``height_scans > 0`` only on tracks younger than that many scans);
 2. associate the scans to the live slots (the per-track PDA associator by default,
    ``association = "gnn"`` the joint GNN assignment,
    :mod:`~mjx_radar.estimation.tracks.track_update`; any associator of that signature drops in
    through ``managed_tracker(..., associator=...)``);
 3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`);
 4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.tracks.track_birth`;
+   with ``birth_shared = s > 0`` at most s of a birth's returns may be claimed ones;
    with ``birth_scans > 1`` through the candidates of
    :mod:`~mjx_radar.estimation.tracks.multiscan_birth`, and ``modes`` is ``(table, candidates)``).
 
@@ -59,7 +61,7 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     rules = track_table.LifeRules(cfg.confirm_m, cfg.confirm_n, cfg.delete_misses, cfg.delete_cov)
     births = track_birth.BirthSettings(
         cfg.max_births, birth_r, cfg.birth_height, cfg.birth_height_std, cfg.birth_speed_std
-    )
+    )._replace(shared=cfg.birth_shared)
     multi = cfg.birth_scans > 1  # multi-scan births: modes = (table, candidates)
     ms = _multiscan_settings(cfg, model.dim)
     a6 = task.a6_filter
@@ -94,7 +96,8 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
         m = jnp.where(on[:, None], m, table.mean)
         p = jnp.where(on[:, None, None], p, table.cov)
         if cfg.height_std > 0:  # the altitude pseudo-measurement (off by default)
-            m, p = altitude.height_update(m, p, on, cfg.birth_height, cfg.height_std**2)
+            young = on & (table.age < cfg.height_scans) if cfg.height_scans else on
+            m, p = altitude.height_update(m, p, young, cfg.birth_height, cfg.height_std**2)
         table = table._replace(mean=m, cov=p)
         return mean, cov, ((table, modes[1]) if multi else table)
 
@@ -111,11 +114,12 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
         r_var = track_birth.scan_variances(model, zs, params.noise, ccr)
         avoid = (table.mean[:, :3], table.cov[:, :3, :3], track_table.live(table))
         free = valid & ~explained
+        args = (model, zs, free, r_var, radar_pos, dp.gate, births, avoid, valid)
         if multi:
-            fits = track_birth.fit_seeds(model, zs, free, r_var, radar_pos, dp.gate, births, avoid)
+            fits = track_birth.fit_seeds(*args)
             new, cands = multiscan_birth.step(cands, fits, a6, ms, avoid, p_empty)
             return mean, cov, (track_table.insert(table, *new), cands)
-        new = track_birth.births(model, zs, free, r_var, radar_pos, dp.gate, births, avoid)
+        new = track_birth.births(*args)
         return mean, cov, track_table.insert(table, *new)
 
     def tracks(modes):

@@ -99,12 +99,7 @@ class TrackerConfig:
     )
     merge_distance: float = field(
         default=1.0,
-        metadata=rule(
-            float,
-            0.0,
-            1e6,
-            doc="mht: merge threshold on the banks' largest diagonal d^2 (0: no merging)",
-        ),
+        metadata=rule(float, 0.0, 1e6, doc="mht: merge threshold, largest diagonal d^2 (0: off)"),
     )
     merge_screen: int = field(
         default=4,
@@ -276,11 +271,21 @@ class TrackerConfig:
             ),
         ),
     )
+    birth_shared: int = field(
+        default=0,
+        metadata=rule(
+            int, 0, 64, doc="managed: returns of a new track that live tracks claim, at most"
+        ),
+    )
+    height_scans: int = field(
+        default=0,
+        metadata=rule(
+            int, 0, 100000, doc="managed: tracks younger than this take height_std (0: all)"
+        ),
+    )
     tentative_weight: float = field(
         default=0.0,
-        metadata=rule(
-            float, 0.0, 1.0, doc="managed: planner weight of tentative tracks (confirmed: 1)"
-        ),
+        metadata=rule(float, 0.0, 1.0, doc="managed: planner weight of tentative tracks"),
     )
 
     def radars_needed(self, n_radars: int, dim: int) -> tuple[int, int]:

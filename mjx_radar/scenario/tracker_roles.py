@@ -63,6 +63,8 @@ _MANAGED_FIELDS = (
     "birth_height_std",
     "birth_speed_std",
     "birth_scans",
+    "birth_shared",
+    "height_scans",
     "tentative_weight",
 )
 #: ``[tracker]`` options of the altitude prior, read by the managed table and the MHT

@@ -12,6 +12,10 @@ Each radar's scan is an unlabelled buffer ``zs [N, L, dim]`` with a ``free [N, L
    free return nearest in Mahalanobis distance ``d² = νᵀ (R + H P_s Hᵀ)⁻¹ ν`` joins
    when ``d² < γ`` (the scan's gate); Gauss-Newton on all joined returns gives the
    birth position ``x``, its covariance ``P = Λ⁻¹`` and ``χ²``.
+   With ``shared = s > 0`` (``[tracker] birth_shared``) the seeds and the joins take
+   every valid return, and a candidate may hold at most s returns a live track already
+   claims: a drone one of whose returns a ghost holds can still be born (then the joint
+   association shares the return between the two).
 3. **Select.** Candidates with returns from at least ``birth_radars`` radars, and not
    within ``(x − m_k)ᵀ (P + P_k)⁻¹ (x − m_k) < 16.27`` (χ²₃ at 0.999) of a live
    track k, are ranked by that count, then by ``χ²``; greedily the best is born and
@@ -49,6 +53,7 @@ class BirthSettings(NamedTuple):
     height: float = 60.0  # h₀ [m]
     height_std: float = 100.0  # σ_h [m]
     speed_std: float = 30.0  # σ_v [m/s]
+    shared: int = 0  # returns of a birth that live tracks already claim, at most
 
 
 def scan_variances(model, zs, noise, ccr):
@@ -114,7 +119,7 @@ def _fit(model, x0, idx, zs, r_var, free, radar_pos, gate, s: BirthSettings):
     return x, p, chi2, joined
 
 
-def fit_seeds(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None):
+def fit_seeds(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None, valid=None):
     """Every seed fitted and screened (steps 1-2 and the screen of step 3).
 
     Args: as :func:`births`.
@@ -125,11 +130,17 @@ def fit_seeds(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=N
         from ``birth_radars`` radars, finite, away from every live track) and its rank
         ``1e4 · count − min(χ², 9e3)``.
     """
-    x0, idx, ok = seeds(model, zs, free, radar_pos, s.height)
+    if s.shared and valid is None:
+        raise ValueError("births with shared returns need the valid returns (valid=)")
+    pool = valid if s.shared else free  # the returns seeds and joins may take
+    x0, idx, ok = seeds(model, zs, pool, radar_pos, s.height)
     fit = jax.vmap(_fit, (None, 0, 0, None, None, None, None, None, None))
-    x, p, chi2, joined = fit(model, x0, idx, zs, r_var, free, radar_pos, gate, s)
+    x, p, chi2, joined = fit(model, x0, idx, zs, r_var, pool, radar_pos, gate, s)
     count = jnp.sum(joined >= 0, axis=1)
     good = ok & (count >= s.birth_radars) & jnp.all(jnp.isfinite(x), -1)
+    if s.shared:  # at most s.shared of its returns claimed by a live track
+        held = (joined >= 0) & ~free[jnp.arange(zs.shape[0])[None, :], jnp.maximum(joined, 0)]
+        good = good & (jnp.sum(held, axis=1) <= s.shared)
     if avoid is not None:
         pos, pc, on = avoid
         dv = x[:, None, :] - pos[None]  # [C, K, 3]
@@ -139,7 +150,7 @@ def fit_seeds(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=N
     return x, p, chi2, joined, good, score
 
 
-def births(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None):
+def births(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None, valid=None):
     """Up to ``s.max_births`` new tracks from the free returns (module docstring).
 
     Args:
@@ -149,11 +160,13 @@ def births(model, zs, free, r_var, radar_pos, gate, s: BirthSettings, avoid=None
         radar_pos: ``[N, 3]``; gate: γ of the scan's gate (chi-square, ``dim`` dof).
         s: :class:`BirthSettings`.
         avoid: optional ``(pos [K, 3], cov [K, 3, 3], live [K])`` the live tracks.
+        valid: ``[N, L]`` bool the valid returns (needed with ``s.shared > 0``).
 
     Returns:
         ``(mean [B, 6], cov [B, 6, 6], ok [B])`` the births in order of rank.
     """
-    x, p, _, joined, good, score = fit_seeds(model, zs, free, r_var, radar_pos, gate, s, avoid)
+    args = (model, zs, free, r_var, radar_pos, gate, s, avoid, valid)
+    x, p, _, joined, good, score = fit_seeds(*args)
     n, ell = free.shape
     rows = jnp.arange(n)
     dtype = x.dtype
