@@ -137,3 +137,7 @@ def test_height_scans_limits_it_to_young_tracks():
     assert float(every.mean[0, 2]) < float(cv.mean[0, 2]) - 1.0  # it did pull the young one
     with pytest.raises(ScenarioError, match="height_scans"):
         sc.replace(tracker={"height_scans": -1})
+    with pytest.raises(ScenarioError, match="height_scans = 200: read only with"):
+        sc.replace(tracker={"height_scans": 200, "height_std": 0.0})
+    with pytest.raises(ScenarioError, match="height_scans = 200: read only with"):  # managed
+        load_scenario("raid_4r8t").replace(tracker={"height_scans": 200})

@@ -88,6 +88,11 @@ def check(s) -> None:
         raise ScenarioError(
             f"tracker.confirm_m = {t.confirm_m}: must be <= tracker.confirm_n = {t.confirm_n}"
         )
+    if t.height_scans and not t.height_std:
+        raise ScenarioError(
+            f"tracker.height_scans = {t.height_scans}: read only with tracker.height_std > 0 "
+            f"(the altitude pseudo-measurement it limits to young tracks); remove it"
+        )
     for name in ("hit_radars", "birth_radars"):
         v = getattr(t, name)
         if v > s.n_radars:
