@@ -151,7 +151,7 @@ def test_script_scenario_with_and_without_the_ground_prior():
     spec = importlib.util.spec_from_file_location("run_raid_managed", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    opts = ["birth_shared=1", "height_scans=200"]
+    opts = ["birth_shared=1", "height_std=60", "height_scans=200"]
     on = mod.scenario_for("managed", 16, 40, opts, 2)
     off = mod.scenario_for("managed", 16, 40, opts, 2, ground_prior=False)
     known = mod.scenario_for("known", 16, 40, (), 1, ground_prior=False)
