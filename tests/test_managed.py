@@ -36,6 +36,18 @@ def test_tracker_table_defaults_and_rules():
         sc.replace(tracker={"max_tracks": 0})
 
 
+def test_vanish_misses_reaches_the_tables_rules():
+    """``[tracker] vanish_misses`` is read into the life-cycle rules of the managed table
+    (the rule itself: tests/test_track_table.py), and a bad value is one line."""
+    sc = load_scenario("paper_3r4t")
+    with pytest.raises(ScenarioError, match=r"^tracker.vanish_misses = -1: .*\[0, 100000\]"):
+        sc.replace(tracker={**MANAGED, "vanish_misses": -1}, filter=PER_TARGET)
+    for v in (0, 3):
+        cfg = sc.replace(tracker={**MANAGED, "vanish_misses": v}, filter=PER_TARGET).tracker
+        rules = managed.life_rules(cfg)
+        assert (rules.vanish_misses, rules.delete_misses) == (v, cfg.delete_misses)
+
+
 def test_truth_view_assigns_confirmed_tracks_greedily():
     truth = jnp.array([[0.0, 0, 50, 1, 0, 0], [100, 0, 50, 0, 1, 0], [300, 0, 50, 0, 0, 0]])
     present = jnp.array([True, True, True])

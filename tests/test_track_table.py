@@ -165,6 +165,26 @@ def test_m_of_n_confirmation_and_deletion_match_a_python_reference(m, n):
     assert 2 in ref and 0 in ref  # the sequence exercised confirmation and deletion
 
 
+@pytest.mark.parametrize("vanish", [0, 2, 3])
+def test_vanish_misses_deletes_a_track_no_radar_sees(vanish):
+    # two confirmed tracks miss every scan (delete_misses 6); slot 0 keeps one radar in
+    # its gate (a drone behind a neighbour's return), slot 1 has none (the drone is gone):
+    # only slot 1 goes after `vanish` misses, slot 0 after delete_misses, as before
+    rules = track_table.LifeRules(2, 3, 6, 1e9, vanish)
+    table = jax.jit(track_table.empty, static_argnums=(0, 1))(2, 4)
+    ones = np.ones((2, 6), np.float32)
+    table = jax.jit(track_table.insert)(table, ones, np.stack([np.eye(6)] * 2), np.ones(2, bool))
+    table = table._replace(status=np.full(2, track_table.CONFIRMED, np.int32))
+    table = table._replace(gated=np.array([[True, False, False, False], [False] * 4]))
+    step = jax.jit(track_table.maintain, static_argnums=2)
+    gone = []
+    for _ in range(8):
+        table = step(table, np.zeros(2, bool), rules)
+        gone.append(np.asarray(table.status == track_table.EMPTY).tolist())
+    first = [next(t + 1 for t in range(8) if g[t]) for g in zip(*gone, strict=True)]
+    assert first == [6, vanish or 6]  # misses counted after each scan's maintain
+
+
 def test_deletion_by_covariance_bound_and_labels():
     # (inputs built in numpy: every eager jnp op would compile a program of its own)
     rules = track_table.LifeRules(delete_cov=100.0)

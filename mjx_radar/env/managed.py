@@ -13,7 +13,8 @@ returns (each radar's buffer is sorted by range). Per scan:
    ``association = "gnn"`` the joint GNN assignment,
    :mod:`~mjx_radar.estimation.tracks.track_update`; any associator of that signature drops in
    through ``managed_tracker(..., associator=...)``);
-3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`);
+3. the life cycle: hits, M-of-N confirmation, deletion (:func:`track_table.maintain`;
+   with ``vanish_misses > 0`` sooner for a track no radar sees);
 4. births from the returns no live track explains (:mod:`~mjx_radar.estimation.tracks.track_birth`;
    with ``birth_shared = s > 0`` at most s of a birth's returns may be claimed ones;
    with ``birth_scans > 1`` through the candidates of
@@ -39,7 +40,7 @@ from mjx_radar.estimation.tracks import (
     track_update,
 )
 
-__all__ = ["managed_tracker", "truth_view", "CUTOFF_M", "DENSITY_FLOOR"]
+__all__ = ["managed_tracker", "life_rules", "truth_view", "CUTOFF_M", "DENSITY_FLOOR"]
 
 #: assignment cut-off of :func:`truth_view` [m] (= the lost-track detector's error floor)
 CUTOFF_M = 50.0
@@ -58,7 +59,7 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     model, cfg = task.measurement, task.tracker
     n, k = task.fleet.n_radars, cfg.max_tracks
     hit_r, birth_r = cfg.radars_needed(n, model.dim)
-    rules = track_table.LifeRules(cfg.confirm_m, cfg.confirm_n, cfg.delete_misses, cfg.delete_cov)
+    rules = life_rules(cfg)
     births = track_birth.BirthSettings(
         cfg.max_births, birth_r, cfg.birth_height, cfg.birth_height_std, cfg.birth_speed_std
     )._replace(shared=cfg.birth_shared)
@@ -68,18 +69,7 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
     q6 = params.sigma_w2 * task.w6_filter_unit
     dp, ccr = params.detection, params.method.ccr
     p_empty = params.p0
-    if associator is None:
-        density = clutter.density(dp, model.dim) if task.detection.clutter else DENSITY_FLOOR
-        args = (model, params.noise, ccr, task.detection.model, dp, density, dp.gate)
-        args = (*args, dp.gate_probability, task.filter.ground_prior)
-        if cfg.association == "gnn":  # the exclusive joint assignment
-            associate = track_update.gnn_associator(*args)
-        elif cfg.association == "jpda":  # the joint marginals (loopy BP)
-            associate = track_update.jpda_associator(*args, cfg.lbp_iterations)
-        else:
-            associate = track_update.pda_associator(*args)
-    else:
-        associate = associator(task, params)
+    associate = _associator(task, params) if associator is None else associator(task, params)
 
     def init(mean, cov):  # no track: the tracker is not told where the drones start
         table = track_table.empty(k, n, mean.dtype, p_empty)
@@ -126,6 +116,26 @@ def managed_tracker(task, params, associator=None) -> FilterOps:
         return track_table.view(modes[0] if multi else modes, cfg.tentative_weight)
 
     return FilterOps(predict, update, lambda modes, mean, cov, k: modes, init, tracks)
+
+
+def life_rules(cfg) -> track_table.LifeRules:
+    """The table's confirmation and deletion rules of ``[tracker]`` (``cfg``)."""
+    return track_table.LifeRules(
+        cfg.confirm_m, cfg.confirm_n, cfg.delete_misses, cfg.delete_cov, cfg.vanish_misses
+    )
+
+
+def _associator(task, params):
+    """The built-in associator of ``[tracker] association`` (step 2 of the module docstring)."""
+    model, cfg, dp = task.measurement, task.tracker, params.detection
+    density = clutter.density(dp, model.dim) if task.detection.clutter else DENSITY_FLOOR
+    args = (model, params.noise, params.method.ccr, task.detection.model, dp, density, dp.gate)
+    args = (*args, dp.gate_probability, task.filter.ground_prior)
+    if cfg.association == "gnn":  # the exclusive joint assignment
+        return track_update.gnn_associator(*args)
+    if cfg.association == "jpda":  # the joint marginals (loopy BP)
+        return track_update.jpda_associator(*args, cfg.lbp_iterations)
+    return track_update.pda_associator(*args)
 
 
 def _multiscan_settings(cfg, dim: int) -> multiscan_birth.MultiScanSettings:

@@ -24,6 +24,8 @@ MAX_EVENTS = 50_000  # joint events (G + 1)^M of the exact enumeration and GNN
 MAX_STAR_WORK = 500_000  # events x M! target permutations of JPDA*
 MAX_TUPLES = 4096  # (G + 1)^N radar tuples per target of the multi-sensor JPDA
 MAX_CHILDREN = 1_000_000  # K (G + 1)^M children per radar and scan of the MHT
+_DELETE_COV = "managed: a track whose tr P_pos exceeds this is deleted"
+_VANISH = "managed: consecutive misses that delete a track no radar sees (0: off)"
 
 
 @dataclass(frozen=True)
@@ -192,15 +194,9 @@ class TrackerConfig:
     )
     delete_cov: float = field(
         default=2500.0,
-        metadata=rule(
-            float,
-            0.0,
-            1e12,
-            lo_open=True,
-            unit="m^2",
-            doc="managed: a track whose tr P_pos exceeds this is deleted",
-        ),
+        metadata=rule(float, 0.0, 1e12, lo_open=True, unit="m^2", doc=_DELETE_COV),
     )
+    vanish_misses: int = field(default=0, metadata=rule(int, 0, 100000, doc=_VANISH))
     hit_radars: int = field(
         default=0,
         metadata=rule(

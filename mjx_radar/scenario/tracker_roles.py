@@ -57,6 +57,7 @@ _MANAGED_FIELDS = (
     "confirm_n",
     "delete_misses",
     "delete_cov",
+    "vanish_misses",
     "hit_radars",
     "birth_radars",
     "max_births",

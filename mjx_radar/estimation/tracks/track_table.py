@@ -13,7 +13,10 @@ associated (gated returns from enough radars, :mod:`~mjx_radar.estimation.tracks
 * **M-of-N confirmation**: a tentative track with ``popcount(h) >= m`` becomes confirmed;
   one that reaches age ``n`` unconfirmed is deleted (its first n scans had < m hits);
 * **deletion** of a confirmed track after ``delete_misses`` consecutive misses, or when
-  ``tr P_pos > delete_cov`` [m²], or when its moments are not finite.
+  ``tr P_pos > delete_cov`` [m²], or when its moments are not finite; with
+  ``vanish_misses = V > 0`` also after V consecutive misses when no radar sees it at
+  this scan (``gated`` all false: the drone has gone, it is not merely hidden behind a
+  neighbour's return at one radar).
 
 Births (:func:`insert`) take the lowest empty slots, tentative, with ``h = 1`` (the birth
 scan counts as a hit), ``age = 1``; births beyond the free slots are dropped.
@@ -65,6 +68,7 @@ class LifeRules(NamedTuple):
     confirm_n: int = 5
     delete_misses: int = 10
     delete_cov: float = 2500.0  # [m²] bound on tr P_pos
+    vanish_misses: int = 0  # misses that delete a track no radar sees (0: off)
 
 
 def empty(k: int, n_radars: int, dtype=jnp.float32, p_empty: float = 1.0) -> TrackTable:
@@ -129,6 +133,9 @@ def maintain(table: TrackTable, hit, rules: LifeRules, p_empty: float = 1.0) -> 
     pos_var = jnp.trace(table.cov[:, :3, :3], axis1=-2, axis2=-1)
     finite = jnp.all(jnp.isfinite(table.mean), -1) & jnp.all(jnp.isfinite(table.cov), (-2, -1))
     lost = (status == CONFIRMED) & (misses >= rules.delete_misses)
+    if rules.vanish_misses:  # seen by no radar at this scan, after vanish_misses misses
+        blind = ~jnp.any(table.gated, axis=1) & (misses >= rules.vanish_misses)
+        lost = lost | ((status == CONFIRMED) & blind)
     gone = on & (expired | lost | ~finite | ~(pos_var <= rules.delete_cov))
     out = table._replace(status=status, history=hist, misses=misses, age=age)
     return _clear(out, gone, p_empty)
