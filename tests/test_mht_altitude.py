@@ -108,3 +108,26 @@ def test_the_loop_applies_it():
         state = jax.jit(env.step)(state, jnp.zeros((env.n_radars, 2)))
         out.append(np.asarray(state.loop.mean))
     assert np.max(np.abs(out[0] - out[1])) > 1e-3
+
+
+def test_height_scans_limits_it_to_the_first_scans():
+    """``height_scans = H``: the state after scan ``s`` (``hyp.scans = s``) takes the prior
+    for ``s <= H`` (the same numbers as without the limit) and is unchanged for ``s > H``;
+    without ``branch_scans`` (no scan counter) it is refused in one line."""
+    import mjx_radar
+
+    means, covs, logw = _state(5)
+    with jax.enable_x64(True):
+        for s, on in ((1, True), (200, True), (201, False)):
+            hyp = mht.HypState(means, covs, logw, np.int32(s))
+            out = jax.jit(altitude_prior, static_argnums=(1, 2, 3))(hyp, 60.0, 1600.0, 200)
+            want = altitude_prior(hyp, 60.0, 1600.0) if on else hyp
+            for a, b in zip(out[:3], want[:3], strict=True):  # jit against eager
+                np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-12)
+            assert on or np.array_equal(np.asarray(out.means), means)
+    s = mjx_radar.load_scenario("clutter_3r4t")
+    edit = {"association": "mht", "height_std": 40.0, "height_scans": 200}
+    s.replace(tracker={**edit, "branch_scans": 2})  # accepted
+    with pytest.raises(ScenarioError, match="height_scans = 200: the MHT limits") as e:
+        s.replace(tracker=edit)
+    assert "\n" not in str(e.value)

@@ -44,7 +44,8 @@ for every variant) of the given methods. The variants are the scenario with
                mht-jpda-1024-settle100to64-gate4-assoc10-ground-consensus5)
     NAME-altH     variant NAME (an mht) with the altitude prior: every hypothesis's heights
                held near birth_height (60 m) with std H m, the hypotheses weighed by it
-               (height_std = H)
+               (height_std = H); NAME-altHforS: over the first S scans only
+               (height_scans = S)
     mht-jpda-mix  mht-jpda with the planner planning for the moment-matched mixture of
                the hypotheses (plan_on = "mixture"; the metrics score the heaviest's)
 
@@ -189,7 +190,8 @@ def variant(scenario, name: str):
     (``[detection] gate_probability``); ``NAME-assocA``: with the planner's association term
     weighted A (``[mpc] alpha_assoc``); ``NAME-ground``: with ``[filter] ground_prior``;
     ``NAME-consensusS``: with ``estimate = "consensus"``, ``consensus_scale = S``;
-    ``NAME-altH``: with the altitude prior ``height_std = H`` (at ``birth_height``, 60 m);
+    ``NAME-altH``: with the altitude prior ``height_std = H`` (at ``birth_height``, 60 m),
+    ``NAME-altHforS`` over the first S scans only (``height_scans = S``);
     any of them may be given, in that order."""
     base, settle, miss, gate, weight, ground, scale, alt = _parts(name)
     edits = dict(VARIANTS[base])
@@ -201,7 +203,10 @@ def variant(scenario, name: str):
     if scale is not None:
         tracker["estimate"], tracker["consensus_scale"] = "consensus", float(scale)
     if alt is not None:
-        tracker["height_std"] = float(alt)
+        std, _, scans = alt.partition("for")
+        tracker["height_std"] = float(std)
+        if scans:
+            tracker["height_scans"] = int(scans)
     if tracker:
         edits["tracker"] = tracker
     if gate is not None:
@@ -227,7 +232,9 @@ def known_variant(name: str) -> bool:
     ok_gate = gate is None or (gate.isdigit() and 1 <= int(gate) <= 6)
     ok_weight = weight is None or _number(weight)
     ok_scale = scale is None or (_number(scale) and float(scale) > 0)
-    ok_alt = alt is None or (_number(alt) and float(alt) > 0)
+    std, sep_f, scans = (alt or "").partition("for")
+    ok_scans = not sep_f or (scans.isdigit() and int(scans) > 0)
+    ok_alt = alt is None or (_number(std) and float(std) > 0 and ok_scans)
     ok_ground = ground or "-ground" not in name
     ok = ok_settle and ok_miss and ok_gate and ok_weight and ok_scale and ok_alt and ok_ground
     return base in VARIANTS and ok

@@ -25,7 +25,7 @@ only the ``settled_hypotheses`` heaviest go on after S scans
 along the line of sight of a radar whose returns it misses in those scans
 (:func:`mjx_radar.estimation.data_association.pda.miss_inflation`); ``height_std > 0``
 holds every hypothesis's heights near ``birth_height`` and weighs the hypotheses by it
-(:func:`altitude_prior`).
+(:func:`altitude_prior`), with ``height_scans = H > 0`` over the first H scans only.
 """
 
 from __future__ import annotations
@@ -58,12 +58,18 @@ def _ground(hyp: mht.HypState) -> mht.HypState:
     return hyp._replace(means=means, covs=covs)
 
 
-def altitude_prior(hyp: mht.HypState, h0: float, var: float) -> mht.HypState:
+def altitude_prior(hyp: mht.HypState, h0: float, var: float, scans: int = 0) -> mht.HypState:
     """Every hypothesis's targets take the pseudo-measurement ``z = h₀`` of their height
     with variance ``σ_a² = var`` (:func:`~mjx_radar.estimation.tracks.altitude.height_update`),
     and every hypothesis is weighed by its predictive likelihood,
     ``log w_h += Σ_t log N(h₀; x_ht,z, P_ht,zz + σ_a²)`` (renormalised; empty slots stay
-    empty): a prior on the drones' flight altitude that also ranks the hypotheses."""
+    empty): a prior on the drones' flight altitude that also ranks the hypotheses. With
+    ``scans = H > 0`` (static, ``height_scans``) only while ``hyp.scans <= H`` (the
+    first H scans; ``hyp`` unchanged afterwards)."""
+    if scans:
+        held = altitude_prior(hyp, h0, var)
+        on = hyp.scans <= scans
+        return jax.tree.map(lambda a, b: jnp.where(on, a, b), held, hyp)
     s = hyp.covs[..., 2, 2] + var  # [K, M]
     ll = -0.5 * jnp.sum((hyp.means[..., 2] - h0) ** 2 / s + jnp.log(2 * jnp.pi * s), -1)
     logw = jnp.where(jnp.isfinite(hyp.logw), hyp.logw + ll, -jnp.inf)
@@ -106,7 +112,8 @@ def mht_bank(task: RadarTask, params) -> FilterOps:
 
     def after(modes):  # every hypothesis's priors after a scan
         if t.height_std > 0:  # the altitude prior (off by default)
-            modes = altitude_prior(modes, float(t.birth_height), float(t.height_std) ** 2)
+            h0, var = float(t.birth_height), float(t.height_std) ** 2
+            modes = altitude_prior(modes, h0, var, int(t.height_scans))
         return _ground(modes) if task.filter.ground_prior else modes
 
     def update(mean, cov, modes, z, radar_pos, scan_, los=None):

@@ -276,7 +276,7 @@ class TrackerConfig:
     height_scans: int = field(
         default=0,
         metadata=rule(
-            int, 0, 100000, doc="managed: tracks younger than this take height_std (0: all)"
+            int, 0, 100000, doc="tracks younger than this take height_std (mht: first scans; 0 all)"
         ),
     )
     tentative_weight: float = field(

@@ -53,6 +53,11 @@ def check_mht(t: TrackerConfig, m: int) -> None:
             f"tracker.birth_height = {t.birth_height}: the MHT reads it only as the altitude "
             f"prior's h0, with tracker.height_std > 0; remove it"
         )
+    if t.height_scans and t.branch_scans == 0:
+        raise ScenarioError(
+            f"tracker.height_scans = {t.height_scans}: the MHT limits the altitude prior to "
+            f"its first scans with tracker.branch_scans >= 1 (the scan counter); set it"
+        )
     if t.estimate == "consensus" and m > 6:
         raise ScenarioError(
             f'tracker.estimate = "consensus": compares M! = {math.factorial(m)} target '

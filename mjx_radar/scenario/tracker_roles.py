@@ -65,11 +65,10 @@ _MANAGED_FIELDS = (
     "birth_speed_std",
     "birth_scans",
     "birth_shared",
-    "height_scans",
     "tentative_weight",
 )
 #: ``[tracker]`` options of the altitude prior, read by the managed table and the MHT
-_ALTITUDE_FIELDS = ("birth_height", "height_std")
+_ALTITUDE_FIELDS = ("birth_height", "height_std", "height_scans")
 #: ``[filter]`` options of the IMM form
 _IMM_FIELDS = ("imm_turn_rate", "imm_switch_prob")
 
