@@ -276,7 +276,10 @@ class TrackerConfig:
     height_scans: int = field(
         default=0,
         metadata=rule(
-            int, 0, 100000, doc="tracks younger than this take height_std (mht: first scans; 0 all)"
+            int,
+            0,
+            100000,
+            doc="height_std only on tracks younger than this (mht: first scans; 0: all)",
         ),
     )
     tentative_weight: float = field(
