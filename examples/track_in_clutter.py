@@ -37,7 +37,7 @@ trackers = {
         },
         filter={"ground_prior": True},
         detection={"gate_probability": 0.9999},
-        mpc={"alpha_assoc": 10.0},
+        mpc={"alpha_assoc": 7.0},
     ),
 }
 rows = []

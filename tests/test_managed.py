@@ -173,6 +173,13 @@ def test_script_scenario_with_and_without_the_ground_prior():
         False,
     )
     assert (off.tracker.birth_shared, off.tracker.height_scans) == (1, 200)
+    # --mpc: an [mpc] field of every row, managed and known alike
+    planned = [
+        mod.scenario_for(g, 16, 40, o, b, False, ["alpha_assoc=7", "assoc_scale=8"])
+        for g, o, b in (("managed", opts, 2), ("known", (), 1))
+    ]
+    assert [(s.mpc.alpha_assoc, s.mpc.assoc_scale) for s in planned] == [(7.0, 8.0)] * 2
+    assert off.mpc.alpha_assoc == 0.0
 
 
 def test_raid_arrival_scene_score_by_hand():
@@ -211,7 +218,8 @@ def test_raid_arrival_scene_score_by_hand():
 def test_raid_scripts_refuse_a_bad_tracker_field_in_one_line(
     script, item, message, tmp_path, capsys
 ):
-    """A bad ``--tracker`` item: one line naming it, exit 2, nothing written, no run."""
+    """A bad ``--tracker`` item (run_raid_managed: also ``--mpc``): one line naming it,
+    exit 2, nothing written, no run."""
     import importlib.util
     import sys
     from pathlib import Path
@@ -225,6 +233,30 @@ def test_raid_scripts_refuse_a_bad_tracker_field_in_one_line(
         out = ["--out", str(tmp_path / "o")] if script == "run_raid_managed" else []
         with pytest.raises(SystemExit) as e:
             mod.main([*out, "--tracker", item])
+    finally:
+        sys.path.remove(str(studies))
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert e.value.code == 2 and message in err and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [("alpha_assoc=-1", "mpc.alpha_assoc = -1"), ("alpha_assoc", "--mpc: KEY=VALUE")],
+)
+def test_raid_script_refuses_a_bad_mpc_field_in_one_line(item, message, tmp_path, capsys):
+    """run_raid_managed.py's ``--mpc``: a bad item is one line, exit 2, nothing written."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    studies = Path(__file__).parents[1] / "benchmarks" / "studies"
+    sys.path.insert(0, str(studies))
+    try:
+        spec = importlib.util.spec_from_file_location("rrm", studies / "run_raid_managed.py")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        with pytest.raises(SystemExit) as e:
+            mod.main(["--out", str(tmp_path / "o"), "--mpc", item])
     finally:
         sys.path.remove(str(studies))
     err = capsys.readouterr().err.strip().splitlines()[-1]

@@ -15,7 +15,9 @@ summary (``OUT/summary.md``, ``OUT/summary.json``)::
 
 ``--birth-scans 1,3`` adds the managed rows with multi-scan births (``[tracker]
 birth_scans = 3``, written to ``OUT/managed_b3/METHOD``; the row ``managed`` is
-``birth_scans = 1``).
+``birth_scans = 1``). ``--tracker KEY=VALUE`` sets a ``[tracker]`` field of the managed
+rows, ``--mpc KEY=VALUE`` an ``[mpc]`` field of every row (e.g. ``alpha_assoc=10``, the
+planner against range coincidences).
 
 GOSPA (Rahmathullah, García-Fernández & Svensson 2017) of truth set X (m present
 drones) and estimate set Y (n confirmed tracks), α = 2::
@@ -83,12 +85,12 @@ def _value(v: str):
     return v
 
 
-def tracker_options(ap: argparse.ArgumentParser, items) -> dict:
-    """``--tracker KEY=VALUE`` items as ``{key: value}``; one line (``ap.error``, exit 2) for
-    an item without ``=``."""
+def tracker_options(ap: argparse.ArgumentParser, items, flag: str = "--tracker") -> dict:
+    """``--tracker KEY=VALUE`` items (or ``flag``'s) as ``{key: value}``; one line
+    (``ap.error``, exit 2) for an item without ``=``."""
     bad = [o for o in items if "=" not in o]
     if bad:
-        ap.error(f"--tracker: KEY=VALUE, got {bad[0]!r}")
+        ap.error(f"{flag}: KEY=VALUE, got {bad[0]!r}")
     return {k: _value(v) for k, v in (o.split("=", 1) for o in items)}
 
 
@@ -99,10 +101,12 @@ def scenario_for(
     options=(),
     birth_scans: int = 1,
     ground_prior: bool = True,
+    mpc=(),
 ):
     """raid_4r8t with the per-target filter (and the track table, ``options``: more
     ``[tracker]`` fields as ``KEY=VALUE``; ``birth_scans``: the multi-scan births;
-    ``ground_prior``: the filter's reflection to z >= 0)."""
+    ``ground_prior``: the filter's reflection to z >= 0; ``mpc``: ``[mpc]`` fields as
+    ``KEY=VALUE``, in every row)."""
     from mjx_radar.scenario.reader import load_scenario
 
     sc = load_scenario("raid_4r8t")
@@ -112,6 +116,8 @@ def scenario_for(
         changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
         if birth_scans > 1:  # absent otherwise: the default program
             changes["tracker"]["birth_scans"] = birth_scans
+    if mpc:
+        changes["mpc"] = {k: _value(v) for k, v in (o.split("=", 1) for o in mpc)}
     return sc.replace(timing={"steps": steps}, **changes)
 
 
@@ -231,6 +237,14 @@ def main(argv=None):
         metavar="KEY=VALUE",
         help="a [tracker] field of the managed runs, e.g. birth_height_std=30.0, association=gnn",
     )
+    ap.add_argument(
+        "--mpc",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an [mpc] field of every run, e.g. alpha_assoc=10 (the planner against range "
+        "coincidences)",
+    )
     a = ap.parse_args(argv)
     try:
         scans = [int(b) for b in a.birth_scans.split(",")]
@@ -239,13 +253,16 @@ def main(argv=None):
     if not all(1 <= b <= 10 for b in scans):
         ap.error(f"--birth-scans: integers in [1, 10], got {a.birth_scans!r}")
     tracker_options(ap, a.tracker)
+    tracker_options(ap, a.mpc, "--mpc")
     rows = [(g, b) for g in a.management.split(",") for b in (scans if g == "managed" else [1])]
     runs = [(label(g, b), m, g, b) for g, b in rows for m in a.methods.split(",")]
     cases = [(name, m) for name, m, _, _ in runs]
     dt = None
     try:  # every row's scenario first: a bad field is one line before any run
         scenarios = {
-            (k, b): scenario_for(k, a.max_tracks, a.steps, a.tracker, b, a.ground_prior == "on")
+            (k, b): scenario_for(
+                k, a.max_tracks, a.steps, a.tracker, b, a.ground_prior == "on", a.mpc
+            )
             for _, _, k, b in runs
         }
     except ScenarioError as e:
