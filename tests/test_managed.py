@@ -261,3 +261,32 @@ def test_raid_script_refuses_a_bad_mpc_field_in_one_line(item, message, tmp_path
         sys.path.remove(str(studies))
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert e.value.code == 2 and message in err and not (tmp_path / "o").exists()
+
+
+def test_raid_script_asks_for_deterministic_gpu_kernels_before_it_runs(tmp_path, monkeypatch):
+    """run_raid_managed.py turns XLA's deterministic GPU kernels on (as ``mjx-radar study``
+    does) before its first chunk runs: a seed and a chunk size fix its numbers."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    studies = Path(__file__).parents[1] / "benchmarks" / "studies"
+    sys.path.insert(0, str(studies))
+    try:
+        spec = importlib.util.spec_from_file_location("rrm2", studies / "run_raid_managed.py")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+    finally:
+        sys.path.remove(str(studies))
+    calls = []
+    monkeypatch.setattr(mod.determinism, "apply", lambda *a: calls.append("apply") or True)
+
+    def chunk(*_):
+        calls.append("chunk")
+        raise KeyboardInterrupt  # stop before any work
+
+    monkeypatch.setattr(mod, "run_chunk", chunk)
+    argv = ["--out", str(tmp_path / "o"), "--trials", "1", "--chunk", "1", "--steps", "4"]
+    with pytest.raises(KeyboardInterrupt):
+        mod.main([*argv, "--methods", "stationary", "--management", "known"])
+    assert calls == ["apply", "chunk"]

@@ -39,6 +39,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mjx_radar.engine import determinism
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run_raid_managed
 
 MISSED = ("birth", "deleted", "strayed")
@@ -241,6 +243,7 @@ def main(argv=None) -> int:
     if a.reuse and f.exists():
         rec = dict(np.load(f))
     else:
+        determinism.apply()  # XLA's deterministic GPU kernels, as run_raid_managed.py
         rec = record(a)
         a.out.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(f, **rec)

@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mjx_radar.engine import determinism
 from mjx_radar.engine.run_spec import run_spec
 from mjx_radar.errors import ScenarioError
 
@@ -267,6 +268,9 @@ def main(argv=None):
         }
     except ScenarioError as e:
         ap.error(str(e))
+    # XLA's deterministic GPU kernels, as `mjx-radar study` has them: a seed and a chunk
+    # size then fix the numbers from one call to the next (mjx_radar.engine.determinism)
+    determinism.apply()
     for management, method, kind, b in runs:
         sc = scenarios[kind, b]
         dt = sc.timing.dt_filter
