@@ -3,6 +3,10 @@
 The track table's pure pieces are tested in tests/test_track_table.py.
 """
 
+import importlib.util
+import sys
+from pathlib import Path
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -14,7 +18,21 @@ from mjx_radar.estimation.tracks import track_table
 from mjx_radar.scenario.reader import load_scenario
 
 MANAGED = {"management": "managed", "max_tracks": 6}
+STUDIES = Path(__file__).parents[1] / "benchmarks" / "studies"
 PER_TARGET = {"structure": "per-target", "ground_prior": True}
+
+
+def _study(script: str):
+    """The study script ``benchmarks/studies/SCRIPT.py`` as a module (the folder on
+    ``sys.path`` while it loads, for its imports of its neighbours)."""
+    sys.path.insert(0, str(STUDIES))
+    try:
+        spec = importlib.util.spec_from_file_location(script, STUDIES / f"{script}.py")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+    finally:
+        sys.path.remove(str(STUDIES))
+    return mod
 
 
 def test_tracker_table_defaults_and_rules():
@@ -105,14 +123,9 @@ def test_managed_env_tracks_unknown_drones():
 
 def test_script_gospa_matches_brute_force():
     """benchmarks/studies/run_raid_managed.py's GOSPA (α = 2) against every assignment, by hand."""
-    import importlib.util
     import itertools
-    from pathlib import Path
 
-    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "run_raid_managed.py"
-    spec = importlib.util.spec_from_file_location("run_raid_managed", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = _study("run_raid_managed")
     rng = np.random.default_rng(3)
     c, p = 20.0, 2.0
     for _ in range(30):
@@ -136,13 +149,7 @@ def test_script_mirror_folded_gospa():
     """run_raid_managed.py's mirror-folded truth: a drone 30 m below the radars' plane and a
     track at its mirror image are 60 m apart (beyond c: a miss and a false track), and
     nothing apart once folded; a drone above is left as it is."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "run_raid_managed.py"
-    spec = importlib.util.spec_from_file_location("run_raid_managed", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = _study("run_raid_managed")
     truth = np.array([[10.0, -20.0, -30.0], [5.0, 7.0, 40.0]])
     est = np.array([[10.0, -20.0, 30.0], [5.0, 7.0, 40.0]])
     both = np.ones(2, bool)
@@ -156,13 +163,7 @@ def test_script_mirror_folded_gospa():
 def test_script_scenario_with_and_without_the_ground_prior():
     """run_raid_managed.py's ``--ground-prior off`` reaches ``[filter] ground_prior`` of
     both the managed and the known rows; the managed rows take the tracker fields."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "run_raid_managed.py"
-    spec = importlib.util.spec_from_file_location("run_raid_managed", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = _study("run_raid_managed")
     opts = ["birth_shared=1", "height_std=60", "height_scans=200"]
     on = mod.scenario_for("managed", 16, 40, opts, 2)
     off = mod.scenario_for("managed", 16, 40, opts, 2, ground_prior=False)
@@ -186,13 +187,7 @@ def test_raid_arrival_scene_score_by_hand():
     """benchmarks/studies/raid_arrival_scene.py's per-scan score on one hand-made scan:
     four drones, a confirmed track 3 m and one 4 m from drones 0 and 1, a confirmed track
     70 m from drone 2 (false; drones 2 and 3 missed), a tentative one 10 m from drone 3."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).parents[1] / "benchmarks" / "studies" / "raid_arrival_scene.py"
-    spec = importlib.util.spec_from_file_location("raid_arrival_scene", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = _study("raid_arrival_scene")
     truth = np.array([[0.0, 0, 60], [100, 0, 60], [200, 0, 60], [300, 0, 60]])
     pos = np.array([[3.0, 0, 60], [100, 4, 60], [200, 70, 60], [310, 0, 60]])
     rec = {
@@ -210,55 +205,32 @@ def test_raid_arrival_scene_score_by_hand():
     np.testing.assert_allclose(near, [[0, 70, 70**2 / 4, 4, 1], [0, 10, 100 / 4, 2, 0]], rtol=1e-12)
 
 
-@pytest.mark.parametrize("script", ["run_raid_managed", "raid_arrival_scene"])
 @pytest.mark.parametrize(
-    ("item", "message"),
-    [("height_std=-1", "tracker.height_std = -1: must be"), ("height_std", "--tracker: KEY=VALUE")],
+    ("script", "flag", "item", "message"),
+    [
+        (script, "--tracker", item, message)
+        for script in ("run_raid_managed", "raid_arrival_scene")
+        for item, message in (
+            ("height_std=-1", "tracker.height_std = -1: must be"),
+            ("height_std", "--tracker: KEY=VALUE"),
+        )
+    ]
+    + [
+        ("run_raid_managed", "--mpc", "alpha_assoc=-1", "mpc.alpha_assoc = -1"),
+        ("run_raid_managed", "--mpc", "alpha_assoc", "--mpc: KEY=VALUE"),
+    ],
 )
-def test_raid_scripts_refuse_a_bad_tracker_field_in_one_line(
-    script, item, message, tmp_path, capsys
-):
+def test_raid_scripts_refuse_a_bad_field_in_one_line(script, flag, item, message, tmp_path, capsys):
     """A bad ``--tracker`` item (run_raid_managed: also ``--mpc``): one line naming it,
     exit 2, nothing written, no run."""
-    import importlib.util
-    import sys
-    from pathlib import Path
-
-    studies = Path(__file__).parents[1] / "benchmarks" / "studies"
-    sys.path.insert(0, str(studies))
+    mod = _study(script)
+    out = ["--out", str(tmp_path / "o")] if script == "run_raid_managed" else []
+    sys.path.insert(0, str(STUDIES))  # raid_arrival_scene's main imports its neighbours
     try:
-        spec = importlib.util.spec_from_file_location(script, studies / f"{script}.py")
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        out = ["--out", str(tmp_path / "o")] if script == "run_raid_managed" else []
         with pytest.raises(SystemExit) as e:
-            mod.main([*out, "--tracker", item])
+            mod.main([*out, flag, item])
     finally:
-        sys.path.remove(str(studies))
-    err = capsys.readouterr().err.strip().splitlines()[-1]
-    assert e.value.code == 2 and message in err and not (tmp_path / "o").exists()
-
-
-@pytest.mark.parametrize(
-    ("item", "message"),
-    [("alpha_assoc=-1", "mpc.alpha_assoc = -1"), ("alpha_assoc", "--mpc: KEY=VALUE")],
-)
-def test_raid_script_refuses_a_bad_mpc_field_in_one_line(item, message, tmp_path, capsys):
-    """run_raid_managed.py's ``--mpc``: a bad item is one line, exit 2, nothing written."""
-    import importlib.util
-    import sys
-    from pathlib import Path
-
-    studies = Path(__file__).parents[1] / "benchmarks" / "studies"
-    sys.path.insert(0, str(studies))
-    try:
-        spec = importlib.util.spec_from_file_location("rrm", studies / "run_raid_managed.py")
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        with pytest.raises(SystemExit) as e:
-            mod.main(["--out", str(tmp_path / "o"), "--mpc", item])
-    finally:
-        sys.path.remove(str(studies))
+        sys.path.remove(str(STUDIES))
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert e.value.code == 2 and message in err and not (tmp_path / "o").exists()
 
@@ -266,18 +238,7 @@ def test_raid_script_refuses_a_bad_mpc_field_in_one_line(item, message, tmp_path
 def test_raid_script_asks_for_deterministic_gpu_kernels_before_it_runs(tmp_path, monkeypatch):
     """run_raid_managed.py turns XLA's deterministic GPU kernels on (as ``mjx-radar study``
     does) before its first chunk runs: a seed and a chunk size fix its numbers."""
-    import importlib.util
-    import sys
-    from pathlib import Path
-
-    studies = Path(__file__).parents[1] / "benchmarks" / "studies"
-    sys.path.insert(0, str(studies))
-    try:
-        spec = importlib.util.spec_from_file_location("rrm2", studies / "run_raid_managed.py")
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-    finally:
-        sys.path.remove(str(studies))
+    mod = _study("run_raid_managed")
     calls = []
     monkeypatch.setattr(mod.determinism, "apply", lambda *a: calls.append("apply") or True)
 

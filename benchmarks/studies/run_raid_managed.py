@@ -86,13 +86,18 @@ def _value(v: str):
     return v
 
 
+def _fields(items) -> dict:
+    """``KEY=VALUE`` items as ``{key: value}`` (each value as :func:`_value` reads it)."""
+    return {k: _value(v) for k, v in (o.split("=", 1) for o in items)}
+
+
 def tracker_options(ap: argparse.ArgumentParser, items, flag: str = "--tracker") -> dict:
     """``--tracker KEY=VALUE`` items (or ``flag``'s) as ``{key: value}``; one line
     (``ap.error``, exit 2) for an item without ``=``."""
     bad = [o for o in items if "=" not in o]
     if bad:
         ap.error(f"{flag}: KEY=VALUE, got {bad[0]!r}")
-    return {k: _value(v) for k, v in (o.split("=", 1) for o in items)}
+    return _fields(items)
 
 
 def scenario_for(
@@ -113,12 +118,11 @@ def scenario_for(
     sc = load_scenario("raid_4r8t")
     changes = {"filter": {"structure": "per-target", "ground_prior": ground_prior}}
     if management == "managed":
-        extra = {k: _value(v) for k, v in (o.split("=", 1) for o in options)}
-        changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **extra}
+        changes["tracker"] = {"management": "managed", "max_tracks": max_tracks, **_fields(options)}
         if birth_scans > 1:  # absent otherwise: the default program
             changes["tracker"]["birth_scans"] = birth_scans
     if mpc:
-        changes["mpc"] = {k: _value(v) for k, v in (o.split("=", 1) for o in mpc)}
+        changes["mpc"] = _fields(mpc)
     return sc.replace(timing={"steps": steps}, **changes)
 
 
